@@ -1,0 +1,1 @@
+"""Camera model, homography (normalised DLT) and ground projection: pure numpy, no I/O."""

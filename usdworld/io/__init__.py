@@ -1,0 +1,1 @@
+"""The only code that reads input files; everything it returns is a validated frozen dataclass."""

@@ -1,0 +1,75 @@
+"""Authoring the usdworld schema attributes explicitly (tools without the plugin read them too)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pxr import Sdf, Usd
+
+PROVENANCE_API = "UsdWorldProvenanceAPI"
+SCENE_API = "UsdWorldSceneAPI"
+
+#: Attribute name -> value type, for both API schemas (mirrors schemas/schema.usda).
+ATTRIBUTE_TYPES: dict[str, Sdf.ValueTypeName] = {
+    "usdworld:sourceImage": Sdf.ValueTypeNames.String,
+    "usdworld:sourceClass": Sdf.ValueTypeNames.String,
+    "usdworld:instanceId": Sdf.ValueTypeNames.Int,
+    "usdworld:imageBBox": Sdf.ValueTypeNames.Float4,
+    "usdworld:groundContactPixel": Sdf.ValueTypeNames.Float2,
+    "usdworld:maskArea": Sdf.ValueTypeNames.Int,
+    "usdworld:bottomTruncated": Sdf.ValueTypeNames.Bool,
+    "usdworld:bottomOccluded": Sdf.ValueTypeNames.Bool,
+    "usdworld:depth": Sdf.ValueTypeNames.Float,
+    "usdworld:depthMethod": Sdf.ValueTypeNames.Token,
+    "usdworld:depthCueNames": Sdf.ValueTypeNames.StringArray,
+    "usdworld:depthCueValues": Sdf.ValueTypeNames.FloatArray,
+    "usdworld:depthCueSigmas": Sdf.ValueTypeNames.FloatArray,
+    "usdworld:scaleFactor": Sdf.ValueTypeNames.Float,
+    "usdworld:scaleMeasured": Sdf.ValueTypeNames.Float,
+    "usdworld:yawSource": Sdf.ValueTypeNames.Token,
+    "usdworld:collisionDisplacement": Sdf.ValueTypeNames.Float2,
+    "usdworld:confidence": Sdf.ValueTypeNames.Float,
+    "usdworld:version": Sdf.ValueTypeNames.String,
+    "usdworld:imageSize": Sdf.ValueTypeNames.Int2,
+    "usdworld:intrinsics": Sdf.ValueTypeNames.Matrix3d,
+    "usdworld:intrinsicsEstimated": Sdf.ValueTypeNames.Bool,
+    "usdworld:cameraHeight": Sdf.ValueTypeNames.Float,
+    "usdworld:cameraPitch": Sdf.ValueTypeNames.Float,
+    "usdworld:cameraRoll": Sdf.ValueTypeNames.Float,
+    "usdworld:cameraYaw": Sdf.ValueTypeNames.Float,
+    "usdworld:cameraEstimated": Sdf.ValueTypeNames.StringArray,
+    "usdworld:cameraMethod": Sdf.ValueTypeNames.String,
+    "usdworld:homography": Sdf.ValueTypeNames.Matrix3d,
+    "usdworld:dltPixels": Sdf.ValueTypeNames.DoubleArray,
+    "usdworld:dltGround": Sdf.ValueTypeNames.DoubleArray,
+    "usdworld:dltRmsPx": Sdf.ValueTypeNames.Float,
+    "usdworld:dltSource": Sdf.ValueTypeNames.Token,
+    "usdworld:inputFiles": Sdf.ValueTypeNames.StringArray,
+    "usdworld:inputHashes": Sdf.ValueTypeNames.StringArray,
+}
+
+
+def apply_with_values(prim: Usd.Prim, api: str, values: dict[str, Any]) -> None:
+    """Apply an API schema and author every given attribute explicitly.
+
+    Works whether or not the schema plugin is registered (``AddAppliedSchema`` plus
+    non-custom attributes of the schema's types).
+
+    Args:
+        prim: the prim.
+        api: ``UsdWorldProvenanceAPI`` or ``UsdWorldSceneAPI``.
+        values: attribute name -> Python/Gf value.
+    """
+    prim.AddAppliedSchema(api)
+    for name, value in values.items():
+        prim.CreateAttribute(name, ATTRIBUTE_TYPES[name], custom=False).Set(value)
+
+
+def read_values(prim: Usd.Prim) -> dict[str, Any]:
+    """Every authored ``usdworld:`` attribute of a prim, by name."""
+    out = {}
+    for attr in prim.GetAttributes():
+        name = attr.GetName()
+        if name.startswith("usdworld:") and attr.HasAuthoredValue():
+            out[name] = attr.Get()
+    return out

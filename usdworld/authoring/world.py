@@ -1,0 +1,241 @@
+"""Write a :class:`~usdworld.layout.model.WorldModel` as a layered USD world in a folder.
+
+Layout of the folder::
+
+    world.usda          root: subLayers = [layers/edits.usda, layers/base.usda], Z up, metres
+    layers/base.usda    /World (assembly) with Objects, Ground, Looks and SourceCamera
+    layers/edits.usda   the user's edits (empty until edited)
+    assets/<class>.usda the class assets the world references (relative paths)
+
+Nothing written depends on the time or on absolute paths, so the same model gives
+byte-identical layers.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
+
+import usdworld
+from usdworld.authoring.camera import define_camera
+from usdworld.authoring.provenance import PROVENANCE_API, SCENE_API, apply_with_values
+from usdworld.errors import AuthoringError
+from usdworld.layout.model import WorldModel
+from usdworld.layout.placement import Placement
+from usdworld.layout.surfaces import SurfaceMesh
+
+ROOT_LAYER = "world.usda"
+BASE_LAYER = "layers/base.usda"
+EDITS_LAYER = "layers/edits.usda"
+ASSETS_DIR = "assets"
+WORLD_PATH = "/World"
+OBJECTS_PATH = "/World/Objects"
+GROUND_PATH = "/World/Ground"
+LOOKS_PATH = "/World/Looks"
+CAMERA_PATH = "/World/SourceCamera"
+
+#: Colours of the ground surfaces (linear RGB) and their semantic class.
+SURFACE_LOOKS = {"road": (0.09, 0.09, 0.1), "sidewalk": (0.45, 0.43, 0.4)}
+
+
+def _set_stage_metadata(stage: Usd.Stage) -> None:
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+
+
+def _label(prim: Usd.Prim, label: str) -> None:
+    UsdSemantics.LabelsAPI.Apply(prim, "class").CreateLabelsAttr([label])
+
+
+def _preview_material(stage: Usd.Stage, path: str, color: tuple[float, float, float]) -> UsdShade.Material:
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/PreviewSurface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*color))
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.9)
+    shader.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(0.0)
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    return material
+
+
+def define_surface(stage: Usd.Stage, surface: SurfaceMesh) -> UsdGeom.Mesh:
+    """Author one ground surface mesh with flat normals, extent, colour, material and label.
+
+    Args:
+        stage: the base stage.
+        surface: the mesh in world coordinates.
+
+    Returns:
+        The mesh schema object.
+    """
+    name = surface.name.capitalize()
+    color = SURFACE_LOOKS[surface.name]
+    mesh = UsdGeom.Mesh.Define(stage, f"{GROUND_PATH}/{name}")
+    points = surface.points_world.astype(np.float32)
+    faces = surface.faces
+    mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
+    mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(faces), 3, dtype=np.int32)))
+    mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(faces.astype(np.int32).ravel()))
+    a, b, c = (surface.points_world[faces[:, k]] for k in range(3))
+    normals = np.cross(b - a, c - a)
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(np.repeat(normals, 3, axis=0).astype(np.float32)))
+    mesh.SetNormalsInterpolation(UsdGeom.Tokens.faceVarying)
+    mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    mesh.CreateDoubleSidedAttr(False)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    mesh.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*lo.tolist()), Gf.Vec3f(*hi.tolist())]))
+    mesh.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(*color)]))
+    material = _preview_material(stage, f"{LOOKS_PATH}/{name}", color)
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+    _label(mesh.GetPrim(), surface.name)
+    return mesh
+
+
+def define_object(stage: Usd.Stage, placement: Placement, asset_ref: str, image_name: str) -> UsdGeom.Xform:
+    """Author one placed object: a reference to its class asset, its transform and provenance.
+
+    Args:
+        stage: the base stage.
+        placement: where and how the object is placed.
+        asset_ref: relative path of the class asset from the base layer.
+        image_name: source image file name.
+
+    Returns:
+        The object's Xform.
+    """
+    if not Sdf.Path.IsValidIdentifier(placement.name):
+        raise AuthoringError(f"invalid object name '{placement.name}'")
+    xform = UsdGeom.Xform.Define(stage, f"{OBJECTS_PATH}/{placement.name}")
+    prim = xform.GetPrim()
+    prim.GetReferences().AddReference(asset_ref)
+    prim.GetVariantSets().SetSelection("model", placement.variant)
+    p = placement.position_world
+    xform.AddTranslateOp().Set(Gf.Vec3d(float(p[0]), float(p[1]), float(p[2])))
+    xform.AddRotateZOp().Set(float(round(math.degrees(placement.yaw), 6)))
+    s = float(placement.scale)
+    xform.AddScaleOp().Set(Gf.Vec3f(s, s, s))
+    _label(prim, placement.obj.class_name)
+    obj = placement.obj
+    cues = placement.cues
+    apply_with_values(
+        prim,
+        PROVENANCE_API,
+        {
+            "usdworld:sourceImage": image_name,
+            "usdworld:sourceClass": obj.source_label,
+            "usdworld:instanceId": int(obj.instance_id),
+            "usdworld:imageBBox": Gf.Vec4f(*(float(b) for b in obj.box_px)),
+            "usdworld:groundContactPixel": Gf.Vec2f(*(float(c) for c in obj.contact_px)),
+            "usdworld:maskArea": int(obj.mask_area),
+            "usdworld:bottomTruncated": bool(obj.bottom_truncated),
+            "usdworld:bottomOccluded": bool(obj.bottom_occluded),
+            "usdworld:depth": float(placement.depth_m),
+            "usdworld:depthMethod": placement.depth_method,
+            "usdworld:depthCueNames": [c.name for c in cues],
+            "usdworld:depthCueValues": [float(c.depth_m) for c in cues],
+            "usdworld:depthCueSigmas": [float(c.sigma_m) for c in cues],
+            "usdworld:scaleFactor": float(placement.scale),
+            "usdworld:scaleMeasured": float(placement.scale_measured),
+            "usdworld:yawSource": placement.yaw_source,
+            "usdworld:collisionDisplacement": Gf.Vec2f(*(float(d) for d in placement.collision_displacement)),
+            "usdworld:confidence": float(placement.confidence),
+        },
+    )
+    return xform
+
+
+def _scene_values(model: WorldModel) -> dict:
+    cam = model.camera.camera
+    fit = model.ground_fit
+    return {
+        "usdworld:version": usdworld.__version__,
+        "usdworld:sourceImage": model.image_name,
+        "usdworld:imageSize": Gf.Vec2i(*model.image_size),
+        "usdworld:intrinsics": Gf.Matrix3d(*cam.K.ravel().tolist()),
+        "usdworld:intrinsicsEstimated": "K" in model.camera.estimated,
+        "usdworld:cameraHeight": float(cam.height_m),
+        "usdworld:cameraPitch": float(cam.pitch),
+        "usdworld:cameraRoll": float(cam.roll),
+        "usdworld:cameraYaw": float(cam.yaw),
+        "usdworld:cameraEstimated": list(model.camera.estimated),
+        "usdworld:cameraMethod": model.camera.method,
+        "usdworld:homography": Gf.Matrix3d(*fit.dst_from_src.ravel().tolist()),
+        "usdworld:dltPixels": fit.src.ravel().tolist(),
+        "usdworld:dltGround": fit.dst.ravel().tolist(),
+        "usdworld:dltRmsPx": float(fit.rms_src),
+        "usdworld:dltSource": model.dlt_source,
+        "usdworld:inputFiles": [f"{f.role}={f.name}" for f in model.inputs],
+        "usdworld:inputHashes": [f.sha256 for f in model.inputs],
+    }
+
+
+def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) -> None:
+    """Write ``layers/base.usda``.
+
+    Args:
+        model: the world.
+        path: file to write.
+        asset_refs: class name -> asset path relative to the base layer.
+    """
+    stage = Usd.Stage.CreateNew(str(path))
+    _set_stage_metadata(stage)
+    world = UsdGeom.Xform.Define(stage, WORLD_PATH)
+    stage.SetDefaultPrim(world.GetPrim())
+    Usd.ModelAPI(world.GetPrim()).SetKind(Kind.Tokens.assembly)
+    apply_with_values(world.GetPrim(), SCENE_API, _scene_values(model))
+    objects = UsdGeom.Scope.Define(stage, OBJECTS_PATH)
+    Usd.ModelAPI(objects.GetPrim()).SetKind(Kind.Tokens.group)
+    for placement in model.placements:
+        define_object(stage, placement, asset_refs[placement.obj.class_name], model.image_name)
+    if model.surfaces:
+        UsdGeom.Scope.Define(stage, LOOKS_PATH)
+        UsdGeom.Xform.Define(stage, GROUND_PATH)
+        for surface in model.surfaces:
+            define_surface(stage, surface)
+    define_camera(stage, CAMERA_PATH, model.camera.camera)
+    stage.GetRootLayer().Save()
+
+
+def write_root_layer(path: Path) -> None:
+    """Write ``world.usda``: sublayers, units, up axis and default prim."""
+    layer = Sdf.Layer.CreateNew(str(path))
+    layer.subLayerPaths.append(EDITS_LAYER)
+    layer.subLayerPaths.append(BASE_LAYER)
+    layer.defaultPrim = WORLD_PATH.strip("/")
+    stage = Usd.Stage.Open(layer)
+    _set_stage_metadata(stage)
+    layer.Save()
+
+
+def write_edits_layer(path: Path) -> None:
+    """Write an empty ``layers/edits.usda``."""
+    layer = Sdf.Layer.CreateNew(str(path))
+    layer.Save()
+
+
+def write_world(model: WorldModel, out_dir: Path, asset_files: dict[str, Path], keep_edits: Path | None) -> None:
+    """Write the whole world folder (which must be new and empty).
+
+    Args:
+        model: the world.
+        out_dir: the folder to fill.
+        asset_files: class name -> library asset file to copy into ``assets/``.
+        keep_edits: an existing edits layer to carry over instead of an empty one.
+    """
+    (out_dir / "layers").mkdir(parents=True, exist_ok=True)
+    (out_dir / ASSETS_DIR).mkdir(exist_ok=True)
+    refs = {}
+    for class_name, src in sorted(asset_files.items()):
+        shutil.copyfile(src, out_dir / ASSETS_DIR / src.name)
+        refs[class_name] = f"../{ASSETS_DIR}/{src.name}"
+    write_base_layer(model, out_dir / BASE_LAYER, refs)
+    if keep_edits is not None:
+        shutil.copyfile(keep_edits, out_dir / EDITS_LAYER)
+    else:
+        write_edits_layer(out_dir / EDITS_LAYER)
+    write_root_layer(out_dir / ROOT_LAYER)

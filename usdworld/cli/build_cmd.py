@@ -1,0 +1,51 @@
+"""``usdworld build``: one image to a world folder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+
+def build(
+    image: Path = typer.Argument(..., help="The photo (PNG or JPEG)."),
+    output: Path = typer.Option(..., "--output", "-o", help="World folder to create (replaced if it holds a world; its edits are kept)."),
+    labels: Optional[Path] = typer.Option(None, "--labels", help="Cityscapes *_gtFine_labelIds.png (8-bit)."),
+    instances: Optional[Path] = typer.Option(None, "--instances", help="Cityscapes *_gtFine_instanceIds.png (16-bit)."),
+    polygons: Optional[Path] = typer.Option(None, "--polygons", help="Cityscapes *_gtFine_polygons.json (instead of --labels)."),
+    detections: Optional[Path] = typer.Option(None, "--detections", help="KITTI label_2 .txt or a detections .json."),
+    camera: Optional[Path] = typer.Option(None, "--camera", help="Cityscapes camera JSON, KITTI calib .txt or plain camera JSON."),
+    ground_plane: Optional[Path] = typer.Option(None, "--ground-plane", help="KITTI planes file (road plane) for height and pitch."),
+    ground_points: Optional[Path] = typer.Option(None, "--ground-points", help="Manual pixel <-> ground pairs (JSON or CSV, >= 4)."),
+    depth_map: Optional[Path] = typer.Option(None, "--depth-map", help="Dense metric depth: .npy, 16-bit PNG (m*256) or .pfm."),
+    library: Optional[Path] = typer.Option(None, "--library", help="User asset library layered over the built-in one."),
+    max_range: float = typer.Option(80.0, "--max-range", help="Farthest ground distance meshed, metres."),
+) -> None:
+    """Build a layered USD world from one street image."""
+    from usdworld.cli.summary import print_build_summary
+    from usdworld.pipeline import BuildRequest, build as run_build
+
+    request = BuildRequest(
+        image=image,
+        output=output,
+        labels=labels,
+        instances=instances,
+        polygons=polygons,
+        detections=detections,
+        camera=camera,
+        ground_plane=ground_plane,
+        correspondences=ground_points,
+        depth_map=depth_map,
+        library=library,
+        max_range_m=max_range,
+    )
+    result = run_build(request)
+    print_build_summary(result.report, str(result.world))
+    if result.kept_edits:
+        typer.echo("kept the existing edits layer (layers/edits.usda)")
+
+
+def register(app: typer.Typer) -> None:
+    """Add the command to the app."""
+    app.command("build")(build)

@@ -1,0 +1,81 @@
+"""The ``usdworld`` command: sub-commands, error handling and exit codes.
+
+Exit codes: 0 success, 1 validation failure or unexpected error, 2 bad input or usage.
+Errors print one line (``error: ...``) on stderr; ``--debug`` adds the traceback.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+import traceback
+
+import click
+import typer
+
+from usdworld.cli import build_cmd, demo_cmd, info_cmd, validate_cmd
+
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    help="One street photo to a layered, editable OpenUSD world.",
+)
+
+
+@app.callback()
+def _root(
+    debug: bool = typer.Option(False, "--debug", help="Show tracebacks and debug logging."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="Only print warnings and errors."),
+) -> None:
+    level = logging.DEBUG if debug else (logging.WARNING if quiet else logging.INFO)
+    logging.basicConfig(level=level, format="%(levelname)s: %(message)s", stream=sys.stderr, force=True)
+    for noisy in ("omni", "omni.asset_validator", "omni.asset_validator._plugins"):
+        logging.getLogger(noisy).setLevel(logging.WARNING)
+
+
+build_cmd.register(app)
+demo_cmd.register(app)
+info_cmd.register(app)
+validate_cmd.register(app)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI and return its exit code (never raises for user errors)."""
+    from usdworld.errors import UsdWorldError
+
+    args = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in args
+    command = typer.main.get_command(app)
+    try:
+        result = command.main(args=args, prog_name="usdworld", standalone_mode=False)
+    except click.exceptions.Exit as exc:
+        return int(exc.exit_code)
+    except click.ClickException as exc:
+        exc.show()
+        return int(exc.exit_code)
+    except click.exceptions.Abort:
+        print("error: aborted", file=sys.stderr)
+        return 130
+    except UsdWorldError as exc:
+        if debug:
+            traceback.print_exc()
+        print(f"error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # anything else is a bug: say so in one line
+        if debug:
+            traceback.print_exc()
+        print(
+            f"error: unexpected {type(exc).__name__}: {exc} (rerun with --debug for the traceback and report it)",
+            file=sys.stderr,
+        )
+        return 1
+    return int(result or 0)
+
+
+def run() -> None:
+    """Console-script entry point."""
+    sys.exit(main())

@@ -1,0 +1,30 @@
+"""The bundled demo sample: a synthetic Cityscapes-format frame shipped in ``usdworld/demo_data``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from usdworld.errors import InputError
+from usdworld.pipeline import BuildRequest
+
+DEMO_NAME = "demo_000000_000019"
+
+
+def demo_dir() -> Path:
+    """Folder of the demo files."""
+    return Path(__file__).resolve().parent / "demo_data"
+
+
+def demo_request(output: Path) -> BuildRequest:
+    """The build request for the demo frame."""
+    d = demo_dir()
+    files = {
+        "image": d / f"{DEMO_NAME}_leftImg8bit.png",
+        "labels": d / f"{DEMO_NAME}_gtFine_labelIds.png",
+        "instances": d / f"{DEMO_NAME}_gtFine_instanceIds.png",
+        "camera": d / f"{DEMO_NAME}_camera.json",
+    }
+    missing = [p.name for p in files.values() if not p.is_file()]
+    if missing:
+        raise InputError(f"demo data missing from {d}: {', '.join(missing)}; reinstall usdworld")
+    return BuildRequest(output=output, **files)

@@ -1,0 +1,1 @@
+"""From image objects and a camera to metric placements: priors, depth, yaw, collisions, surfaces."""

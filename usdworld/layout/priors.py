@@ -1,0 +1,67 @@
+"""Metric class priors, read from ``usdworld/data/class_priors.json``."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from functools import lru_cache
+
+from usdworld.errors import InputError
+from usdworld.resources import data_dir
+
+
+@dataclass(frozen=True)
+class ClassPrior:
+    """What a class usually measures.
+
+    Attributes:
+        name: placed class name.
+        size_m: (length along the object's forward axis, width, height) in metres.
+        height_std_m: spread of real heights, metres.
+        scale_range: (min, max) uniform scale allowed relative to ``size_m``.
+        yaw: ``road``, ``camera`` or ``none``: how the object is oriented.
+        kind: ``thing`` or ``stuff``.
+        rigid_height: True when the height is reliable enough to calibrate the camera.
+    """
+
+    name: str
+    size_m: tuple[float, float, float]
+    height_std_m: float
+    scale_range: tuple[float, float]
+    yaw: str
+    kind: str
+    rigid_height: bool
+
+    def __post_init__(self) -> None:
+        if any(s <= 0 for s in self.size_m) or not 0 < self.scale_range[0] <= 1 <= self.scale_range[1]:
+            raise InputError(f"class_priors.json -> {self.name}: sizes must be > 0 and scale_range contain 1")
+        if self.yaw not in ("road", "camera", "none"):
+            raise InputError(f"class_priors.json -> {self.name} -> yaw: must be road, camera or none")
+
+
+@lru_cache(maxsize=1)
+def class_priors() -> dict[str, ClassPrior]:
+    """All class priors by placed class name."""
+    raw = json.loads((data_dir() / "class_priors.json").read_text())
+    priors = {}
+    for name, entry in raw.items():
+        if name.startswith("_"):
+            continue
+        priors[name] = ClassPrior(
+            name=name,
+            size_m=tuple(float(v) for v in entry["size_m"]),  # type: ignore[arg-type]
+            height_std_m=float(entry["height_std_m"]),
+            scale_range=tuple(float(v) for v in entry["scale_range"]),  # type: ignore[arg-type]
+            yaw=str(entry["yaw"]),
+            kind=str(entry["kind"]),
+            rigid_height=bool(entry["rigid_height"]),
+        )
+    return priors
+
+
+def prior_for(class_name: str) -> ClassPrior:
+    """The prior of one class; InputError naming the known classes otherwise."""
+    priors = class_priors()
+    if class_name not in priors:
+        raise InputError(f"unknown class '{class_name}'; known classes: {', '.join(sorted(priors))}")
+    return priors[class_name]

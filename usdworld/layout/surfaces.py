@@ -1,0 +1,151 @@
+"""Ground surfaces (road, sidewalk) as meshes, from class masks projected to the ground.
+
+The mask's outline (with holes) is traced in the image, clipped to the rows that lie
+within ``max_range_m``, mapped to ground metres through the DLT homography (a
+homography maps straight edges to straight edges, so the polygon stays exact),
+cleaned and extruded with manifold3d cross-sections: the road as a thin slab whose top
+is the ground plane, the sidewalk raised to the kerb height.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import manifold3d
+import numpy as np
+
+from usdworld.geometry.camera import PinholeCamera
+from usdworld.geometry.homography import apply_homography
+
+#: Default farthest ground distance meshed, metres.
+MAX_RANGE_M = 80.0
+#: Thickness of the road slab below z = 0, metres.
+SLAB_DEPTH_M = 0.05
+#: Smallest surface piece kept, square metres.
+MIN_PIECE_AREA_M2 = 0.5
+#: Outline simplification tolerance in pixels.
+OUTLINE_TOLERANCE_PX = 1.0
+
+
+@dataclass(frozen=True)
+class SurfaceMesh:
+    """A triangle mesh of one ground surface, world frame.
+
+    Attributes:
+        name: ``road`` or ``sidewalk``.
+        points_world: (V, 3) float64 vertices.
+        faces: (F, 3) int64 triangles, counter-clockwise seen from outside.
+        area_m2: area of its top face.
+    """
+
+    name: str
+    points_world: np.ndarray
+    faces: np.ndarray
+    area_m2: float
+
+
+def _range_cutoff_row(camera: PinholeCamera, max_range_m: float) -> int:
+    """First image row whose ground points lie within ``max_range_m`` (at the centre column)."""
+    px, depth = camera.project(np.array([[max_range_m, 0.0, 0.0]]))
+    if not np.isfinite(px).all():
+        return 0
+    return int(np.clip(np.ceil(px[0, 1]), 0, camera.height))
+
+
+def ground_cross_section(
+    mask: np.ndarray, camera: PinholeCamera, ground_from_px: np.ndarray, max_range_m: float = MAX_RANGE_M
+) -> manifold3d.CrossSection:
+    """The ground region covered by a class mask, as a manifold3d cross-section.
+
+    Args:
+        mask: (H, W) bool class mask.
+        camera: the source camera (for the range cut-off row).
+        ground_from_px: (3, 3) float64 DLT homography.
+        max_range_m: farthest ground distance kept.
+
+    Returns:
+        The cross-section in ground metres (may be empty).
+    """
+    cut = _range_cutoff_row(camera, max_range_m)
+    clipped = np.zeros(mask.shape, dtype=np.uint8)
+    clipped[cut:] = mask[cut:]
+    contours, _ = cv2.findContours(clipped, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_SIMPLE)
+    rings = []
+    for contour in contours:
+        approx = cv2.approxPolyDP(contour, OUTLINE_TOLERANCE_PX, True).reshape(-1, 2).astype(np.float64)
+        if len(approx) < 3:
+            continue
+        # Pixel outlines trace pixel centres; push them out to the pixel edges' centre line.
+        ground = apply_homography(ground_from_px, approx + 0.5)
+        if not np.isfinite(ground).all():
+            continue
+        rings.append(ground)
+    if not rings:
+        return manifold3d.CrossSection()
+    section = manifold3d.CrossSection(rings, manifold3d.FillRule.EvenOdd)
+    disc = manifold3d.CrossSection.circle(max_range_m, 128)
+    section = section ^ disc
+    pieces = [p for p in section.decompose() if p.area() >= MIN_PIECE_AREA_M2]
+    if not pieces:
+        return manifold3d.CrossSection()
+    return manifold3d.CrossSection.compose(pieces).simplify(0.01)
+
+
+def extrude_surface(name: str, section: manifold3d.CrossSection, top_z: float, bottom_z: float) -> SurfaceMesh | None:
+    """Extrude a cross-section between two heights; None when it is empty.
+
+    Args:
+        name: surface name.
+        section: ground region.
+        top_z: height of the top face, metres.
+        bottom_z: height of the bottom face, metres (< top_z).
+    """
+    if section.is_empty() or section.area() <= 0:
+        return None
+    solid = section.extrude(top_z - bottom_z).translate((0.0, 0.0, bottom_z))
+    mesh = solid.to_mesh()
+    points = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
+    faces = np.asarray(mesh.tri_verts, dtype=np.int64)
+    return SurfaceMesh(name, points, faces, float(section.area()))
+
+
+def build_surfaces(
+    label_ids: np.ndarray,
+    class_ids: dict[str, list[int]],
+    camera: PinholeCamera,
+    ground_from_px: np.ndarray,
+    curb_height_m: float,
+    max_range_m: float = MAX_RANGE_M,
+) -> list[SurfaceMesh]:
+    """Road and sidewalk meshes; the road is cut where the sidewalk lies.
+
+    Args:
+        label_ids: (H, W) uint8 Cityscapes label ids.
+        class_ids: label ids that make up each surface, e.g. ``{"road": [7, 9], "sidewalk": [8]}``.
+        camera: the source camera.
+        ground_from_px: (3, 3) float64 DLT homography.
+        curb_height_m: height of the sidewalk's top.
+        max_range_m: farthest ground distance meshed.
+
+    Returns:
+        The non-empty surfaces, road first.
+    """
+    sections = {
+        name: ground_cross_section(np.isin(label_ids, ids), camera, ground_from_px, max_range_m)
+        for name, ids in class_ids.items()
+    }
+    out = []
+    road = sections.get("road")
+    sidewalk = sections.get("sidewalk")
+    if road is not None and sidewalk is not None and not sidewalk.is_empty():
+        road = road - sidewalk
+    if road is not None:
+        mesh = extrude_surface("road", road, 0.0, -SLAB_DEPTH_M)
+        if mesh is not None:
+            out.append(mesh)
+    if sidewalk is not None:
+        mesh = extrude_surface("sidewalk", sidewalk, curb_height_m, -SLAB_DEPTH_M)
+        if mesh is not None:
+            out.append(mesh)
+    return out

@@ -1,0 +1,81 @@
+"""Object orientation on the ground: road direction, side of the road, facing the camera."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class RoadAxis:
+    """The road's principal direction on the ground.
+
+    Attributes:
+        angle: direction of the road axis in radians (world yaw, in (-pi/2, pi/2]).
+        center_ground: (2,) float64 a point on the road's centre line.
+        source: how it was found (``road_pca`` or ``camera_forward``).
+    """
+
+    angle: float
+    center_ground: np.ndarray
+    source: str
+
+
+def road_axis(road_points_ground: np.ndarray | None, min_points: int = 50) -> RoadAxis:
+    """Principal axis of the road region projected onto the ground.
+
+    Args:
+        road_points_ground: (N, 2) float64 ground points of road pixels (within range), or None.
+        min_points: fewer points than this fall back to the camera's forward axis.
+
+    Returns:
+        The axis; with too few points, the camera forward axis through the origin.
+    """
+    if road_points_ground is None or len(road_points_ground) < min_points:
+        return RoadAxis(0.0, np.zeros(2), "camera_forward")
+    pts = np.asarray(road_points_ground, dtype=np.float64)
+    center = np.median(pts, axis=0)
+    centred = pts - pts.mean(axis=0)
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
+    direction = vt[0]
+    if direction[0] < 0:
+        direction = -direction
+    angle = float(np.arctan2(direction[1], direction[0]))
+    # A street seen from a car runs away from the camera; an axis across the view
+    # means the road region is a crossing, so keep the camera's heading instead.
+    if abs(angle) > np.radians(45):
+        return RoadAxis(0.0, center, "camera_forward")
+    return RoadAxis(angle, center, "road_pca")
+
+
+def choose_yaw(mode: str, position_ground: np.ndarray, axis: RoadAxis) -> tuple[float, str]:
+    """Yaw of one object and a word on how it was chosen.
+
+    Args:
+        mode: the class prior's yaw mode: ``road`` (align with the road; right-hand
+            traffic, so objects left of the road centre line face the camera),
+            ``camera`` (face the camera) or ``none`` (keep the asset axes).
+        position_ground: (2,) float64 object position on the ground.
+        axis: the road axis.
+
+    Returns:
+        (yaw in radians, source label).
+    """
+    if mode == "camera":
+        bearing = float(np.arctan2(position_ground[1], position_ground[0]))
+        return _wrap(bearing + np.pi), "facing_camera"
+    if mode == "road":
+        d = np.array([np.cos(axis.angle), np.sin(axis.angle)])
+        rel = np.asarray(position_ground, dtype=np.float64) - axis.center_ground
+        left = d[0] * rel[1] - d[1] * rel[0] > 0
+        if left:
+            return _wrap(axis.angle + np.pi), f"{axis.source}_left_oncoming"
+        return _wrap(axis.angle), f"{axis.source}_right_with_traffic"
+    return 0.0, "none"
+
+
+def _wrap(angle: float) -> float:
+    """Angle wrapped to (-pi, pi]."""
+    a = (angle + np.pi) % (2 * np.pi) - np.pi
+    return float(np.pi if a == -np.pi else a)

@@ -1,0 +1,364 @@
+"""Objects found in the image: things from instance ids or boxes, stuff from class masks.
+
+Everything here is in pixel space. An object knows its class, its box, its mask (as a
+crop aligned to the box), the pixel where it meets the ground and whether that
+contact is cut by the image border or hidden by another object.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from usdworld.io.types import Detections, Segmentation
+from usdworld.perception.classes import label_lookups, placed_class_for_label
+
+#: Stuff classes split into chunks of this width/height aspect (metres of the class
+#: prior); classes not listed are never split.
+SPLIT_ASPECT: dict[str, float] = {"building": 1.0, "tree": 0.8, "fence": 2.5}
+#: Smallest stuff region kept, as a fraction of the image area (and never below 30 px).
+MIN_STUFF_AREA_FRACTION = 4e-4
+#: Smallest thing instance kept, in pixels.
+MIN_THING_AREA_PX = 10
+#: Fraction of an object's bottom columns that must be hidden by other objects for
+#: its ground contact to count as occluded.
+OCCLUDED_FRACTION = 0.5
+
+
+@dataclass(frozen=True)
+class ImageObject:
+    """One object seen in the image.
+
+    Attributes:
+        class_name: placed class (asset name, e.g. ``car``, ``tree``).
+        source_label: class as given by the input (Cityscapes name or detector label).
+        instance_id: Cityscapes instance id, detection index, or -1 for stuff regions.
+        box_px: (4,) int64 ``xmin, ymin, xmax, ymax``; xmax/ymax exclusive.
+        mask: (ymax-ymin, xmax-xmin) bool crop of the object's pixels inside the box.
+        contact_px: (2,) float64 pixel (u, v) where the object meets the ground
+            (v is the bottom edge of the lowest contact pixel).
+        bottom_truncated: the bottom touches the image border.
+        bottom_occluded: the bottom is mostly hidden by other objects.
+        top_truncated: the top touches the image border.
+        standing_on: Cityscapes name of the surface below the contact ('' unknown).
+        score: detection confidence in [0, 1].
+    """
+
+    class_name: str
+    source_label: str
+    instance_id: int
+    box_px: np.ndarray
+    mask: np.ndarray
+    contact_px: np.ndarray
+    bottom_truncated: bool
+    bottom_occluded: bool
+    top_truncated: bool
+    standing_on: str = ""
+    score: float = 1.0
+
+    @property
+    def mask_area(self) -> int:
+        return int(self.mask.sum())
+
+    @property
+    def height_px(self) -> float:
+        return float(self.box_px[3] - self.box_px[1])
+
+    @property
+    def width_px(self) -> float:
+        return float(self.box_px[2] - self.box_px[0])
+
+    @property
+    def is_thing(self) -> bool:
+        return self.instance_id >= 0
+
+
+def _column_bottoms(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Columns of a crop that hold pixels and the row of their lowest pixel.
+
+    Args:
+        mask: (h, w) bool crop.
+
+    Returns:
+        cols: (k,) int64 column indices with at least one pixel.
+        bottoms: (k,) int64 row of the lowest pixel in each of those columns.
+    """
+    has = mask.any(axis=0)
+    cols = np.nonzero(has)[0]
+    h = mask.shape[0]
+    bottoms = h - 1 - np.argmax(mask[::-1, cols], axis=0)
+    return cols, bottoms
+
+
+@dataclass(frozen=True)
+class _Contact:
+    contact_px: np.ndarray
+    bottom_truncated: bool
+    bottom_occluded: bool
+    standing_on: str
+
+
+def _contact_from_mask(
+    mask: np.ndarray,
+    x0: int,
+    y0: int,
+    label_ids: np.ndarray | None,
+    owner: np.ndarray | None,
+    own_value: int,
+    thing: bool,
+) -> _Contact:
+    """Ground contact of a mask crop placed at (x0, y0) in an image.
+
+    A column touches the ground when the pixel just below its lowest pixel is a
+    ground class; it is hidden when that pixel belongs to another placed object
+    (``owner`` differs and is not 0); it is cut when the column reaches the border.
+    """
+    H = label_ids.shape[0] if label_ids is not None else (owner.shape[0] if owner is not None else 0)
+    cols, bottoms = _column_bottoms(mask)
+    rows_abs = bottoms + y0
+    cols_abs = cols + x0
+    lowest = int(rows_abs.max())
+    truncated = H > 0 and lowest >= H - 1
+    below = np.minimum(rows_abs + 1, max(H - 1, 0))
+    at_border = rows_abs >= H - 1
+    lookups = label_lookups()
+    if label_ids is not None:
+        below_labels = label_ids[below, cols_abs]
+        on_ground = lookups.is_ground[below_labels] & ~at_border
+    else:
+        below_labels = None
+        on_ground = ~at_border
+    if owner is not None:
+        below_owner = owner[below, cols_abs]
+        hidden = (below_owner != 0) & (below_owner != own_value) & ~at_border
+        on_ground &= ~hidden
+    else:
+        hidden = np.zeros_like(on_ground)
+    occluded = (not truncated) and hidden.mean() >= OCCLUDED_FRACTION and not on_ground.any()
+    use = on_ground if on_ground.any() else ~hidden if (~hidden).any() else np.ones_like(on_ground)
+    if thing:
+        v = float(rows_abs[use].max()) + 1.0
+        u = float(x0 + mask.shape[1] / 2.0)
+    else:
+        order = np.argsort(cols_abs[use])
+        mid = order[len(order) // 2]
+        u = float(cols_abs[use][mid]) + 0.5
+        v = float(np.median(rows_abs[use])) + 1.0
+    standing_on = ""
+    if below_labels is not None and on_ground.any():
+        values, counts = np.unique(below_labels[on_ground], return_counts=True)
+        standing_on = str(lookups.names[values[np.argmax(counts)]])
+    return _Contact(np.array([u, v]), bool(truncated), bool(occluded), standing_on)
+
+
+def _split_columns(mask: np.ndarray, aspect: float) -> list[tuple[int, int]]:
+    """Split a wide stuff crop into column ranges of about ``aspect`` x their height."""
+    cols, bottoms = _column_bottoms(mask)
+    if len(cols) == 0:
+        return []
+    tops = np.argmax(mask[:, cols], axis=0)
+    heights = np.zeros(mask.shape[1])
+    heights[cols] = bottoms - tops + 1
+    ranges = []
+    start = 0
+    w = mask.shape[1]
+    while start < w:
+        end = start + 1
+        tallest = heights[start]
+        while end < w:
+            tallest = max(tallest, heights[end])
+            if end - start >= max(aspect * tallest, 4) and (w - end) >= 0.5 * aspect * tallest:
+                break
+            end += 1
+        ranges.append((start, end))
+        start = end
+    return ranges
+
+
+def _instance_groups(instance_ids: np.ndarray) -> list[tuple[int, np.ndarray]]:
+    """Instance ids >= 1000 and their boxes ``(xmin, ymin, xmax, ymax)``, sorted by id."""
+    ys, xs = np.nonzero(instance_ids >= 1000)
+    if len(ys) == 0:
+        return []
+    vals = instance_ids[ys, xs]
+    order = np.argsort(vals, kind="stable")
+    vals, ys, xs = vals[order], ys[order], xs[order]
+    starts = np.concatenate([[0], np.nonzero(np.diff(vals))[0] + 1])
+    boxes = np.stack(
+        [
+            np.minimum.reduceat(xs, starts),
+            np.minimum.reduceat(ys, starts),
+            np.maximum.reduceat(xs, starts) + 1,
+            np.maximum.reduceat(ys, starts) + 1,
+        ],
+        axis=1,
+    )
+    return [(int(v), b) for v, b in zip(vals[starts], boxes)]
+
+
+def objects_from_segmentation(seg: Segmentation) -> list[ImageObject]:
+    """Things from the instance map (or class components) and stuff from class masks.
+
+    Args:
+        seg: label ids (and instance ids) of one image.
+
+    Returns:
+        Objects sorted by (class, instance id, contact u).
+    """
+    labels = np.asarray(seg.label_ids)
+    H, W = labels.shape
+    lookups = label_lookups()
+    owner = np.zeros((H, W), dtype=np.int32)
+    objects: list[ImageObject] = []
+    pending: list[tuple[str, str, int, np.ndarray, np.ndarray, bool]] = []
+
+    inst = np.asarray(seg.instance_ids) if seg.instance_ids is not None else None
+    thing_ids = [i for i in range(256) if lookups.is_thing[i] and lookups.placed[i]]
+    if inst is not None:
+        for iid, box in _instance_groups(inst):
+            label_id = iid // 1000
+            if label_id > 255 or not lookups.placed[label_id]:
+                continue
+            x0, y0, x1, y1 = (int(b) for b in box)
+            crop = inst[y0:y1, x0:x1] == iid
+            if crop.sum() < MIN_THING_AREA_PX:
+                continue
+            pending.append((str(lookups.placed[label_id]), str(lookups.names[label_id]), iid, box, crop, True))
+        group_mask = np.isin(labels, thing_ids) & (inst < 1000)
+    else:
+        group_mask = None
+
+    min_area = max(30, int(MIN_STUFF_AREA_FRACTION * H * W))
+    placed_ids = [i for i in range(256) if lookups.placed[i]]
+    by_class: dict[str, list[int]] = {}
+    for i in placed_ids:
+        if inst is not None and lookups.is_thing[i]:
+            continue
+        by_class.setdefault(str(lookups.placed[i]), []).append(i)
+    for class_name, ids in sorted(by_class.items()):
+        class_mask = np.isin(labels, ids)
+        if group_mask is not None and class_name in {str(lookups.placed[i]) for i in thing_ids}:
+            class_mask &= group_mask
+        if not class_mask.any():
+            continue
+        n, comp, stats, _ = cv2.connectedComponentsWithStats(class_mask.astype(np.uint8), connectivity=8)
+        for k in range(1, n):
+            x, y, w, h, area = (int(s) for s in stats[k])
+            if area < min_area:
+                continue
+            crop = comp[y : y + h, x : x + w] == k
+            source = str(lookups.names[int(np.bincount(labels[y : y + h, x : x + w][crop]).argmax())])
+            ranges = _split_columns(crop, SPLIT_ASPECT[class_name]) if class_name in SPLIT_ASPECT else [(0, w)]
+            for c0, c1 in ranges:
+                sub = crop[:, c0:c1]
+                rows = np.nonzero(sub.any(axis=1))[0]
+                if len(rows) == 0 or sub.sum() < min_area / 2:
+                    continue
+                sub = sub[rows[0] : rows[-1] + 1]
+                box = np.array([x + c0, y + rows[0], x + c1, y + rows[-1] + 1])
+                pending.append((class_name, source, -1, box, sub, False))
+
+    for idx, (_, _, _, box, crop, _) in enumerate(pending, start=1):
+        x0, y0, x1, y1 = (int(b) for b in box)
+        owner[y0:y1, x0:x1][crop] = idx
+    for idx, (class_name, source, iid, box, crop, thing) in enumerate(pending, start=1):
+        x0, y0, x1, y1 = (int(b) for b in box)
+        contact = _contact_from_mask(crop, x0, y0, labels, owner, idx, thing)
+        objects.append(
+            ImageObject(
+                class_name=class_name,
+                source_label=source,
+                instance_id=iid,
+                box_px=np.asarray(box, dtype=np.int64),
+                mask=crop,
+                contact_px=contact.contact_px,
+                bottom_truncated=contact.bottom_truncated,
+                bottom_occluded=contact.bottom_occluded,
+                top_truncated=y0 <= 0,
+                standing_on=contact.standing_on,
+            )
+        )
+    return sort_objects(objects)
+
+
+def sort_objects(objects: list[ImageObject]) -> list[ImageObject]:
+    """Canonical order: class, then instance id (stuff last), then contact u and v."""
+    return sorted(
+        objects,
+        key=lambda o: (
+            o.class_name,
+            o.instance_id if o.instance_id >= 0 else 1 << 30,
+            float(o.contact_px[0]),
+            float(o.contact_px[1]),
+        ),
+    )
+
+
+def objects_from_detections(
+    detections: Detections, width: int, height: int, segmentation: Segmentation | None = None
+) -> list[ImageObject]:
+    """Things from 2D detections (boxes, optionally masks).
+
+    A box's contact is its bottom centre. Its bottom counts as occluded when another
+    box whose bottom is lower (closer) covers at least half of its bottom edge.
+
+    Args:
+        detections: the detections; labels without a placed class are skipped.
+        width: image width in pixels.
+        height: image height in pixels.
+        segmentation: optional labels, used to tell what each object stands on.
+
+    Returns:
+        Objects sorted canonically; ``instance_id`` is the detection's index in the file.
+    """
+    items = []
+    for index, det in enumerate(detections.items):
+        class_name = placed_class_for_label(det.label)
+        if class_name is None:
+            continue
+        x0, y0, x1, y1 = det.box_px
+        box = np.array(
+            [np.floor(x0), np.floor(y0), np.ceil(x1), np.ceil(y1)], dtype=np.float64
+        ).clip([0, 0, 0, 0], [width, height, width, height]).astype(np.int64)
+        if box[2] <= box[0] or box[3] <= box[1]:
+            continue
+        if det.mask is not None:
+            crop = np.asarray(det.mask)[box[1] : box[3], box[0] : box[2]]
+        else:
+            crop = np.ones((box[3] - box[1], box[2] - box[0]), dtype=bool)
+        items.append((index, det, class_name, np.asarray(det.box_px, dtype=np.float64), box, crop))
+
+    objects = []
+    labels = np.asarray(segmentation.label_ids) if segmentation is not None else None
+    lookups = label_lookups()
+    for index, det, class_name, fbox, box, crop in items:
+        bottom = float(fbox[3])
+        occluders = 0.0
+        for other_index, _, _, obox, _, _ in items:
+            if other_index == index or obox[3] <= bottom + 1.0 or obox[1] >= bottom:
+                continue
+            overlap = min(fbox[2], obox[2]) - max(fbox[0], obox[0])
+            occluders = max(occluders, overlap / max(fbox[2] - fbox[0], 1e-9))
+        standing_on = ""
+        if labels is not None:
+            v = int(min(max(bottom, 0), height - 1))
+            u = int(min(max((fbox[0] + fbox[2]) / 2, 0), width - 1))
+            standing_on = str(lookups.names[labels[v, u]])
+        objects.append(
+            ImageObject(
+                class_name=class_name,
+                source_label=det.label,
+                instance_id=index,
+                box_px=box,
+                mask=crop,
+                contact_px=np.array([(fbox[0] + fbox[2]) / 2.0, bottom]),
+                bottom_truncated=bottom >= height - 1.0,
+                bottom_occluded=occluders >= OCCLUDED_FRACTION,
+                top_truncated=fbox[1] <= 1.0,
+                standing_on=standing_on,
+                score=float(det.score),
+            )
+        )
+    return sort_objects(objects)

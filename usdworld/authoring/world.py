@@ -18,7 +18,7 @@ import shutil
 from pathlib import Path
 
 import numpy as np
-from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
+from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, UsdUtils, Vt
 
 import usdworld
 from usdworld.authoring.camera import define_camera
@@ -218,6 +218,35 @@ def write_edits_layer(path: Path) -> None:
     layer.Save()
 
 
+def copy_asset(src: Path, dst_dir: Path) -> Path:
+    """Copy an asset and every layer it depends on (sublayers, references) into a folder.
+
+    Dependencies must sit beside the asset or below its folder, so relative paths
+    inside the asset stay valid after the copy.
+
+    Args:
+        src: the asset's root layer.
+        dst_dir: destination folder.
+
+    Returns:
+        The copied root layer.
+    """
+    src = Path(src).resolve()
+    layers, assets, unresolved = UsdUtils.ComputeAllDependencies(Sdf.AssetPath(str(src)))
+    if unresolved:
+        raise AuthoringError(f"{src}: unresolved dependencies {', '.join(unresolved)}; fix the asset library")
+    for dep in [Path(layer.realPath or layer.identifier) for layer in layers] + [Path(a) for a in assets]:
+        dep = dep.resolve()
+        try:
+            rel = dep.relative_to(src.parent)
+        except ValueError as exc:
+            raise AuthoringError(f"{src}: depends on {dep} outside its folder; keep asset files together") from exc
+        target = dst_dir / rel
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(dep, target)
+    return dst_dir / src.name
+
+
 def write_world(model: WorldModel, out_dir: Path, asset_files: dict[str, Path], keep_edits: Path | None) -> None:
     """Write the whole world folder (which must be new and empty).
 
@@ -231,7 +260,7 @@ def write_world(model: WorldModel, out_dir: Path, asset_files: dict[str, Path], 
     (out_dir / ASSETS_DIR).mkdir(exist_ok=True)
     refs = {}
     for class_name, src in sorted(asset_files.items()):
-        shutil.copyfile(src, out_dir / ASSETS_DIR / src.name)
+        copy_asset(src, out_dir / ASSETS_DIR)
         refs[class_name] = f"../{ASSETS_DIR}/{src.name}"
     write_base_layer(model, out_dir / BASE_LAYER, refs)
     if keep_edits is not None:

@@ -16,7 +16,10 @@ def print_build_summary(report: dict[str, Any], world: str, console: Console | N
         world: path of the written root layer.
         console: where to print (stdout by default).
     """
-    console = console or Console()
+    if console is None:
+        console = Console()
+        if not console.is_terminal:
+            console = Console(width=160)
     table = Table(title=f"{len(report['objects'])} objects placed from {report['source_image']}")
     for column in ("name", "variant", "x m", "y m", "depth m", "method", "scale", "yaw deg", "moved m"):
         table.add_column(column, justify="right" if column.endswith(("m", "scale", "deg")) else "left")

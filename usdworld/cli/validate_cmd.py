@@ -21,7 +21,7 @@ def validate(
     files = [root]
     assets = root.parent / "assets"
     if root.name == "world.usda" and assets.is_dir():
-        files.extend(sorted(assets.glob("*.usd*")))
+        files.extend(sorted(assets.glob("*.usda")))  # asset roots; their geometry sublayers are .usdc
     report = {}
     total_errors = 0
     for path in files:

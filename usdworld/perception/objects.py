@@ -58,6 +58,18 @@ class ImageObject:
     standing_on: str = ""
     score: float = 1.0
 
+    def __post_init__(self) -> None:
+        for name in ("bottom_truncated", "bottom_occluded", "top_truncated"):
+            object.__setattr__(self, name, bool(getattr(self, name)))
+        object.__setattr__(self, "instance_id", int(self.instance_id))
+        object.__setattr__(self, "score", float(self.score))
+        box = np.asarray(self.box_px, dtype=np.int64)
+        mask = np.asarray(self.mask, dtype=bool)
+        if box.shape != (4,) or mask.shape != (box[3] - box[1], box[2] - box[0]):
+            raise ValueError(f"mask shape {mask.shape} does not match box {box.tolist()}")
+        box.setflags(write=False)
+        object.__setattr__(self, "box_px", box)
+
     @property
     def mask_area(self) -> int:
         return int(self.mask.sum())

@@ -1,0 +1,80 @@
+"""Objects from Cityscapes labels and from detection boxes."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from usdworld.io.types import Detection, Detections, InputFile, Segmentation
+from usdworld.perception.objects import objects_from_detections, objects_from_segmentation
+
+ROAD, SIDEWALK, BUILDING, PERSON, CAR = 7, 8, 11, 24, 26
+FILE = InputFile("labels", "x.png", "0" * 64)
+
+
+def _scene() -> Segmentation:
+    labels = np.full((200, 400), 23, dtype=np.uint8)  # sky
+    inst = labels.astype(np.int32)
+    labels[100:, :] = ROAD
+    labels[60:100, :] = BUILDING  # a wide facade along the whole image
+    # car 26000: standing on the road, bottom visible
+    labels[120:150, 50:110] = CAR
+    inst[120:150, 50:110] = 26000
+    # car 26001 behind person 24000: the person covers the car's bottom
+    labels[110:140, 200:260] = CAR
+    inst[110:140, 200:260] = 26001
+    labels[125:170, 190:270] = PERSON
+    inst[125:170, 190:270] = 24000
+    # car 26002 cut by the bottom border
+    labels[170:200, 300:380] = CAR
+    inst[170:200, 300:380] = 26002
+    inst[labels == ROAD] = ROAD
+    inst[labels == BUILDING] = BUILDING
+    return Segmentation(labels, inst, (FILE,))
+
+
+def test_things_contacts_and_flags():
+    objects = {o.instance_id: o for o in objects_from_segmentation(_scene()) if o.is_thing}
+    assert set(objects) == {26000, 26001, 26002, 24000}
+    visible = objects[26000]
+    assert visible.class_name == "car" and visible.source_label == "car"
+    np.testing.assert_allclose(visible.contact_px, [80.0, 150.0])  # box centre, bottom edge
+    np.testing.assert_array_equal(visible.box_px, [50, 120, 110, 150])
+    assert not (visible.bottom_truncated or visible.bottom_occluded) and visible.standing_on == "road"
+    assert visible.mask_area == 30 * 60
+    assert objects[26001].bottom_occluded and not objects[26001].bottom_truncated
+    assert objects[26002].bottom_truncated
+    assert objects[24000].class_name == "person" and not objects[24000].bottom_occluded
+
+
+def test_wide_stuff_is_split_into_chunks():
+    buildings = [o for o in objects_from_segmentation(_scene()) if o.class_name == "building"]
+    # 400 px wide, 40 px tall facade, aspect 1.0 -> about 10 chunks of ~40 px.
+    assert 6 <= len(buildings) <= 12
+    widths = [o.width_px for o in buildings]
+    assert sum(widths) == 400 and max(widths) <= 80
+    assert all(o.instance_id == -1 for o in buildings)
+
+
+def test_canonical_order():
+    objects = objects_from_segmentation(_scene())
+    keys = [(o.class_name, o.instance_id if o.instance_id >= 0 else 1 << 30, float(o.contact_px[0])) for o in objects]
+    assert keys == sorted(keys)
+    assert [o.class_name for o in objects][:1] == ["building"]
+
+
+def test_detections_boxes_occlusion_and_truncation():
+    dets = Detections(
+        (
+            Detection("Car", np.array([100.0, 50.0, 200.0, 120.0])),
+            Detection("Car", np.array([120.0, 60.0, 220.0, 150.0])),  # lower, covers the first one's bottom
+            Detection("Pedestrian", np.array([300.0, 40.0, 320.0, 199.5])),
+            Detection("DontCareLikeUnknown", np.array([0.0, 0.0, 5.0, 5.0])),
+        ),
+        InputFile("detections", "d.txt", "0" * 64),
+    )
+    objects = objects_from_detections(dets, 400, 200)
+    by_index = {o.instance_id: o for o in objects}
+    assert set(by_index) == {0, 1, 2}
+    assert by_index[0].bottom_occluded and not by_index[1].bottom_occluded
+    assert by_index[2].class_name == "person" and by_index[2].bottom_truncated
+    np.testing.assert_allclose(by_index[1].contact_px, [170.0, 150.0])

@@ -72,6 +72,8 @@ class CameraEstimate:
         method: one line saying how the missing parameters were obtained.
         n_objects: objects that constrained the estimate.
         residual_px: median absolute top-row residual of those objects, pixels (0 without).
+        sigma_height_m: standard deviation of the camera height (0 when it was given).
+        sigma_pitch: standard deviation of the pitch, radians (0 when it was given).
     """
 
     camera: PinholeCamera
@@ -79,6 +81,8 @@ class CameraEstimate:
     method: str
     n_objects: int
     residual_px: float
+    sigma_height_m: float = 0.0
+    sigma_pitch: float = 0.0
 
 
 def predicted_top_rows(
@@ -160,6 +164,13 @@ def _search(
     return best_h, best_p
 
 
+def _laplace_sigma(f, x0: float, step: float) -> float:
+    """Standard deviation from the curvature of a negative log posterior at its minimum."""
+    c0, cp, cm = f(x0), f(x0 + step), f(x0 - step)
+    curvature = (cp + cm - 2.0 * c0) / step**2
+    return float(1.0 / np.sqrt(curvature)) if curvature > 0 else float("inf")
+
+
 def estimate_camera(
     width: int,
     height: int,
@@ -200,6 +211,7 @@ def estimate_camera(
         yaw = 0.0
     residual = 0.0
     n_used = 0
+    sigma_h = sigma_p = 0.0
     if height_m is None or pitch is None:
         if height_m is None:
             estimated.append("height_m")
@@ -223,7 +235,18 @@ def estimate_camera(
             notes.append(
                 f"nothing to go on: default camera height {CAMERA_HEIGHT_PRIOR_M[0]:g} m and level pitch"
             )
+        Kf = np.asarray(K)
+        if "height_m" in estimated:
+            sigma_h = _laplace_sigma(
+                lambda x: float(_cost(np.array([x]), np.array([p_est]), Kf, usable, road_top_v)[0]), h_est, 0.01
+            )
+        if "pitch" in estimated:
+            sigma_p = _laplace_sigma(
+                lambda x: float(_cost(np.array([h_est]), np.array([x]), Kf, usable, road_top_v)[0]),
+                p_est,
+                np.radians(0.05),
+            )
         height_m, pitch = h_est, p_est
     method = "; ".join(notes) if notes else "all camera parameters given"
     camera = PinholeCamera(width, height, np.asarray(K), float(height_m), float(pitch), float(roll), float(yaw))
-    return CameraEstimate(camera, tuple(estimated), method, n_used, residual)
+    return CameraEstimate(camera, tuple(estimated), method, n_used, residual, sigma_h, sigma_p)

@@ -1,0 +1,129 @@
+"""Read manual pixel <-> ground correspondences (the paper's "5-6 selected points").
+
+Two formats, recognised from the content:
+
+* JSON: ``{"pairs": [{"px": [u, v], "ground": [x, y]}, ...]}``
+* CSV with a header naming the columns ``u, v, x, y`` (any order; other columns are
+  ignored), one pair per row.
+
+``(u, v)`` are pixels (origin at the top-left corner, u right, v down); ``(x, y)`` are
+metres on the ground (x forward, y left, origin below the camera). At least
+:data:`MIN_PAIRS` pairs with distinct pixels are needed for a homography.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import numpy as np
+
+from usdworld.errors import CalibrationError, InputError
+from usdworld.io.hashing import (
+    PathLike,
+    as_array,
+    as_floats,
+    as_object,
+    decode_text,
+    json_type,
+    parse_json,
+    read_input,
+    require,
+)
+from usdworld.io.types import GroundCorrespondences
+
+#: A homography has 8 degrees of freedom; each pair gives 2 equations.
+MIN_PAIRS = 4
+
+_CSV_COLUMNS = ("u", "v", "x", "y")
+
+
+def _from_json(data: bytes, name: str) -> tuple[list[list[float]], list[list[float]]]:
+    doc = parse_json(data, name)
+    if not isinstance(doc, dict):
+        raise InputError(f'{name}: the top level must be an object {{"pairs": [...]}}, got {json_type(doc)}')
+    pairs = as_array(require(doc, "pairs", name), f"{name} -> pairs")
+    px, ground = [], []
+    for i, value in enumerate(pairs):
+        where = f"{name} -> pairs -> [{i}]"
+        pair = as_object(value, where)
+        px.append(as_floats(require(pair, "px", where), f"{where} -> px", 2))
+        ground.append(as_floats(require(pair, "ground", where), f"{where} -> ground", 2))
+    return px, ground
+
+
+def _from_csv(text: str, name: str) -> tuple[list[list[float]], list[list[float]]]:
+    reader = csv.reader(io.StringIO(text, newline=""))
+    rows: list[tuple[int, list[str]]] = []
+    try:
+        for row in reader:
+            if any(c.strip() for c in row):
+                rows.append((reader.line_num, row))
+    except csv.Error as exc:
+        raise InputError(
+            f"{name}: not valid CSV ({exc}); write a header u,v,x,y and one pair per line"
+        ) from exc
+    if not rows:
+        raise InputError(f"{name}: no rows; write a header u,v,x,y and one pair per line")
+    header = [c.strip().lower() for c in rows[0][1]]
+    missing = [c for c in _CSV_COLUMNS if c not in header]
+    if missing:
+        raise InputError(
+            f"{name}: line {rows[0][0]}: header {','.join(header)!r} lacks column {missing[0]!r}; "
+            "the first line must name the columns u,v,x,y"
+        )
+    cols = [header.index(c) for c in _CSV_COLUMNS]
+    px, ground = [], []
+    for line_no, row in rows[1:]:
+        values = []
+        for col, col_name in zip(cols, _CSV_COLUMNS, strict=True):
+            cell = row[col].strip() if col < len(row) else ""
+            try:
+                v = float(cell)
+            except ValueError:
+                v = float("nan")
+            if not np.isfinite(v):
+                raise InputError(
+                    f"{name}: line {line_no}, column {col_name}: {cell!r} is not a finite number"
+                )
+            values.append(v)
+        px.append(values[:2])
+        ground.append(values[2:])
+    return px, ground
+
+
+def read_correspondences(path: PathLike) -> GroundCorrespondences:
+    """Read pixel <-> ground pairs from JSON or CSV.
+
+    Args:
+        path: the correspondences file.
+
+    Returns:
+        GroundCorrespondences with ``points_px`` (N, 2) and ``points_ground`` (N, 2)
+        float64, N >= 4, in file order; ``file.role == "correspondences"``.
+
+    Raises:
+        InputError: malformed file, missing fields or non-numbers (named by path or line).
+        CalibrationError: fewer than 4 pairs, or fewer than 4 distinct pixels.
+    """
+    data, file = read_input(path, "correspondences")
+    text = decode_text(data, file.name)
+    if text.lstrip().startswith(("{", "[")):
+        px, ground = _from_json(data, file.name)
+    else:
+        px, ground = _from_csv(text, file.name)
+    if len(px) < MIN_PAIRS:
+        raise CalibrationError(
+            f"{file.name}: {len(px)} pixel/ground pairs, at least {MIN_PAIRS} are needed for the "
+            f"ground homography; add {MIN_PAIRS - len(px)} more (5-6 spread over the road is best)"
+        )
+    points_px = np.array(px, dtype=np.float64).reshape(-1, 2)
+    distinct = len(np.unique(points_px, axis=0))
+    if distinct < MIN_PAIRS:
+        raise CalibrationError(
+            f"{file.name}: only {distinct} distinct pixels among {len(px)} pairs; at least "
+            f"{MIN_PAIRS} different points are needed, remove the duplicates and add others"
+        )
+    return GroundCorrespondences(
+        points_px=points_px, points_ground=np.array(ground, dtype=np.float64).reshape(-1, 2), file=file
+    )

@@ -1,0 +1,138 @@
+"""The Cityscapes class table shipped in ``usdworld/data/cityscapes_labels.csv``.
+
+Columns: ``id, name, category, has_instances, r, g, b, placed_as``. ``placed_as`` is
+the usdworld asset class an object of this class becomes (empty: not placed).
+
+Example:
+    >>> by_name("car").id
+    26
+    >>> by_id(26).placed_as
+    'car'
+"""
+
+from __future__ import annotations
+
+import csv
+import functools
+import io
+from dataclasses import dataclass
+
+from usdworld.errors import InputError
+from usdworld.resources import data_dir
+
+TABLE_NAME = "cityscapes_labels.csv"
+_COLUMNS = ("id", "name", "category", "has_instances", "r", "g", "b", "placed_as")
+
+
+@dataclass(frozen=True)
+class LabelClass:
+    """One Cityscapes class.
+
+    Attributes:
+        id: label id as stored in ``*_labelIds.png`` (0..255).
+        name: Cityscapes name (``car``, ``traffic sign`` ...).
+        category: Cityscapes category (``flat``, ``vehicle`` ...).
+        has_instances: True for thing classes whose objects get ``id*1000+k`` instance ids.
+        color: (r, g, b) colour of the class in ``*_color.png``.
+        placed_as: usdworld asset class for objects of this class, or None when not placed.
+    """
+
+    id: int
+    name: str
+    category: str
+    has_instances: bool
+    color: tuple[int, int, int]
+    placed_as: str | None
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.id <= 255:
+            raise InputError(f"{TABLE_NAME}: class '{self.name}' has id {self.id}; ids must be in 0..255")
+        if not all(0 <= c <= 255 for c in self.color):
+            raise InputError(f"{TABLE_NAME}: class '{self.name}' has colour {self.color}; use 0..255")
+
+
+def _parse_table(text: str) -> tuple[LabelClass, ...]:
+    rows = list(csv.reader(io.StringIO(text)))
+    if not rows or tuple(c.strip() for c in rows[0]) != _COLUMNS:
+        raise InputError(f"{TABLE_NAME}: header must be {','.join(_COLUMNS)}; reinstall usdworld")
+    classes = []
+    for line_no, row in enumerate(rows[1:], start=2):
+        if not row:
+            continue
+        if len(row) != len(_COLUMNS):
+            raise InputError(f"{TABLE_NAME}: line {line_no} has {len(row)} fields, expected {len(_COLUMNS)}")
+        try:
+            id_, r, g, b, inst = (int(row[i]) for i in (0, 4, 5, 6, 3))
+        except ValueError as exc:
+            raise InputError(f"{TABLE_NAME}: line {line_no}: {exc}; fix the class table") from exc
+        placed = row[7].strip()
+        classes.append(
+            LabelClass(
+                id=id_,
+                name=row[1].strip(),
+                category=row[2].strip(),
+                has_instances=bool(inst),
+                color=(r, g, b),
+                placed_as=placed or None,
+            )
+        )
+    ids = [c.id for c in classes]
+    if len(set(ids)) != len(ids):
+        raise InputError(f"{TABLE_NAME}: duplicate class ids; fix the class table")
+    return tuple(classes)
+
+
+@functools.cache
+def label_table() -> tuple[LabelClass, ...]:
+    """All classes of the shipped table, in file order (read once per process).
+
+    Raises:
+        InputError: the table is missing or malformed (a broken installation).
+    """
+    path = data_dir() / TABLE_NAME
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the class table ({exc}); reinstall usdworld") from exc
+    return _parse_table(text)
+
+
+@functools.cache
+def _index() -> tuple[dict[int, LabelClass], dict[str, LabelClass]]:
+    table = label_table()
+    return {c.id: c for c in table}, {c.name: c for c in table}
+
+
+def known_ids() -> frozenset[int]:
+    """The label ids the table defines."""
+    return frozenset(_index()[0])
+
+
+def by_id(label_id: int) -> LabelClass:
+    """The class with label id ``label_id``.
+
+    Raises:
+        InputError: no class has that id.
+    """
+    try:
+        return _index()[0][int(label_id)]
+    except KeyError:
+        raise InputError(
+            f"label id {label_id} is not in the Cityscapes class table ({TABLE_NAME}); "
+            f"use Cityscapes labelIds ({min(known_ids())}..{max(known_ids())})"
+        ) from None
+
+
+def by_name(name: str) -> LabelClass:
+    """The class named ``name`` (exact Cityscapes spelling, e.g. ``traffic sign``).
+
+    Raises:
+        InputError: no class has that name.
+    """
+    try:
+        return _index()[1][name]
+    except KeyError:
+        raise InputError(
+            f"class name '{name}' is not in the Cityscapes class table ({TABLE_NAME}); "
+            "use a Cityscapes class name such as 'car' or 'traffic sign'"
+        ) from None

@@ -226,7 +226,13 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     fit, dlt_source = _ground_fit(request, camera.camera)
     axis = road_axis(_road_points(seg, fit, camera.camera, request.max_range_m))
     placements, skipped = place_objects(
-        objects, camera.camera, fit.dst_from_src, axis, _asset_sizes(objects, libraries), depth
+        objects,
+        camera.camera,
+        fit.dst_from_src,
+        axis,
+        _asset_sizes(objects, libraries),
+        depth,
+        camera_sigma=(camera.sigma_height_m, camera.sigma_pitch),
     )
     surfaces = ()
     if seg is not None:
@@ -273,7 +279,9 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
 # --- report ---------------------------------------------------------------------------
 
 
-def _num(x: float) -> float | None:
+def _num(x: float | None) -> float | None:
+    if x is None:
+        return None
     x = float(x)
     return round(x, 6) if np.isfinite(x) else None
 
@@ -302,7 +310,9 @@ def make_report(model: WorldModel) -> dict[str, Any]:
                 "yaw_source": p.yaw_source,
                 "depth_m": _num(p.depth_m),
                 "depth_method": p.depth_method,
-                "depth_cues": {c.name: {"depth_m": _num(c.depth_m), "sigma_m": _num(c.sigma_m)} for c in p.cues},
+                "depth_cues": {
+                    c.name: {"depth_m": _num(c.depth_m), "sigma_m": _num(c.sigma_m), "note": c.note} for c in p.cues
+                },
                 "scale": _num(p.scale),
                 "scale_measured": _num(p.scale_measured),
                 "size_m": [_num(s) for s in p.size_m],
@@ -321,6 +331,8 @@ def make_report(model: WorldModel) -> dict[str, Any]:
             "roll_deg": _num(np.degrees(cam.roll)),
             "yaw_deg": _num(np.degrees(cam.yaw)),
             "estimated": list(model.camera.estimated),
+            "sigma_height_m": _num(model.camera.sigma_height_m),
+            "sigma_pitch_deg": _num(np.degrees(model.camera.sigma_pitch)),
             "method": model.camera.method,
         },
         "dlt": {

@@ -96,6 +96,10 @@ def define_surface(stage: Usd.Stage, surface: SurfaceMesh) -> UsdGeom.Mesh:
     return mesh
 
 
+def _nan_if_none(value: float | None) -> float:
+    return float("nan") if value is None else float(value)
+
+
 def define_object(stage: Usd.Stage, placement: Placement, asset_ref: str, image_name: str) -> UsdGeom.Xform:
     """Author one placed object: a reference to its class asset, its transform and provenance.
 
@@ -137,8 +141,8 @@ def define_object(stage: Usd.Stage, placement: Placement, asset_ref: str, image_
             "usdworld:depth": float(placement.depth_m),
             "usdworld:depthMethod": placement.depth_method,
             "usdworld:depthCueNames": [c.name for c in cues],
-            "usdworld:depthCueValues": [float(c.depth_m) for c in cues],
-            "usdworld:depthCueSigmas": [float(c.sigma_m) for c in cues],
+            "usdworld:depthCueValues": [_nan_if_none(c.depth_m) for c in cues],
+            "usdworld:depthCueSigmas": [_nan_if_none(c.sigma_m) for c in cues],
             "usdworld:scaleFactor": float(placement.scale),
             "usdworld:scaleMeasured": float(placement.scale_measured),
             "usdworld:yawSource": placement.yaw_source,

@@ -1,10 +1,15 @@
 """Metric placement of image objects: depth cues, position, scale, variant and yaw.
 
-Position (step 2 of the paper): the ground-contact pixel goes through the DLT
-homography ``ground_from_px`` to a ground point, which is then moved back along the
-viewing ray by the object's half extent along that ray, so that the object's centre,
-not its front face, is placed. With a dense depth map, the object's depth is the
-robust mean over its mask instead, repaired by the paper's ordering rules.
+Depth (step 1 of the paper, made robust): every cue to the depth of the object's front
+is computed (the ground contact through the DLT homography ``ground_from_px``, the
+class-height prior, and a dense depth map's robust mean when one is given) and fused
+by inverse-variance weighting (:mod:`usdworld.perception.depth.fusion`); the contact
+cue is widened by the camera's own uncertainty when the camera was estimated. With a
+depth map, the paper's ordering rules then repair the fused depths.
+
+Position (step 2): the object is placed on the viewing ray of its contact pixel, moved
+back by the footprint's half extent along that ray, so that the object's centre, not
+its front face, is placed. Every cue in the provenance is given at the centre too.
 """
 
 from __future__ import annotations
@@ -18,35 +23,14 @@ from usdworld.geometry.homography import apply_homography
 from usdworld.io.types import DepthMap
 from usdworld.layout.collision import footprint_half_extents, resolve_collisions
 from usdworld.layout.ordering import apply_ordering_rules
+from usdworld.errors import LayoutError
 from usdworld.layout.priors import ClassPrior, prior_for
+from usdworld.perception.depth.fusion import DepthCue, fuse, object_depth_cues
 from usdworld.layout.yaw import RoadAxis, choose_yaw
 from usdworld.perception.objects import ImageObject
 
 #: Height of the kerb: objects standing on the sidewalk are lifted by this much.
 CURB_HEIGHT_M = 0.15
-#: One pixel of contact-row error, in pixels, used for the contact cue's spread.
-CONTACT_ROW_NOISE_PX = 1.0
-#: Relative spread assumed for a dense depth map's per-object mean.
-DEPTH_MAP_REL_STD = 0.1
-
-
-@dataclass(frozen=True)
-class DepthCue:
-    """One estimate of an object's centre depth.
-
-    Attributes:
-        name: ``ground_contact``, ``height_prior`` or ``depth_map``.
-        depth_m: centre depth along the optical axis, or NaN when unavailable.
-        sigma_m: assumed standard deviation, or NaN when unavailable.
-    """
-
-    name: str
-    depth_m: float
-    sigma_m: float
-
-    @property
-    def available(self) -> bool:
-        return bool(np.isfinite(self.depth_m) and self.depth_m > 0)
 
 
 @dataclass(frozen=True)
@@ -77,8 +61,10 @@ class Placement:
         scale_measured: scale measured from the image before clamping (NaN if not measurable).
         size_m: (3,) float64 size after scaling (length, width, height).
         depth_m: centre depth along the optical axis, metres.
-        depth_method: the cue that decided the depth (or ``depth_map+rule1`` ...).
-        cues: every depth cue computed.
+        depth_method: ``contact``, ``cnn``, ``height`` (the cue holding >= 80 % of the
+            weight), ``fused``, ``contact_partial`` / ``height_partial`` (cut or hidden
+            objects), with ``+rule1`` / ``+rule2`` when the ordering rules changed it.
+        cues: every depth cue computed, as centre depths (unavailable ones have None).
         collision_displacement: (2,) float64 displacement applied by collision resolution.
         confidence: in [0, 1].
     """
@@ -109,13 +95,6 @@ def _depth_of_ground_point(camera: PinholeCamera, p_ground: np.ndarray) -> float
     return float(camera.cam_from_world_points(np.array([[p_ground[0], p_ground[1], 0.0]]))[0, 2])
 
 
-def _measured_height(obj: ImageObject, front_depth_m: float, camera: PinholeCamera) -> float:
-    """Metric height of the object's visible extent at its front depth (NaN if cut)."""
-    if obj.top_truncated or obj.bottom_truncated or obj.bottom_occluded or not front_depth_m > 0:
-        return float("nan")
-    return float(obj.height_px * front_depth_m / camera.fy)
-
-
 def _choose_variant(sizes: AssetSizes, measured_h: float) -> str:
     if not np.isfinite(measured_h) or len(sizes.by_variant) < 2:
         return sizes.default_variant
@@ -139,6 +118,7 @@ def place_objects(
     asset_sizes: dict[str, AssetSizes],
     depth_map: DepthMap | None = None,
     sidewalk_lift: bool = True,
+    camera_sigma: tuple[float, float] = (0.0, 0.0),
 ) -> tuple[list[Placement], list[str]]:
     """Place every object in the world frame, then resolve footprint collisions.
 
@@ -148,8 +128,11 @@ def place_objects(
         ground_from_px: (3, 3) float64 homography from pixels to ground metres (DLT).
         axis: the road axis, for yaw.
         asset_sizes: asset sizes of every class that occurs.
-        depth_map: optional dense metric depth; when given, it decides the depth.
+        depth_map: optional dense metric depth; when given, it adds the ``cnn`` cue and
+            the paper's ordering rules run on the fused depths.
         sidewalk_lift: lift objects standing on the sidewalk to the kerb height.
+        camera_sigma: standard deviations of the camera height (m) and pitch (rad),
+            which widen the ground-contact cue when the camera was estimated.
 
     Returns:
         Placements in the same order as ``objects`` and the names of objects that
@@ -164,7 +147,7 @@ def place_objects(
         sizes = asset_sizes[obj.class_name]
         counters[obj.class_name] = counters.get(obj.class_name, 0) + 1
         name = f"{obj.class_name}_{counters[obj.class_name]:04d}"
-        draft = _draft(obj, name, prior, sizes, camera, ground_from_px, axis, depth_map)
+        draft = _draft(obj, name, prior, sizes, camera, ground_from_px, axis, depth_map, camera_sigma)
         if draft is None:
             skipped.append(name)
         else:
@@ -222,15 +205,39 @@ def _draft(  # noqa: PLR0913
     ground_from_px: np.ndarray,
     axis: RoadAxis,
     depth_map: DepthMap | None,
+    camera_sigma: tuple[float, float],
 ) -> dict | None:
     """Everything about one object before ordering rules and collisions; None when it cannot be placed."""
     u, v = (float(x) for x in obj.contact_px)
     contact_ground = apply_homography(ground_from_px, np.array([[u, v]]))[0]
     contact_ok = bool(np.all(np.isfinite(contact_ground))) and _depth_of_ground_point(camera, contact_ground) > 0
-    front_depth = _depth_of_ground_point(camera, contact_ground) if contact_ok else float("nan")
+    front_contact = _depth_of_ground_point(camera, contact_ground) if contact_ok else float("nan")
+    bottom_seen = not (obj.bottom_truncated or obj.bottom_occluded)
+    whole = bottom_seen and not obj.top_truncated
+
+    # Cues for the depth of the object's front (its contact row / visible surface).
+    cues = object_depth_cues(
+        obj.mask,
+        np.zeros_like(obj.mask),
+        front_contact if (contact_ok and bottom_seen) else None,
+        _crop_depth(depth_map, obj) if depth_map is not None else None,
+        prior.size_m[2],
+        obj.height_px if whole and obj.height_px > 0 else None,
+        camera.fy,
+        camera_height_m=camera.height_m,
+        class_height_std_m=prior.height_std_m,
+    )
+    cues = [_with_camera_uncertainty(c, camera, camera_sigma) for c in cues]
+    try:
+        fused = fuse(cues)
+        front, method, confidence = fused.depth_m, fused.method, _CONFIDENCE.get(fused.method, 0.8)
+    except LayoutError:
+        front, method, confidence = _partial_front_depth(obj, prior, camera, contact_ok, front_contact)
+    if not np.isfinite(front):
+        return None
 
     # Scale and variant from the visible height at the front depth.
-    measured_h = _measured_height(obj, front_depth, camera)
+    measured_h = float(obj.height_px * front / camera.fy) if whole else float("nan")
     variant = _choose_variant(sizes, measured_h)
     base = np.array(sizes.by_variant[variant], dtype=np.float64)
     scale_measured = float(measured_h / base[2]) if np.isfinite(measured_h) else float("nan")
@@ -238,38 +245,19 @@ def _draft(  # noqa: PLR0913
     scale = float(np.clip(scale_measured, lo, hi)) if np.isfinite(scale_measured) else 1.0
     size = base * scale
 
-    # Yaw from the contact point (refined below once the centre is known).
-    probe = contact_ground if contact_ok else np.array([10.0, 0.0])
-    yaw, yaw_source = choose_yaw(prior.yaw, probe, axis)
-
-    cues = []
-    bearing = float(np.arctan2(probe[1], probe[0]))
-    half_depth = _forward_half_extent(size[:2], yaw, bearing)
+    # Yaw at the front point, then move back along the ray by the footprint's half extent.
+    front_ground = _point_at_depth(camera, u, v, front)
+    yaw, _ = choose_yaw(prior.yaw, front_ground, axis)
+    bearing = float(np.arctan2(front_ground[1], front_ground[0]))
     ray = camera.rays_world(np.array([[u, v]]))[0]
-    horiz = np.hypot(ray[0], ray[1])  # ground distance per metre of depth along this ray
-    # Ground contact: move the contact point back along the ray by the half extent.
-    if contact_ok and not obj.bottom_truncated and not obj.bottom_occluded:
-        center_depth = front_depth + half_depth / max(horiz, 1e-9)
-        sigma = center_depth**2 * CONTACT_ROW_NOISE_PX / (camera.fy * camera.height_m)
-        cues.append(DepthCue("ground_contact", center_depth, sigma))
-    else:
-        cues.append(DepthCue("ground_contact", float("nan"), float("nan")))
-    # Height prior: class height over pixel height.
-    if not (obj.top_truncated or obj.bottom_truncated or obj.bottom_occluded) and obj.height_px > 0:
-        d = camera.fy * prior.size_m[2] / obj.height_px + half_depth / max(horiz, 1e-9)
-        cues.append(DepthCue("height_prior", d, d * prior.height_std_m / prior.size_m[2]))
-    else:
-        cues.append(DepthCue("height_prior", float("nan"), float("nan")))
-    if depth_map is not None:
-        cues.append(_depth_map_cue(obj, depth_map, half_depth / max(horiz, 1e-9)))
-
-    depth, method, confidence = _decide(
-        cues, obj, depth_map is not None, contact_ok, front_depth, half_depth, horiz, camera.fy
-    )
-    if not np.isfinite(depth):
-        return None
+    horiz = max(float(np.hypot(ray[0], ray[1])), 1e-9)  # ground metres per metre of depth
+    back = _forward_half_extent(size[:2], yaw, bearing) / horiz
+    depth = front + back
     ground = _point_at_depth(camera, u, v, depth)
     yaw, yaw_source = choose_yaw(prior.yaw, ground, axis)
+    centre_cues = tuple(
+        DepthCue(c.name, c.depth_m + back, c.sigma_m, c.note) if c.available else c for c in cues
+    )
     return {
         "obj": obj,
         "name": name,
@@ -282,47 +270,51 @@ def _draft(  # noqa: PLR0913
         "size": size,
         "depth_m": depth,
         "depth_method": method,
-        "cues": tuple(cues),
+        "cues": centre_cues,
         "confidence": confidence * float(obj.score),
     }
 
 
-def _depth_map_cue(obj: ImageObject, depth_map: DepthMap, back_m: float) -> DepthCue:
-    """Robust mean (median) of the depth map over the object's mask, moved to the centre."""
+#: Confidence of a placement by the cue that decided its depth.
+_CONFIDENCE = {"contact": 0.9, "fused": 0.8, "cnn": 0.7, "height": 0.6, "contact_partial": 0.3, "height_partial": 0.2}
+
+
+def _with_camera_uncertainty(cue: DepthCue, camera: PinholeCamera, camera_sigma: tuple[float, float]) -> DepthCue:
+    """Widen the contact cue by the camera's own height and pitch uncertainty.
+
+    A height error scales every contact depth (``d * s_h / h``); a pitch error shifts the
+    horizon, which moves a contact depth by ``d^2 * s_pitch / h``.
+    """
+    if cue.name != "contact" or not cue.available:
+        return cue
+    s_h, s_p = camera_sigma
+    d = float(cue.depth_m)
+    extra = np.hypot(d * s_h / camera.height_m, d * d * s_p / camera.height_m)
+    if extra == 0:
+        return cue
+    return DepthCue(cue.name, d, float(np.hypot(cue.sigma_m, extra)), cue.note + "; camera uncertainty included")
+
+
+def _crop_depth(depth_map: DepthMap, obj: ImageObject) -> DepthMap:
+    """The depth map inside the object's box, aligned with its mask crop."""
     x0, y0, x1, y1 = (int(b) for b in obj.box_px)
-    crop = np.asarray(depth_map.depth_m)[y0:y1, x0:x1]
-    valid = np.asarray(depth_map.valid)[y0:y1, x0:x1] & obj.mask
-    if valid.sum() < 3:
-        return DepthCue("depth_map", float("nan"), float("nan"))
-    d = float(np.median(crop[valid])) + back_m
-    return DepthCue("depth_map", d, DEPTH_MAP_REL_STD * d)
+    return DepthMap(depth_map.depth_m[y0:y1, x0:x1], depth_map.valid[y0:y1, x0:x1], depth_map.source)
 
 
-def _decide(
-    cues: list[DepthCue],
-    obj: ImageObject,
-    prefer_map: bool,
-    contact_ok: bool,
-    front_depth: float,
-    half_depth: float,
-    horiz: float,
-    camera_fy: float,
+def _partial_front_depth(
+    obj: ImageObject, prior: ClassPrior, camera: PinholeCamera, contact_ok: bool, front_contact: float
 ) -> tuple[float, str, float]:
-    """Pick the depth: the depth map when given, else ground contact, else the height prior."""
-    by_name = {c.name: c for c in cues}
-    if prefer_map and by_name["depth_map"].available:
-        return by_name["depth_map"].depth_m, "depth_map", 0.7
-    if by_name["ground_contact"].available:
-        return by_name["ground_contact"].depth_m, "ground_contact", 0.9
-    if by_name["height_prior"].available:
-        return by_name["height_prior"].depth_m, "height_prior", 0.6
+    """Front depth when no cue is valid: the cut or hidden bottom, or the cut height.
+
+    Both over-estimate the depth (the visible bottom is above the true one; the visible
+    height is below the true one), so the smaller of the two is the better bound.
+    """
+    bounds = []
     if contact_ok:
-        # Cut or hidden bottom: the visible bottom is above the true one, so this
-        # over-estimates the depth; it is the best we have.
-        return front_depth + half_depth / max(horiz, 1e-9), "ground_contact_partial", 0.3
+        bounds.append((front_contact, "contact_partial"))
     if obj.is_thing and obj.height_px > 0:
-        # No ground below the object and its extent is cut: the visible height is a
-        # lower bound, so this over-estimates the depth too.
-        prior = prior_for(obj.class_name)
-        return camera_fy * prior.size_m[2] / obj.height_px + half_depth / max(horiz, 1e-9), "height_prior_partial", 0.2
+        bounds.append((camera.fy * prior.size_m[2] / obj.height_px, "height_partial"))
+    if bounds:
+        depth, method = min(bounds)
+        return depth, method, _CONFIDENCE[method]
     return float("nan"), "unplaceable", 0.0

@@ -1,0 +1,151 @@
+"""Sun, ambient and sky settings, and the sun's shadow-map box.
+
+The sun is a directional light; ``sun_direction_world`` points from the ground **towards**
+the sun. The default sun stands 45 degrees high behind the camera's left shoulder
+(azimuth 135 degrees from world +X towards +Y), so shadows fall forwards and to the right,
+into a camera looking along +X.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from usdworld.errors import UsdWorldError
+
+
+def sun_direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
+    """(3,) float64 unit vector towards the sun.
+
+    Args:
+        azimuth_deg: degrees from world +X towards +Y (left).
+        elevation_deg: degrees above the horizon.
+    """
+    az, el = np.radians(azimuth_deg), np.radians(elevation_deg)
+    return np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+
+
+def _vec3(value: object, name: str) -> np.ndarray:
+    a = np.asarray(value, dtype=np.float64)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise UsdWorldError(f"Lighting.{name}: must be 3 finite numbers, got {value!r}")
+    a = a.copy()
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """How a scene is lit (Blinn-Phong + hemisphere ambient + one shadowing sun).
+
+    Attributes:
+        sun_direction_world: (3,) towards the sun (normalised on construction; z > 0).
+        sun_color: (3,) linear RGB intensity of the sun.
+        sky_ambient: (3,) linear ambient light from above.
+        ground_ambient: (3,) linear ambient light from below.
+        specular: strength of the Blinn-Phong highlight.
+        shininess: Blinn-Phong exponent.
+        gamma: display gamma applied to the linear result.
+        sky_zenith_srgb: (3,) sRGB sky colour straight up, in [0, 1].
+        sky_horizon_srgb: (3,) sRGB sky colour at the horizon, in [0, 1].
+        shadow_map_size: side of the square shadow map, texels.
+        shadow_distance_m: the shadow map covers the view frustum up to this distance
+            (clipped to the scene); None covers the whole scene.
+    """
+
+    sun_direction_world: np.ndarray = field(default_factory=lambda: sun_direction(135.0, 45.0))
+    sun_color: np.ndarray = field(default_factory=lambda: np.array([1.1, 1.05, 0.95]))
+    sky_ambient: np.ndarray = field(default_factory=lambda: np.array([0.30, 0.33, 0.40]))
+    ground_ambient: np.ndarray = field(default_factory=lambda: np.array([0.18, 0.17, 0.16]))
+    specular: float = 0.15
+    shininess: float = 32.0
+    gamma: float = 2.2
+    sky_zenith_srgb: np.ndarray = field(default_factory=lambda: np.array([0.33, 0.52, 0.80]))
+    sky_horizon_srgb: np.ndarray = field(default_factory=lambda: np.array([0.78, 0.85, 0.93]))
+    shadow_map_size: int = 2048
+    shadow_distance_m: float | None = 120.0
+
+    def __post_init__(self) -> None:
+        for name in ("sun_direction_world", "sun_color", "sky_ambient", "ground_ambient", "sky_zenith_srgb",
+                     "sky_horizon_srgb"):
+            object.__setattr__(self, name, _vec3(getattr(self, name), name))
+        d = self.sun_direction_world
+        if not d[2] > 1e-3 * np.linalg.norm(d):
+            raise UsdWorldError(f"Lighting.sun_direction_world: the sun must be above the horizon (z > 0), got {d}")
+        unit = d / np.linalg.norm(d)
+        unit.setflags(write=False)
+        object.__setattr__(self, "sun_direction_world", unit)
+        if not (self.gamma > 0 and self.shininess > 0 and self.specular >= 0):
+            raise UsdWorldError("Lighting: gamma and shininess must be > 0 and specular >= 0")
+        if not 16 <= self.shadow_map_size <= 16384:
+            raise UsdWorldError(f"Lighting.shadow_map_size: must be in 16..16384, got {self.shadow_map_size}")
+        if self.shadow_distance_m is not None and not self.shadow_distance_m > 0:
+            raise UsdWorldError(f"Lighting.shadow_distance_m: must be > 0 or None, got {self.shadow_distance_m}")
+
+
+def _box_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+
+
+def frustum_corners_world(
+    K: np.ndarray, world_from_cam: np.ndarray, width: int, height: int, near: float, far: float
+) -> np.ndarray:
+    """(8, 3) float64 corners of the view frustum between depths ``near`` and ``far``."""
+    px = np.array([[0.0, 0.0], [width, 0.0], [0.0, height], [width, height]]) - 0.5
+    rays = np.column_stack([px, np.ones(4)]) @ np.linalg.inv(K).T  # depth 1
+    cam = np.concatenate([rays * near, rays * far])
+    return cam @ world_from_cam[:3, :3].T + world_from_cam[:3, 3]
+
+
+def sun_view_projection(
+    lighting: Lighting,
+    bounds_world: np.ndarray,
+    K: np.ndarray,
+    world_from_cam: np.ndarray,
+    width: int,
+    height: int,
+) -> tuple[np.ndarray, float]:
+    """The sun's orthographic view-projection and the size of one shadow texel.
+
+    The box spans the whole scene along the sun direction (so every caster is in it) and,
+    across it, the part of the scene the camera sees up to ``shadow_distance_m``.
+
+    Args:
+        lighting: sun direction and shadow settings.
+        bounds_world: (2, 3) float64 scene bounds ``[min, max]``.
+        K: (3, 3) float64 camera matrix.
+        world_from_cam: (4, 4) float64 camera pose.
+        width: image width in pixels.
+        height: image height in pixels.
+
+    Returns:
+        (4, 4) float64 matrix world -> shadow clip space, and the texel size in metres.
+    """
+    d = lighting.sun_direction_world
+    up = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.99 else np.array([1.0, 0.0, 0.0])
+    x_axis = np.cross(up, d)
+    x_axis /= np.linalg.norm(x_axis)
+    y_axis = np.cross(d, x_axis)
+    light_from_world = np.eye(4)
+    light_from_world[:3, :3] = np.stack([x_axis, y_axis, d])  # z = towards the sun
+    lo, hi = bounds_world[0] - 0.5, bounds_world[1] + 0.5
+    scene_l = _box_corners(lo, hi) @ light_from_world[:3, :3].T
+    xy_lo, xy_hi = scene_l[:, :2].min(axis=0), scene_l[:, :2].max(axis=0)
+    if lighting.shadow_distance_m is not None:
+        frustum = frustum_corners_world(K, world_from_cam, width, height, 0.05, lighting.shadow_distance_m)
+        fr_l = frustum @ light_from_world[:3, :3].T
+        xy_lo = np.maximum(xy_lo, fr_l[:, :2].min(axis=0))
+        xy_hi = np.minimum(xy_hi, fr_l[:, :2].max(axis=0))
+        if np.any(xy_hi <= xy_lo):  # the camera looks away from the scene
+            xy_lo, xy_hi = scene_l[:, :2].min(axis=0), scene_l[:, :2].max(axis=0)
+    z_lo, z_hi = scene_l[:, 2].min() - 1.0, scene_l[:, 2].max() + 1.0
+    ortho = np.eye(4)
+    ortho[0, 0] = 2.0 / (xy_hi[0] - xy_lo[0])
+    ortho[1, 1] = 2.0 / (xy_hi[1] - xy_lo[1])
+    ortho[2, 2] = -2.0 / (z_hi - z_lo)  # GL: nearer the sun (larger z) -> smaller depth
+    ortho[0, 3] = -(xy_hi[0] + xy_lo[0]) / (xy_hi[0] - xy_lo[0])
+    ortho[1, 3] = -(xy_hi[1] + xy_lo[1]) / (xy_hi[1] - xy_lo[1])
+    ortho[2, 3] = (z_hi + z_lo) / (z_hi - z_lo)
+    texel = float(max(xy_hi - xy_lo) / lighting.shadow_map_size)
+    return ortho @ light_from_world, texel

@@ -1,0 +1,135 @@
+"""GLSL 330 sources of the renderer's programs (shadow, sky, lit colour, labels + depth)."""
+
+from __future__ import annotations
+
+SHADOW_VS = """
+#version 330
+uniform mat4 u_sun_vp;
+in vec3 in_pos;
+void main() { gl_Position = u_sun_vp * vec4(in_pos, 1.0); }
+"""
+
+SHADOW_FS = """
+#version 330
+void main() {}
+"""
+
+# Full-screen triangle; each pixel's viewing ray gives its elevation -> sky gradient.
+SKY_VS = """
+#version 330
+out vec2 v_ndc;
+void main() {
+    vec2 p = vec2((gl_VertexID == 1) ? 3.0 : -1.0, (gl_VertexID == 2) ? 3.0 : -1.0);
+    v_ndc = p;
+    gl_Position = vec4(p, 1.0, 1.0);
+}
+"""
+
+SKY_FS = """
+#version 330
+uniform mat3 u_world_from_px;   // R_world_from_cam * inverse(K), applied to (u, v, 1)
+uniform vec2 u_size;            // image width, height
+uniform vec3 u_zenith;
+uniform vec3 u_horizon;
+out vec4 f_color;
+void main() {
+    // gl_FragCoord is at pixel centres (i + 0.5) with y up; OpenCV centres are at integers, v down.
+    vec2 px = vec2(gl_FragCoord.x - 0.5, u_size.y - gl_FragCoord.y - 0.5);
+    vec3 ray = normalize(u_world_from_px * vec3(px, 1.0));
+    float t = clamp(ray.z, 0.0, 1.0);
+    f_color = vec4(mix(u_horizon, u_zenith, pow(t, 0.6)), 1.0);
+}
+"""
+
+LIT_VS = """
+#version 330
+uniform mat4 u_view_proj;
+in vec3 in_pos;
+in vec3 in_normal;
+in vec3 in_color;
+out vec3 v_pos;
+out vec3 v_normal;
+out vec3 v_color;
+void main() {
+    v_pos = in_pos;
+    v_normal = in_normal;
+    v_color = in_color;
+    gl_Position = u_view_proj * vec4(in_pos, 1.0);
+}
+"""
+
+LIT_FS = """
+#version 330
+uniform sampler2DShadow u_shadow_map;
+uniform mat4 u_sun_vp;
+uniform vec3 u_sun_dir;
+uniform vec3 u_sun_color;
+uniform vec3 u_sky_ambient;
+uniform vec3 u_ground_ambient;
+uniform vec3 u_eye;
+uniform float u_specular;
+uniform float u_shininess;
+uniform float u_inv_gamma;
+uniform float u_normal_offset;   // metres (about 1.5 shadow texels)
+uniform float u_texel;           // 1 / shadow map size
+in vec3 v_pos;
+in vec3 v_normal;
+in vec3 v_color;
+out vec4 f_color;
+
+float sun_visibility(vec3 n) {
+    vec4 p = u_sun_vp * vec4(v_pos + n * u_normal_offset, 1.0);
+    vec3 s = p.xyz / p.w * 0.5 + 0.5;
+    if (s.x < 0.0 || s.x > 1.0 || s.y < 0.0 || s.y > 1.0) return 1.0;
+    float ref = s.z - 5e-4;
+    float sum = 0.0;
+    for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+            sum += texture(u_shadow_map, vec3(s.xy + vec2(dx, dy) * u_texel, ref));
+    return sum / 9.0;
+}
+
+void main() {
+    vec3 n = normalize(v_normal);
+    vec3 v = normalize(u_eye - v_pos);
+    if (dot(n, v) < 0.0) n = -n;   // two-sided
+    float ndl = dot(n, u_sun_dir);
+    float lit = ndl > 0.0 ? sun_visibility(n) : 0.0;
+    vec3 ambient = mix(u_ground_ambient, u_sky_ambient, 0.5 + 0.5 * n.z);
+    vec3 h = normalize(u_sun_dir + v);
+    float spec = ndl > 0.0 ? u_specular * pow(max(dot(n, h), 0.0), u_shininess) : 0.0;
+    vec3 linear = v_color * (ambient + u_sun_color * max(ndl, 0.0) * lit) + u_sun_color * spec * lit;
+    f_color = vec4(pow(clamp(linear, 0.0, 1.0), vec3(u_inv_gamma)), 1.0);
+}
+"""
+
+LABEL_VS = """
+#version 330
+uniform mat4 u_view_proj;
+uniform mat4 u_view;
+in vec3 in_pos;
+in ivec3 in_ids;          // class, instance, object
+flat out ivec3 v_ids;
+out float v_depth;
+void main() {
+    v_ids = in_ids;
+    v_depth = -(u_view * vec4(in_pos, 1.0)).z;   // OpenCV camera z, metres
+    gl_Position = u_view_proj * vec4(in_pos, 1.0);
+}
+"""
+
+LABEL_FS = """
+#version 330
+flat in ivec3 v_ids;
+in float v_depth;
+layout(location = 0) out int f_class;
+layout(location = 1) out int f_instance;
+layout(location = 2) out int f_object;
+layout(location = 3) out float f_depth;
+void main() {
+    f_class = v_ids.x;
+    f_instance = v_ids.y;
+    f_object = v_ids.z;
+    f_depth = v_depth;
+}
+"""

@@ -37,7 +37,7 @@ def test_things_contacts_and_flags():
     assert set(objects) == {26000, 26001, 26002, 24000}
     visible = objects[26000]
     assert visible.class_name == "car" and visible.source_label == "car"
-    np.testing.assert_allclose(visible.contact_px, [80.0, 150.0])  # box centre, bottom edge
+    np.testing.assert_allclose(visible.contact_px, [80.0, 149.5])  # box centre, lowest row + 0.5
     np.testing.assert_array_equal(visible.box_px, [50, 120, 110, 150])
     assert not (visible.bottom_truncated or visible.bottom_occluded) and visible.standing_on == "road"
     assert visible.mask_area == 30 * 60

@@ -34,13 +34,17 @@ from usdworld.io.types import CameraSpec, Segmentation, SourceImage
 from usdworld.layout.model import WorldModel
 from usdworld.layout.placement import CURB_HEIGHT_M, AssetSizes, place_objects
 from usdworld.layout.priors import prior_for
-from usdworld.layout.surfaces import MAX_RANGE_M, build_surfaces
+from usdworld.layout.surfaces import MAX_RANGE_M, build_surfaces, fill_behind_occluders, occluded_ground_mask
 from usdworld.layout.yaw import road_axis
 from usdworld.perception.classes import label_lookups
 from usdworld.perception.objects import ImageObject, objects_from_detections, objects_from_segmentation, sort_objects
 
 log = logging.getLogger(__name__)
 
+#: Placed stuff classes thin enough that the ground continues behind them.
+THIN_OCCLUDERS = ("pole", "traffic_light", "traffic_sign")
+#: How far behind a car, person or pole the hidden road or sidewalk is filled in (metres).
+FILL_REACH_M = 8.0
 #: Pixel grid (rows x columns) of the correspondences generated from a known camera.
 DLT_GRID = (4, 5)
 #: The generated correspondences start this fraction of the image height below the horizon.
@@ -185,11 +189,20 @@ def _ground_fit(request: BuildRequest, camera: PinholeCamera) -> tuple[Homograph
     return estimate_homography(px, ground), "camera_model"
 
 
+#: Vertices this close to an asset's lowest point count as ground contact (metres).
+CONTACT_HEIGHT_M = 0.03
+
+
 def _asset_sizes(objects: list[ImageObject], libraries: tuple[Path, ...]) -> dict[str, AssetSizes]:
     sizes = {}
     for name in sorted({o.class_name for o in objects}):
         info = asset_library.asset_info(name, libraries)
-        sizes[name] = AssetSizes(dict(info.size_by_variant), info.default_variant)
+        contact = {}
+        for variant in info.variants:
+            verts = asset_library.load_mesh(name, variant, libraries).vertices
+            low = verts[verts[:, 2] <= verts[:, 2].min() + CONTACT_HEIGHT_M]
+            contact[variant] = (float(np.abs(low[:, 0]).max()), float(np.abs(low[:, 1]).max()))
+        sizes[name] = AssetSizes(dict(info.size_by_variant), info.default_variant, contact)
     return sizes
 
 
@@ -205,6 +218,26 @@ def _road_points(seg: Segmentation | None, fit: HomographyFit, camera: PinholeCa
     _, depth = camera.ground_points(px)
     keep = np.isfinite(pts).all(axis=1) & (depth > 0) & (depth <= max_range_m)
     return pts[keep]
+
+
+def _vanishing_point(camera: PinholeCamera, angle: float) -> tuple[float, float]:
+    """Image point where ground lines along ``angle`` (world yaw) meet; (u, v) pixels."""
+    d_cam = camera.rotation_world_from_cam.T @ np.array([np.cos(angle), np.sin(angle), 0.0])
+    if d_cam[2] <= 1e-6:  # the road runs across the view: use the point ahead on the horizon
+        return (float(camera.cx), float(camera.horizon_v()))
+    p = camera.K @ (d_cam / d_cam[2])
+    return (float(p[0]), float(p[1]))
+
+
+def _ground_occluders(placements: list) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Box, mask and front depth of every placed object the ground continues behind."""
+    out = []
+    for p in placements:
+        o = p.obj
+        if o.is_thing or o.class_name in THIN_OCCLUDERS:
+            front = float(p.depth_m) - float(np.hypot(*p.size_m[:2])) / 2.0
+            out.append((o.box_px, o.mask, max(front, 0.5)))
+    return out
 
 
 def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldModel:
@@ -238,8 +271,17 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     if seg is not None:
         lk = label_lookups()
         surface_ids = {"road": [lk.id_of("road"), lk.id_of("parking")], "sidewalk": [lk.id_of("sidewalk")]}
+        labels = np.asarray(seg.label_ids)
+        fill = occluded_ground_mask(labels.shape, _ground_occluders(placements), camera.camera, FILL_REACH_M)
         surfaces = tuple(
-            build_surfaces(np.asarray(seg.label_ids), surface_ids, camera.camera, fit.dst_from_src, CURB_HEIGHT_M, request.max_range_m)
+            build_surfaces(
+                fill_behind_occluders(labels, fill, _vanishing_point(camera.camera, axis.angle)),
+                surface_ids,
+                camera.camera,
+                fit.dst_from_src,
+                CURB_HEIGHT_M,
+                request.max_range_m,
+            )
         )
     inputs = [image.file]
     if seg is not None:

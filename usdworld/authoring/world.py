@@ -3,7 +3,9 @@
 Layout of the folder::
 
     world.usda          root: subLayers = [layers/edits.usda, layers/base.usda], Z up, metres
-    layers/base.usda    /World (assembly) with Objects, Ground, Looks and SourceCamera
+    layers/base.usda    /World (assembly) with Objects, Ground (a reference) and SourceCamera
+    layers/ground.usdc  /Ground: road and sidewalk meshes with their materials (binary:
+                        long arrays in text layers are a performance error for Omniverse)
     layers/edits.usda   the user's edits (empty until edited)
     assets/<class>.usda the class assets the world references (relative paths)
 
@@ -35,7 +37,7 @@ ASSETS_DIR = "assets"
 WORLD_PATH = "/World"
 OBJECTS_PATH = "/World/Objects"
 GROUND_PATH = "/World/Ground"
-LOOKS_PATH = "/World/Looks"
+GROUND_LAYER = "layers/ground.usdc"
 CAMERA_PATH = "/World/SourceCamera"
 
 #: Colours of the ground surfaces (linear RGB) and their semantic class.
@@ -62,11 +64,12 @@ def _preview_material(stage: Usd.Stage, path: str, color: tuple[float, float, fl
     return material
 
 
-def define_surface(stage: Usd.Stage, surface: SurfaceMesh) -> UsdGeom.Mesh:
+def define_surface(stage: Usd.Stage, parent: str, surface: SurfaceMesh) -> UsdGeom.Mesh:
     """Author one ground surface mesh with flat normals, extent, colour, material and label.
 
     Args:
-        stage: the base stage.
+        stage: the stage to write into.
+        parent: path of the prim that holds the surfaces (``Looks`` go under it too).
         surface: the mesh in world coordinates.
 
     Returns:
@@ -74,7 +77,7 @@ def define_surface(stage: Usd.Stage, surface: SurfaceMesh) -> UsdGeom.Mesh:
     """
     name = surface.name.capitalize()
     color = SURFACE_LOOKS[surface.name]
-    mesh = UsdGeom.Mesh.Define(stage, f"{GROUND_PATH}/{name}")
+    mesh = UsdGeom.Mesh.Define(stage, f"{parent}/{name}")
     points = surface.points_world.astype(np.float32)
     faces = surface.faces
     mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
@@ -90,7 +93,7 @@ def define_surface(stage: Usd.Stage, surface: SurfaceMesh) -> UsdGeom.Mesh:
     lo, hi = points.min(axis=0), points.max(axis=0)
     mesh.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*lo.tolist()), Gf.Vec3f(*hi.tolist())]))
     mesh.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(*color)]))
-    material = _preview_material(stage, f"{LOOKS_PATH}/{name}", color)
+    material = _preview_material(stage, f"{parent}/Looks/{name}", color)
     UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
     _label(mesh.GetPrim(), surface.name)
     return mesh
@@ -197,11 +200,21 @@ def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) 
     for placement in model.placements:
         define_object(stage, placement, asset_refs[placement.obj.class_name], model.image_name)
     if model.surfaces:
-        UsdGeom.Scope.Define(stage, LOOKS_PATH)
-        UsdGeom.Xform.Define(stage, GROUND_PATH)
-        for surface in model.surfaces:
-            define_surface(stage, surface)
+        ground = UsdGeom.Xform.Define(stage, GROUND_PATH)
+        ground.GetPrim().GetReferences().AddReference(f"./{Path(GROUND_LAYER).name}")
     define_camera(stage, CAMERA_PATH, model.camera.camera)
+    stage.GetRootLayer().Save()
+
+
+def write_ground_layer(model: WorldModel, path: Path) -> None:
+    """Write ``layers/ground.usdc``: ``/Ground`` holding the road and sidewalk meshes."""
+    stage = Usd.Stage.CreateNew(str(path))
+    _set_stage_metadata(stage)
+    root = UsdGeom.Xform.Define(stage, "/Ground")
+    stage.SetDefaultPrim(root.GetPrim())
+    UsdGeom.Scope.Define(stage, "/Ground/Looks")
+    for surface in model.surfaces:
+        define_surface(stage, "/Ground", surface)
     stage.GetRootLayer().Save()
 
 
@@ -266,6 +279,8 @@ def write_world(model: WorldModel, out_dir: Path, asset_files: dict[str, Path], 
     for class_name, src in sorted(asset_files.items()):
         copy_asset(src, out_dir / ASSETS_DIR)
         refs[class_name] = f"../{ASSETS_DIR}/{src.name}"
+    if model.surfaces:
+        write_ground_layer(model, out_dir / GROUND_LAYER)
     write_base_layer(model, out_dir / BASE_LAYER, refs)
     if keep_edits is not None:
         shutil.copyfile(keep_edits, out_dir / EDITS_LAYER)

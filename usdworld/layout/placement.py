@@ -40,10 +40,21 @@ class AssetSizes:
     Attributes:
         by_variant: (l, w, h) metres for each variant name.
         default_variant: the asset's default variant.
+        contact_half_by_variant: half extents (along length, width) of the points where
+            each variant touches the ground (a car's tyres, a person's feet), metres; the
+            lowest image point of an object is its nearest contact point, not its bumper.
+            Missing variants use half the footprint.
     """
 
     by_variant: dict[str, tuple[float, float, float]]
     default_variant: str
+    contact_half_by_variant: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    def contact_half(self, variant: str) -> np.ndarray:
+        """(2,) float64 contact half extents of a variant at unit scale."""
+        if variant in self.contact_half_by_variant:
+            return np.asarray(self.contact_half_by_variant[variant], dtype=np.float64)
+        return 0.5 * np.asarray(self.by_variant[variant][:2], dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -153,6 +164,8 @@ def place_objects(
         else:
             drafts.append(draft)
 
+    _move_behind_occluders(drafts, camera)
+
     if depth_map is not None and drafts:
         result = apply_ordering_rules(
             np.array([d["obj"].contact_px[1] for d in drafts]),
@@ -194,6 +207,83 @@ def place_objects(
             )
         )
     return placements, skipped
+
+
+#: Largest sideways correction of the box alignment, as a fraction of the object's width.
+MAX_ALIGN_SHIFT = 1.0
+
+
+def _align_box_columns(
+    camera: PinholeCamera, ground: np.ndarray, yaw: float, size: np.ndarray, obj: ImageObject
+) -> np.ndarray:
+    """Shift an object sideways so that its projected 3D box spans the same columns as the image box.
+
+    The box centre column is not the projection of the object's centre when the object
+    is seen at an angle (its near side widens the box). A few fixed-point steps move the
+    centre perpendicular to the viewing ray until the projected and observed box centres
+    agree. Boxes cut by the left or right image border are left alone.
+
+    Args:
+        camera: the source camera.
+        ground: (2,) float64 footprint centre.
+        yaw: object yaw, radians.
+        size: (3,) float64 length, width, height.
+        obj: the image evidence.
+
+    Returns:
+        (2,) float64 corrected footprint centre.
+    """
+    x0, _, x1, _ = (float(b) for b in obj.box_px)
+    if x0 <= 0.5 or x1 >= camera.width - 0.5:
+        return ground
+    l, w, h = (float(v) for v in size)
+    c, s = np.cos(yaw), np.sin(yaw)
+    local = np.array([[sx * l / 2, sy * w / 2] for sx in (-1, 1) for sy in (-1, 1)])
+    offsets = local @ np.array([[c, s], [-s, c]])
+    start = np.asarray(ground, dtype=np.float64)
+    centre = start.copy()
+    for _ in range(4):
+        pts = np.concatenate(
+            [np.column_stack([centre + offsets, np.full(4, z)]) for z in (0.0, h)]
+        )
+        px, depth = camera.project(pts)
+        if not np.isfinite(px).all():
+            return ground
+        error_px = 0.5 * (x0 + x1) - 0.5 * (px[:, 0].min() + px[:, 0].max())
+        bearing = np.arctan2(centre[1], centre[0])
+        left = np.array([-np.sin(bearing), np.cos(bearing)])
+        centre = centre - left * error_px * float(np.mean(depth)) / camera.fx
+    shift = centre - start
+    limit = MAX_ALIGN_SHIFT * w
+    norm = float(np.linalg.norm(shift))
+    return start + shift * (limit / norm) if norm > limit else centre
+
+
+#: Gap left between an occluded object and the object hiding it, metres.
+BEHIND_GAP_M = 0.3
+
+
+def _move_behind_occluders(drafts: list[dict], camera: PinholeCamera) -> None:
+    """Use the object hiding an object's bottom as a lower bound of its depth.
+
+    A hidden bottom leaves only upper bounds: the visible bottom's ground point
+    (``contact_partial``, usually close) or the cut height (``height_partial``, poor).
+    The occluder's depth bounds it from below. A contact bound below the occluder moves
+    the object just behind it; a height-only bound is replaced by that position.
+    """
+    by_instance = {d["obj"].instance_id: d for d in drafts if d["obj"].instance_id >= 0}
+    for d in drafts:
+        occ = by_instance.get(d["obj"].occluded_by)
+        method = d["depth_method"]
+        if occ is None or method not in ("contact_partial", "height_partial") or occ["depth_method"].endswith("_partial"):
+            continue
+        behind = occ["depth_m"] + occ["back_m"] + BEHIND_GAP_M
+        if method == "contact_partial" and d["front_depth_m"] >= behind:
+            continue
+        d["front_depth_m"] = behind
+        d["depth_m"] = behind + d["back_m"]
+        d["depth_method"] = f"behind_{occ['name']}"
+        d["ground"] = _point_at_depth(camera, *d["obj"].contact_px, d["depth_m"])
 
 
 def _draft(  # noqa: PLR0913
@@ -251,10 +341,15 @@ def _draft(  # noqa: PLR0913
     bearing = float(np.arctan2(front_ground[1], front_ground[0]))
     ray = camera.rays_world(np.array([[u, v]]))[0]
     horiz = max(float(np.hypot(ray[0], ray[1])), 1e-9)  # ground metres per metre of depth
-    back = _forward_half_extent(size[:2], yaw, bearing) / horiz
+    # A mask's lowest pixel is its nearest ground contact (tyres, feet); a detector's box
+    # bottom follows the projected 3D box, i.e. the footprint's nearest corner.
+    reach = size[:2] if obj.box_only else 2.0 * sizes.contact_half(variant) * scale
+    back = _forward_half_extent(reach, yaw, bearing) / horiz
     depth = front + back
     ground = _point_at_depth(camera, u, v, depth)
     yaw, yaw_source = choose_yaw(prior.yaw, ground, axis)
+    if obj.is_thing:
+        ground = _align_box_columns(camera, ground, yaw, size, obj)
     centre_cues = tuple(
         DepthCue(c.name, c.depth_m + back, c.sigma_m, c.note) if c.available else c for c in cues
     )
@@ -272,6 +367,8 @@ def _draft(  # noqa: PLR0913
         "depth_method": method,
         "cues": centre_cues,
         "confidence": confidence * float(obj.score),
+        "front_depth_m": front,
+        "back_m": back,
     }
 
 

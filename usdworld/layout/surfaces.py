@@ -76,8 +76,7 @@ def ground_cross_section(
         approx = cv2.approxPolyDP(contour, OUTLINE_TOLERANCE_PX, True).reshape(-1, 2).astype(np.float64)
         if len(approx) < 3:
             continue
-        # Pixel outlines trace pixel centres; push them out to the pixel edges' centre line.
-        ground = apply_homography(ground_from_px, approx + 0.5)
+        ground = apply_homography(ground_from_px, approx)
         if not np.isfinite(ground).all():
             continue
         rings.append(ground)
@@ -110,8 +109,71 @@ def extrude_surface(name: str, section: manifold3d.CrossSection, top_z: float, b
     return SurfaceMesh(name, points, faces, float(section.area()))
 
 
+def fill_behind_occluders(label_ids: np.ndarray, fill: np.ndarray, vanishing_px: tuple[float, float]) -> np.ndarray:
+    """Labels with the hidden ground behind occluders filled in from just below them.
+
+    Cars, people and poles hide the road behind them; their silhouettes, projected to
+    the ground, would leave holes that run to the horizon. Each pixel to fill takes the
+    label found by walking down the image line towards the road's vanishing point: lines
+    through the vanishing point are the images of ground lines parallel to the road, so
+    kerbs and lane edges continue behind the occluder where they really run. Callers
+    pass only the part of each silhouette that lies within a few metres behind the
+    object (:func:`occluded_ground_mask`).
+
+    Args:
+        label_ids: (H, W) uint8 Cityscapes label ids.
+        fill: (H, W) bool pixels to fill (all below the horizon).
+        vanishing_px: (u, v) vanishing point of the road direction; v is the horizon row.
+
+    Returns:
+        (H, W) uint8 filled copy.
+    """
+    out = np.array(label_ids, copy=True)
+    H, W = out.shape
+    u_vp, v_h = vanishing_px
+    rows = np.nonzero(fill.any(axis=1))[0]
+    for r in rows[::-1]:
+        if r + 1 >= H or r <= v_h + 0.5:
+            continue
+        cols = np.nonzero(fill[r])[0]
+        below = u_vp + (cols - u_vp) * (r + 1 - v_h) / (r - v_h)
+        out[r, cols] = out[r + 1, np.clip(np.rint(below).astype(np.int64), 0, W - 1)]
+    return out
+
+
+def occluded_ground_mask(
+    shape: tuple[int, int],
+    occluders: list[tuple[np.ndarray, np.ndarray, float]],
+    camera: PinholeCamera,
+    reach_m: float,
+) -> np.ndarray:
+    """Pixels of occluders that hide ground lying at most ``reach_m`` behind them.
+
+    Args:
+        shape: (H, W) of the image.
+        occluders: per object ``(box_px (4,) int, mask crop (h, w) bool, front depth m)``.
+        camera: the source camera (a ground row's depth follows from the horizon).
+        reach_m: how far behind each object the hidden ground is filled in.
+
+    Returns:
+        (H, W) bool.
+    """
+    out = np.zeros(shape, dtype=bool)
+    horizon = camera.horizon_v()
+    for box, crop, front in occluders:
+        x0, y0, x1, y1 = (int(b) for b in box)
+        if not (np.isfinite(front) and front > 0) or y1 <= horizon:
+            continue
+        # Rows below the horizon scale as 1 / depth: the row of depth front + reach.
+        v_front = float(y1)
+        v_far = horizon + (v_front - horizon) * front / (front + reach_m)
+        rows = np.arange(y0, y1)[:, None] >= v_far
+        out[y0:y1, x0:x1] |= crop & rows
+    return out
+
+
 def build_surfaces(
-    label_ids: np.ndarray,
+    filled_ids: np.ndarray,
     class_ids: dict[str, list[int]],
     camera: PinholeCamera,
     ground_from_px: np.ndarray,
@@ -121,7 +183,8 @@ def build_surfaces(
     """Road and sidewalk meshes; the road is cut where the sidewalk lies.
 
     Args:
-        label_ids: (H, W) uint8 Cityscapes label ids.
+        filled_ids: (H, W) uint8 Cityscapes label ids with the ground behind occluders filled in
+            (:func:`fill_behind_occluders`).
         class_ids: label ids that make up each surface, e.g. ``{"road": [7, 9], "sidewalk": [8]}``.
         camera: the source camera.
         ground_from_px: (3, 3) float64 DLT homography.
@@ -132,7 +195,7 @@ def build_surfaces(
         The non-empty surfaces, road first.
     """
     sections = {
-        name: ground_cross_section(np.isin(label_ids, ids), camera, ground_from_px, max_range_m)
+        name: ground_cross_section(np.isin(filled_ids, ids), camera, ground_from_px, max_range_m)
         for name, ids in class_ids.items()
     }
     out = []

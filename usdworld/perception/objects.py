@@ -22,9 +22,13 @@ SPLIT_ASPECT: dict[str, float] = {"building": 1.0, "tree": 0.8, "fence": 2.5}
 MIN_STUFF_AREA_FRACTION = 4e-4
 #: Smallest thing instance kept, in pixels.
 MIN_THING_AREA_PX = 10
-#: Fraction of an object's bottom columns that must be hidden by other objects for
-#: its ground contact to count as occluded.
+#: A detection box counts as occluded when a lower box covers this fraction of its bottom edge.
 OCCLUDED_FRACTION = 0.5
+#: A thing's lowest columns: those whose bottom lies within this fraction of its height
+#: of its lowest pixel.
+BOTTOM_BAND_FRACTION = 0.15
+#: Fraction of a thing's lowest columns that must stand on ground for its contact to count.
+CONTACT_FRACTION = 0.3
 
 
 @dataclass(frozen=True)
@@ -37,13 +41,18 @@ class ImageObject:
         instance_id: Cityscapes instance id, detection index, or -1 for stuff regions.
         box_px: (4,) int64 ``xmin, ymin, xmax, ymax``; xmax/ymax exclusive.
         mask: (ymax-ymin, xmax-xmin) bool crop of the object's pixels inside the box.
-        contact_px: (2,) float64 pixel (u, v) where the object meets the ground
-            (v is the bottom edge of the lowest contact pixel).
+        contact_px: (2,) float64 pixel (u, v) where the object meets the ground. A mask's
+            lowest pixel row ``r`` is covered when the true edge lies in ``[r, r + 1)``
+            (OpenCV pixel centres at integers), so ``v = r + 0.5``; boxes keep their edge.
         bottom_truncated: the bottom touches the image border.
         bottom_occluded: the bottom is mostly hidden by other objects.
         top_truncated: the top touches the image border.
         standing_on: Cityscapes name of the surface below the contact ('' unknown).
         score: detection confidence in [0, 1].
+        occluded_by: instance id of the object hiding most of this one's bottom (-1 none;
+            stuff occluders have no id and count as none).
+        box_only: the object comes from a 2D box without a mask (its box bottom follows
+            the projected 3D box, not the visible ground contact).
     """
 
     class_name: str
@@ -57,6 +66,8 @@ class ImageObject:
     top_truncated: bool
     standing_on: str = ""
     score: float = 1.0
+    occluded_by: int = -1
+    box_only: bool = False
 
     def __post_init__(self) -> None:
         for name in ("bottom_truncated", "bottom_occluded", "top_truncated"):
@@ -110,6 +121,7 @@ class _Contact:
     bottom_truncated: bool
     bottom_occluded: bool
     standing_on: str
+    occluder: int = 0
 
 
 def _contact_from_mask(
@@ -148,21 +160,30 @@ def _contact_from_mask(
         on_ground &= ~hidden
     else:
         hidden = np.zeros_like(on_ground)
-    occluded = (not truncated) and hidden.mean() >= OCCLUDED_FRACTION and not on_ground.any()
+    if thing:
+        # Judge a thing by its lowest columns (feet, tyres), not by arms or bumpers.
+        band = rows_abs >= lowest - max(2.0, BOTTOM_BAND_FRACTION * mask.shape[0])
+        occluded = (not truncated) and on_ground[band].mean() < CONTACT_FRACTION
+    else:
+        occluded = (not truncated) and not on_ground.any()
     use = on_ground if on_ground.any() else ~hidden if (~hidden).any() else np.ones_like(on_ground)
     if thing:
-        v = float(rows_abs[use].max()) + 1.0
+        v = float(rows_abs[use].max()) + 0.5
         u = float(x0 + mask.shape[1] / 2.0)
     else:
         order = np.argsort(cols_abs[use])
         mid = order[len(order) // 2]
         u = float(cols_abs[use][mid]) + 0.5
-        v = float(np.median(rows_abs[use])) + 1.0
+        v = float(np.median(rows_abs[use])) + 0.5
     standing_on = ""
     if below_labels is not None and on_ground.any():
         values, counts = np.unique(below_labels[on_ground], return_counts=True)
         standing_on = str(lookups.names[values[np.argmax(counts)]])
-    return _Contact(np.array([u, v]), bool(truncated), bool(occluded), standing_on)
+    occluder = 0
+    if occluded and owner is not None and hidden.any():
+        values, counts = np.unique(below_owner[hidden], return_counts=True)
+        occluder = int(values[np.argmax(counts)])
+    return _Contact(np.array([u, v]), bool(truncated), bool(occluded), standing_on, occluder)
 
 
 def _split_columns(mask: np.ndarray, aspect: float) -> list[tuple[int, int]]:
@@ -290,6 +311,7 @@ def objects_from_segmentation(seg: Segmentation) -> list[ImageObject]:
                 bottom_occluded=contact.bottom_occluded,
                 top_truncated=y0 <= 0,
                 standing_on=contact.standing_on,
+                occluded_by=pending[contact.occluder - 1][2] if contact.occluder else -1,
             )
         )
     return sort_objects(objects)
@@ -348,11 +370,13 @@ def objects_from_detections(
     for index, det, class_name, fbox, box, crop in items:
         bottom = float(fbox[3])
         occluders = 0.0
+        occluder = -1
         for other_index, _, _, obox, _, _ in items:
             if other_index == index or obox[3] <= bottom + 1.0 or obox[1] >= bottom:
                 continue
-            overlap = min(fbox[2], obox[2]) - max(fbox[0], obox[0])
-            occluders = max(occluders, overlap / max(fbox[2] - fbox[0], 1e-9))
+            overlap = (min(fbox[2], obox[2]) - max(fbox[0], obox[0])) / max(fbox[2] - fbox[0], 1e-9)
+            if overlap > occluders:
+                occluders, occluder = overlap, other_index
         standing_on = ""
         if labels is not None:
             v = int(min(max(bottom, 0), height - 1))
@@ -371,6 +395,8 @@ def objects_from_detections(
                 top_truncated=fbox[1] <= 1.0,
                 standing_on=standing_on,
                 score=float(det.score),
+                occluded_by=occluder if occluders >= OCCLUDED_FRACTION else -1,
+                box_only=det.mask is None,
             )
         )
     return sort_objects(objects)

@@ -21,8 +21,8 @@ from usdworld.render.renderer import Renderer, RenderResult
 from usdworld.render.scene import RenderObject, RenderScene
 
 __all__ = [
-    "CameraPose",
     "INSTALL_HINT",
+    "CameraPose",
     "Lighting",
     "RenderError",
     "RenderObject",

@@ -53,7 +53,9 @@ def check_intrinsics(K: np.ndarray) -> np.ndarray:
     """``K`` as a (3, 3) float64 array; raises CalibrationError when it is not a camera matrix."""
     K = np.asarray(K, dtype=np.float64)
     if K.shape != (3, 3) or not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
-        raise CalibrationError(f"render camera: K must be a finite 3x3 matrix with fx, fy > 0, got {K.tolist()}")
+        raise CalibrationError(
+            f"render camera: K must be a finite 3x3 matrix with fx, fy > 0, got {K.tolist()}"
+        )
     return K
 
 

@@ -26,8 +26,8 @@ Example:
 from __future__ import annotations
 
 import functools
+from collections.abc import Mapping
 from types import MappingProxyType
-from typing import Mapping
 
 from usdworld.io.label_table import label_table
 

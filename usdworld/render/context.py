@@ -35,8 +35,8 @@ def create_context() -> Any:
             f"rendering needs the Python package moderngl ({exc}); run: pip install 'moderngl>=5.13'"
         ) from None
     try:
-        ctx = moderngl.create_standalone_context(backend="egl", require=MIN_GL_VERSION)
-    except Exception as exc:  # glcontext raises plain Exceptions with driver text
+        ctx = moderngl.create_standalone_context(backend="egl", require=MIN_GL_VERSION)  # type: ignore[arg-type]
+    except Exception as exc:  # noqa: BLE001  (glcontext raises plain Exceptions with the driver's text)
         reason = " ".join(str(exc).split()) or type(exc).__name__
         raise RenderError(
             f"headless OpenGL (EGL, GL >= 3.3) could not start ({reason}); install the Debian packages: {INSTALL_HINT}"

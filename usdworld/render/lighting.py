@@ -67,12 +67,20 @@ class Lighting:
     shadow_distance_m: float | None = 120.0
 
     def __post_init__(self) -> None:
-        for name in ("sun_direction_world", "sun_color", "sky_ambient", "ground_ambient", "sky_zenith_srgb",
-                     "sky_horizon_srgb"):
+        for name in (
+            "sun_direction_world",
+            "sun_color",
+            "sky_ambient",
+            "ground_ambient",
+            "sky_zenith_srgb",
+            "sky_horizon_srgb",
+        ):
             object.__setattr__(self, name, _vec3(getattr(self, name), name))
         d = self.sun_direction_world
         if not d[2] > 1e-3 * np.linalg.norm(d):
-            raise UsdWorldError(f"Lighting.sun_direction_world: the sun must be above the horizon (z > 0), got {d}")
+            raise UsdWorldError(
+                f"Lighting.sun_direction_world: the sun must be above the horizon (z > 0), got {d}"
+            )
         unit = d / np.linalg.norm(d)
         unit.setflags(write=False)
         object.__setattr__(self, "sun_direction_world", unit)
@@ -81,7 +89,9 @@ class Lighting:
         if not 16 <= self.shadow_map_size <= 16384:
             raise UsdWorldError(f"Lighting.shadow_map_size: must be in 16..16384, got {self.shadow_map_size}")
         if self.shadow_distance_m is not None and not self.shadow_distance_m > 0:
-            raise UsdWorldError(f"Lighting.shadow_distance_m: must be > 0 or None, got {self.shadow_distance_m}")
+            raise UsdWorldError(
+                f"Lighting.shadow_distance_m: must be > 0 or None, got {self.shadow_distance_m}"
+            )
 
 
 def _box_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

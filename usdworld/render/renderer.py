@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 
@@ -110,7 +110,9 @@ class Renderer:
         RenderError: no usable headless OpenGL (the message names the packages to install).
     """
 
-    def __init__(self, width: int, height: int, lighting: Lighting | None = None, near_m: float = 0.1) -> None:
+    def __init__(
+        self, width: int, height: int, lighting: Lighting | None = None, near_m: float = 0.1
+    ) -> None:
         if not (0 < int(width) <= MAX_SIZE and 0 < int(height) <= MAX_SIZE):
             raise UsdWorldError(f"render size must be 1..{MAX_SIZE} pixels per side, got {width}x{height}")
         if not near_m > 0:
@@ -155,7 +157,7 @@ class Renderer:
 
     # -- lifetime -------------------------------------------------------------------
 
-    def __enter__(self) -> "Renderer":
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -170,6 +172,11 @@ class Renderer:
             self._buffers = None
         self._ctx.release()
         self._ctx = None
+
+    @property
+    def gl_renderer(self) -> str:
+        """The OpenGL renderer string, e.g. ``llvmpipe (LLVM 15.0.6, 256 bits)``."""
+        return str(self._context().info["GL_RENDERER"])
 
     # -- public passes ----------------------------------------------------------------
 
@@ -251,6 +258,18 @@ class Renderer:
         class_ids, instance_ids, object_ids, depth = out
         return class_ids, instance_ids, object_ids, depth
 
+    def update_shadow_map(self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray) -> None:
+        """Render the sun's shadow map for this scene and view now (colour renders reuse it).
+
+        :meth:`render_rgb` does this by itself whenever the scene or the shadow box changes;
+        call it to time the pass or to refresh the map explicitly. Same arguments as :meth:`render`.
+        """
+        K, world_from_cam = self._check_camera(K, world_from_cam)
+        buffers = self._upload(scene)
+        self._shadow_key = None
+        self._shadow_pass(scene, buffers, K, world_from_cam)
+        self._context().finish()
+
     # -- internals ----------------------------------------------------------------------
 
     def _context(self) -> Any:
@@ -277,7 +296,9 @@ class Renderer:
 
     def _view_proj(self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray) -> np.ndarray:
         lo, hi = scene.bounds_world()
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        corners = np.array(
+            [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+        )
         far = float(np.linalg.norm(corners - world_from_cam[:3, 3], axis=1).max()) * 1.01 + 1.0
         far = max(far, self.near_m * 10.0)
         return gl_projection(K, self.width, self.height, self.near_m, far) @ gl_view(world_from_cam)
@@ -289,13 +310,15 @@ class Renderer:
             self.lighting, scene.bounds_world(), K, world_from_cam, self.width, self.height
         )
         key = (id(scene), sun_vp.astype(np.float32).tobytes())
-        if key == self._shadow_key or buffers.n_vertices == 0:
-            return sun_vp, texel
+        if key != self._shadow_key and buffers.n_vertices:
+            self._draw_shadow_map(buffers, sun_vp)
+            self._shadow_key = key
+        return sun_vp, texel
+
+    def _draw_shadow_map(self, buffers: _SceneBuffers, sun_vp: np.ndarray) -> None:
         ctx = self._context()
         self._shadow_fbo.use()  # each framebuffer keeps its own full-size viewport
         self._shadow_fbo.clear(depth=1.0)
         ctx.enable(ctx.DEPTH_TEST)
         _write(self._programs["shadow"], "u_sun_vp", sun_vp)
         buffers.vaos["shadow"].render(mode=ctx.TRIANGLES)
-        self._shadow_key = key
-        return sun_vp, texel

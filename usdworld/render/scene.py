@@ -22,7 +22,7 @@ The world frame is Z up, metres: stages authored Y up or in other units are conv
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom
@@ -80,6 +80,7 @@ class RenderScene:
     instance_ids: np.ndarray
     object_ids: np.ndarray
     objects: tuple[RenderObject, ...]
+    _bounds: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         n = len(self.positions_world)
@@ -97,6 +98,10 @@ class RenderScene:
             object.__setattr__(self, name, a)
         if n % 3:
             raise ValueError(f"RenderScene: {n} corners is not a whole number of triangles")
+        p = self.positions_world
+        bounds = np.stack([p.min(axis=0), p.max(axis=0)]).astype(np.float64) if n else np.zeros((2, 3))
+        bounds.setflags(write=False)
+        object.__setattr__(self, "_bounds", bounds)
 
     @property
     def n_triangles(self) -> int:
@@ -104,17 +109,14 @@ class RenderScene:
 
     def bounds_world(self) -> np.ndarray:
         """(2, 3) float64 axis-aligned bounds ``[min, max]``; zeros for an empty scene."""
-        if len(self.positions_world) == 0:
-            return np.zeros((2, 3))
-        p = self.positions_world
-        return np.stack([p.min(axis=0), p.max(axis=0)]).astype(np.float64)
+        return self._bounds
 
     def object_by_path(self) -> dict[str, RenderObject]:
         """``{prim path: object}``."""
         return {o.path: o for o in self.objects}
 
     @classmethod
-    def from_stage(cls, stage: Usd.Stage, objects_path: str | None = None) -> "RenderScene":
+    def from_stage(cls, stage: Usd.Stage, objects_path: str | None = None) -> RenderScene:
         """Collect every renderable mesh of the composed stage.
 
         Args:
@@ -173,12 +175,12 @@ def _extract(stage: Usd.Stage, objects_path: str | None) -> RenderScene:
         if prim.IsPseudoRoot():
             continue
         imageable = UsdGeom.Imageable(prim)
-        if imageable:
-            if imageable.GetVisibilityAttr().Get() == UsdGeom.Tokens.invisible or (
-                imageable.GetPurposeAttr().Get() in _PRUNED_PURPOSES
-            ):
-                it.PruneChildren()
-                continue
+        if imageable and (
+            imageable.GetVisibilityAttr().Get() == UsdGeom.Tokens.invisible
+            or imageable.GetPurposeAttr().Get() in _PRUNED_PURPOSES
+        ):
+            it.PruneChildren()
+            continue
         own = _own_label(prim)
         labels[path] = own if own is not None else labels.get(path.GetParentPath())
         if path.GetParentPath() == objects_sdf:
@@ -220,7 +222,9 @@ def _extract(stage: Usd.Stage, objects_path: str | None) -> RenderScene:
     return _concatenate(parts, tuple(objects.values()))
 
 
-def _owner(path: Sdf.Path, objects_sdf: Sdf.Path, objects: dict[Sdf.Path, RenderObject]) -> RenderObject | None:
+def _owner(
+    path: Sdf.Path, objects_sdf: Sdf.Path, objects: dict[Sdf.Path, RenderObject]
+) -> RenderObject | None:
     if not path.HasPrefix(objects_sdf) or path == objects_sdf:
         return None
     prefixes = path.GetPrefixes()
@@ -228,7 +232,9 @@ def _owner(path: Sdf.Path, objects_sdf: Sdf.Path, objects: dict[Sdf.Path, Render
     return objects.get(prefixes[depth]) if len(prefixes) > depth else None
 
 
-def _concatenate(parts: list[tuple[MeshTriangles, int, int, int]], objects: tuple[RenderObject, ...]) -> RenderScene:
+def _concatenate(
+    parts: list[tuple[MeshTriangles, int, int, int]], objects: tuple[RenderObject, ...]
+) -> RenderScene:
     if not parts:
         empty3 = np.zeros((0, 3))
         empty = np.zeros(0)

@@ -168,5 +168,7 @@ def mesh_triangles(mesh: UsdGeom.Mesh, world_from_local: np.ndarray) -> MeshTria
     if normals is None:
         normals = np.repeat(face_n, 3, axis=0)
     length = np.linalg.norm(normals, axis=1, keepdims=True)
-    normals = np.divide(normals, length, out=np.tile([0.0, 0.0, 1.0], (len(normals), 1)), where=length > 1e-12)
+    normals = np.divide(
+        normals, length, out=np.tile([0.0, 0.0, 1.0], (len(normals), 1)), where=length > 1e-12
+    )
     return MeshTriangles(positions, normals, _face_colors(mesh, fan, len(points_local)))

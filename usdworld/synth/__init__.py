@@ -23,10 +23,10 @@ from usdworld.synth.stage import author_stage
 from usdworld.synth.street import KERB_HEIGHT_M, StreetLayout, sample_street
 
 __all__ = [
-    "AssetSource",
-    "ClassAsset",
     "KERB_HEIGHT_M",
     "SYNTH_CLASSES",
+    "AssetSource",
+    "ClassAsset",
     "StreetLayout",
     "SynthObject",
     "SynthScene",

@@ -70,7 +70,9 @@ def class_asset(source: AssetSource, class_name: str) -> ClassAsset:
         variants = [str(v) for v in _get(info, "variants")]
         sizes_raw = _get(info, "size_by_variant")
     except (KeyError, AttributeError, LookupError) as exc:
-        raise AuthoringError(f"asset library: class '{class_name}' is missing or incomplete ({exc})") from None
+        raise AuthoringError(
+            f"asset library: class '{class_name}' is missing or incomplete ({exc})"
+        ) from None
     if default not in variants:
         raise AuthoringError(f"asset library: {class_name} default variant '{default}' is not in {variants}")
     ordered = tuple([default] + sorted(v for v in variants if v != default))
@@ -78,6 +80,8 @@ def class_asset(source: AssetSource, class_name: str) -> ClassAsset:
     for v in ordered:
         size = np.asarray(sizes_raw[v], dtype=np.float64)
         if size.shape != (3,) or not np.all(size > 0):
-            raise AuthoringError(f"asset library: {class_name} variant '{v}' has size {size}; need 3 sizes > 0")
+            raise AuthoringError(
+                f"asset library: {class_name} variant '{v}' has size {size}; need 3 sizes > 0"
+            )
         sizes[v] = size
     return ClassAsset(class_name, path, ordered, sizes)

@@ -133,7 +133,9 @@ def render_scene(scene: SynthScene) -> tuple[RenderScene, RenderResult]:
     """Author ``scene`` in memory and render every pass from its camera."""
     render_input = RenderScene.from_stage(author_stage(scene))
     cam = scene.camera
-    with Renderer(cam.width, cam.height, lighting=Lighting(sun_direction_world=scene.sun_direction_world)) as r:
+    with Renderer(
+        cam.width, cam.height, lighting=Lighting(sun_direction_world=scene.sun_direction_world)
+    ) as r:
         result = r.render(render_input, cam.K, cam.world_from_cam())
     return render_input, result
 

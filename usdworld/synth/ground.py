@@ -36,7 +36,9 @@ def road_surface(street: StreetLayout) -> Polys:
     return _quads([(x0, x1, street.kerb_right_y - 0.3, street.kerb_left_y + 0.3, 0.0)])
 
 
-def _dashes(y: float, x0: float, x1: float, dash: float, gap: float) -> list[tuple[float, float, float, float, float]]:
+def _dashes(
+    y: float, x0: float, x1: float, dash: float, gap: float
+) -> list[tuple[float, float, float, float, float]]:
     h = MARKING_WIDTH_M / 2
     out, x = [], x0
     while x < x1:
@@ -70,8 +72,14 @@ def _slab(x0: float, x1: float, y_kerb: float, y_outer: float) -> Polys:
     z0, z1 = -0.05, KERB_HEIGHT_M
     pts = np.array(
         [
-            [x0, y_lo, z1], [x1, y_lo, z1], [x1, y_hi, z1], [x0, y_hi, z1],  # top
-            [x0, y_lo, z0], [x1, y_lo, z0], [x1, y_hi, z0], [x0, y_hi, z0],  # bottom corners
+            [x0, y_lo, z1],
+            [x1, y_lo, z1],
+            [x1, y_hi, z1],
+            [x0, y_hi, z1],  # top
+            [x0, y_lo, z0],
+            [x1, y_lo, z0],
+            [x1, y_hi, z0],
+            [x0, y_hi, z0],  # bottom corners
         ]
     )
     faces = [[0, 1, 2, 3], [4, 5, 1, 0], [6, 7, 3, 2], [4, 0, 3, 7], [5, 6, 2, 1]]

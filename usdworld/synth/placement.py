@@ -127,7 +127,9 @@ class _Placer:
         k = self._counts.get(class_name, 0)
         self._counts[class_name] = k + 1
         self.objects.append(
-            SynthObject(f"{class_name}_{k:04d}", class_name, variant, np.asarray(centre), yaw, scale_v, size, role)
+            SynthObject(
+                f"{class_name}_{k:04d}", class_name, variant, np.asarray(centre), yaw, scale_v, size, role
+            )
         )
         self._boxes.append(footprint_aabb(np.asarray(centre[:2]), yaw, size[:2], 0.0))
         return True
@@ -147,21 +149,42 @@ def _street_furniture(p: _Placer, street: StreetLayout) -> None:
     if street.crossing_x is not None:  # traffic lights before the crossing, facing the camera
         for kerb, away, _ in _sides(street):
             v = p.variant("traffic_light")
-            p.place("traffic_light", v, (street.crossing_x - 2.0, kerb + away * 0.5, KERB_HEIGHT_M), math.pi,
-                    float(rng.uniform(0.9, 1.1)), "street", margin=0.1)
+            p.place(
+                "traffic_light",
+                v,
+                (street.crossing_x - 2.0, kerb + away * 0.5, KERB_HEIGHT_M),
+                math.pi,
+                float(rng.uniform(0.9, 1.1)),
+                "street",
+                margin=0.1,
+            )
     for kerb, away, _ in _sides(street):  # street lamps, arm over the road
         x = float(rng.uniform(x0, x0 + 12.0))
         while x < x1:
             v = p.variant("pole")
-            p.place("pole", v, (x, kerb + away * 0.45, KERB_HEIGHT_M), -away * math.pi / 2,
-                    float(rng.uniform(0.9, 1.15)), "street", margin=0.2)
+            p.place(
+                "pole",
+                v,
+                (x, kerb + away * 0.45, KERB_HEIGHT_M),
+                -away * math.pi / 2,
+                float(rng.uniform(0.9, 1.15)),
+                "street",
+                margin=0.2,
+            )
             x += float(rng.uniform(18.0, 30.0))
     for _ in range(int(rng.integers(1, 4))):  # signs, mostly on the right
         kerb, away, _ = _sides(street)[0 if rng.random() < 0.75 else 1]
         v = p.variant("traffic_sign")
         x = float(rng.uniform(x0 + 2.0, 45.0))
-        p.place("traffic_sign", v, (x, kerb + away * 0.4, KERB_HEIGHT_M), math.pi + float(rng.normal(0, 0.1)),
-                float(rng.uniform(0.9, 1.1)), "street", margin=0.2)
+        p.place(
+            "traffic_sign",
+            v,
+            (x, kerb + away * 0.4, KERB_HEIGHT_M),
+            math.pi + float(rng.normal(0, 0.1)),
+            float(rng.uniform(0.9, 1.1)),
+            "street",
+            margin=0.2,
+        )
     for kerb, away, width in _sides(street):  # trees near the kerb
         x = float(rng.uniform(x0, x0 + 8.0))
         while x < x1:
@@ -170,8 +193,15 @@ def _street_furniture(p: _Placer, street: StreetLayout) -> None:
                 s = float(rng.uniform(0.55, 0.9))
                 r = 0.5 * float(p.size("tree", v)[:2].max()) * s
                 offset = min(max(1.0, r - 0.6), width - 0.6)
-                p.place("tree", v, (x, kerb + away * offset, KERB_HEIGHT_M), float(rng.uniform(-math.pi, math.pi)),
-                        s, "street", margin=0.1)
+                p.place(
+                    "tree",
+                    v,
+                    (x, kerb + away * offset, KERB_HEIGHT_M),
+                    float(rng.uniform(-math.pi, math.pi)),
+                    s,
+                    "street",
+                    margin=0.1,
+                )
             x += float(rng.uniform(7.0, 13.0))
 
 
@@ -211,8 +241,15 @@ def _parked_cars(p: _Placer, street: StreetLayout) -> None:
             near_crossing = street.crossing_x is not None and abs(x + length / 2 - street.crossing_x) < 7.0
             if rng.random() < 0.75 and not near_crossing:
                 y = kerb - away * (strip / 2 + float(rng.normal(0.0, 0.08)))
-                if p.place("car", v, (x + length / 2, y, 0.0), heading + float(rng.normal(0, 0.03)), s, "parked",
-                           margin=0.25):
+                if p.place(
+                    "car",
+                    v,
+                    (x + length / 2, y, 0.0),
+                    heading + float(rng.normal(0, 0.03)),
+                    s,
+                    "parked",
+                    margin=0.25,
+                ):
                     x += length + float(rng.uniform(0.7, 2.5))
                     continue
             x += float(rng.uniform(2.0, 6.0))
@@ -227,8 +264,15 @@ def _driving_cars(p: _Placer, street: StreetLayout) -> None:
                 ego_lane = abs(y) < 0.5 * street.lane_width_m
                 x = float(rng.uniform(14.0 if ego_lane else 8.0, THING_X_RANGE_M[1]))
                 v = p.variant("car")
-                p.place("car", v, (x, y + float(rng.normal(0, 0.15)), 0.0), heading + float(rng.normal(0, 0.02)),
-                        float(rng.uniform(0.95, 1.05)), "driving", margin=1.5)
+                p.place(
+                    "car",
+                    v,
+                    (x, y + float(rng.normal(0, 0.15)), 0.0),
+                    heading + float(rng.normal(0, 0.02)),
+                    float(rng.uniform(0.95, 1.05)),
+                    "driving",
+                    margin=1.5,
+                )
 
 
 def _person_scale(p: _Placer, variant: str) -> float:
@@ -257,7 +301,9 @@ def _people(p: _Placer, street: StreetLayout) -> None:
                 break
 
 
-def place_objects(rng: np.random.Generator, street: StreetLayout, assets: dict[str, ClassAsset]) -> tuple[SynthObject, ...]:
+def place_objects(
+    rng: np.random.Generator, street: StreetLayout, assets: dict[str, ClassAsset]
+) -> tuple[SynthObject, ...]:
     """Sample every object of a street scene.
 
     Args:

@@ -106,7 +106,9 @@ def _asset_reference(asset: Path, stage_path: Path | None) -> str:
     return Path(rel).as_posix() if rel.startswith("..") else "./" + Path(rel).as_posix()
 
 
-def define_synth_object(stage: Usd.Stage, obj: SynthObject, asset: Path, stage_path: Path | None) -> UsdGeom.Xform:
+def define_synth_object(
+    stage: Usd.Stage, obj: SynthObject, asset: Path, stage_path: Path | None
+) -> UsdGeom.Xform:
     """One object placement: reference, variant, translate / rotateZ / scale ops, class label."""
     xf = UsdGeom.Xform.Define(stage, f"{OBJECTS}/{obj.name}")
     prim = xf.GetPrim()

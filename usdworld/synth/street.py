@@ -76,7 +76,7 @@ class StreetLayout:
 
     def to_json(self) -> dict[str, object]:
         """JSON-ready description (rounded to millimetres)."""
-        r = lambda v: round(float(v), 3)  # noqa: E731
+        r = lambda v: round(float(v), 3)
         return {
             "lane_width_m": r(self.lane_width_m),
             "lanes_right": self.lanes_right,

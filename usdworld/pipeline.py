@@ -41,8 +41,8 @@ from usdworld.perception.objects import ImageObject, objects_from_detections, ob
 
 log = logging.getLogger(__name__)
 
-#: Placed stuff classes thin enough that the ground continues behind them.
-THIN_OCCLUDERS = ("pole", "traffic_light", "traffic_sign")
+#: Placed stuff classes the ground continues behind (trunks, posts; a crown hides only nearby ground).
+THIN_OCCLUDERS = ("pole", "traffic_light", "traffic_sign", "tree")
 #: How far behind a car, person or pole the hidden road or sidewalk is filled in (metres).
 FILL_REACH_M = 8.0
 #: Pixel grid (rows x columns) of the correspondences generated from a known camera.

@@ -154,3 +154,25 @@ def check_failures(summary: BatchSummary) -> None:
             f"{len(failed)} of {len(summary.records)} frames failed (first: {first.frame_id}: {first.error}); "
             f"see {summary.batch_file}"
         )
+
+
+def make_executor(workers: int = 1, scheduler: str | None = None, dask_local: int | None = None, out_dir: Path | None = None) -> FrameExecutor:
+    """The executor for the CLI's ``--workers`` / ``--scheduler`` / ``--dask-local`` (not entered yet).
+
+    Raises:
+        InputError: ``workers`` < 1, a Dask option combined with ``--workers`` > 1 or with the
+            other Dask option, or Dask not installed.
+    """
+    from usdworld.batch.dask_executor import DaskExecutor
+    from usdworld.batch.executors import InlineExecutor, LocalPoolExecutor
+    from usdworld.errors import InputError
+
+    if workers < 1:
+        raise InputError(f"--workers must be >= 1, got {workers}")
+    if scheduler is not None or dask_local is not None:
+        if workers != 1:
+            raise InputError("--workers sets a local pool; with --scheduler or --dask-local the cluster's workers run the frames")
+        if scheduler is not None and dask_local is not None:
+            raise InputError("pass either --scheduler ADDRESS (an existing cluster) or --dask-local N, not both")
+        return DaskExecutor(scheduler, dask_local, out_dir)
+    return InlineExecutor() if workers == 1 else LocalPoolExecutor(workers)

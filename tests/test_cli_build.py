@@ -1,0 +1,148 @@
+"""``usdworld build / demo / info / validate``: exit codes, one-line errors, untouched outputs."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from golden_scene import write_inputs
+from usdworld.cli.main import main
+
+
+def _run(capsys, *args: str) -> tuple[int, str, str]:
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def inputs(tmp_path):
+    request = write_inputs(tmp_path / "in")
+    return {"image": str(request.image), "det": str(request.detections), "cam": str(request.camera), "dir": tmp_path}
+
+
+def _build_args(inputs, out):
+    return ["build", inputs["image"], "--detections", inputs["det"], "--camera", inputs["cam"], "-o", str(out)]
+
+
+def test_build_info_validate(capsys, inputs):
+    out = inputs["dir"] / "world"
+    code, stdout, _ = _run(capsys, *_build_args(inputs, out))
+    assert code == 0 and "3 objects placed from frame.png" in stdout
+    report = json.loads((out / "report.json").read_text())
+    assert [o["name"] for o in report["objects"]] == ["car_0001", "car_0002", "person_0001"]
+    code, stdout, _ = _run(capsys, "info", str(out / "world.usda"), "--json")
+    info = json.loads(stdout)
+    assert code == 0 and info["classes"] == {"car": 2, "person": 1} and info["objects_inactive"] == 0
+    code, stdout, _ = _run(capsys, "validate", str(out))
+    assert code == 0 and stdout.strip().endswith(": 0 error(s)")
+
+
+def _tree_hash(folder: Path) -> str:
+    h = hashlib.sha256()
+    for p in sorted(folder.rglob("*")):
+        if p.is_file():
+            h.update(p.relative_to(folder).as_posix().encode() + p.read_bytes())
+    return h.hexdigest()
+
+
+def _one_line_error(code: int, err: str, expected: str) -> None:
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "Traceback" not in err, err
+    assert expected in lines[0], lines[0]
+
+
+def test_bad_inputs_leave_existing_world_untouched(capsys, inputs):
+    out = inputs["dir"] / "world"
+    assert _run(capsys, *_build_args(inputs, out))[0] == 0
+    before = _tree_hash(out)
+    d = inputs["dir"]
+    corrupt = d / "corrupt.png"
+    corrupt.write_bytes(Path(inputs["image"]).read_bytes()[:200])
+    cam = json.loads(Path(inputs["cam"]).read_text())
+    cam["K"][0][0] = -3.0
+    bad_cam = d / "bad_cam.json"
+    bad_cam.write_text(json.dumps(cam))
+    missing = json.loads(Path(inputs["cam"]).read_text())
+    del missing["K"]
+    missing["fx"] = 500.0
+    no_fy = d / "no_fy.json"
+    no_fy.write_text(json.dumps(missing))
+    labels8 = d / "labels.png"
+    cv2.imwrite(str(labels8), np.zeros((100, 100), np.uint8))
+    cases = [
+        (["build", str(corrupt), "--detections", inputs["det"], "--camera", inputs["cam"]], "corrupt.png"),
+        (["build", inputs["image"], "--detections", inputs["det"], "--camera", str(bad_cam)], "bad_cam.json"),
+        (["build", inputs["image"], "--detections", inputs["det"], "--camera", str(no_fy)], "no_fy.json"),
+        (["build", inputs["image"], "--labels", str(labels8)], "labels.png"),
+        (["build", str(d / "nope.png"), "--camera", inputs["cam"]], "nope.png"),
+    ]
+    for args, expected in cases:
+        code, _, err = _run(capsys, *args, "-o", str(out))
+        _one_line_error(code, err, expected)
+        assert _tree_hash(out) == before, args
+    assert not [p for p in out.parent.iterdir() if p.name.startswith(".world.")], "temporary folders left behind"
+
+
+def test_too_few_ground_points(capsys, inputs):
+    pts = inputs["dir"] / "points.json"
+    pts.write_text(json.dumps({"pairs": [{"px": [0, 300], "ground": [5, 1]}, {"px": [100, 300], "ground": [5, 0]}]}))
+    code, _, err = _run(capsys, *_build_args(inputs, inputs["dir"] / "w2"), "--ground-points", str(pts))
+    _one_line_error(code, err, "points.json")
+    assert not (inputs["dir"] / "w2").exists()
+
+
+def test_unwritable_output(capsys, inputs):
+    blocker = inputs["dir"] / "file"
+    blocker.write_text("x")
+    code, _, err = _run(capsys, *_build_args(inputs, blocker / "world"))
+    _one_line_error(code, err, "file")
+    code, _, err = _run(capsys, *_build_args(inputs, blocker))
+    _one_line_error(code, err, "not a folder")
+
+
+def test_refuses_to_replace_a_foreign_folder(capsys, inputs):
+    foreign = inputs["dir"] / "mine"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("keep me")
+    code, _, err = _run(capsys, *_build_args(inputs, foreign))
+    _one_line_error(code, err, "holds no world.usda")
+    assert (foreign / "notes.txt").read_text() == "keep me"
+
+
+def test_rebuild_keeps_edits(capsys, inputs):
+    out = inputs["dir"] / "world"
+    assert _run(capsys, *_build_args(inputs, out))[0] == 0
+    edits = out / "layers" / "edits.usda"
+    edits.write_text('#usda 1.0\n\nover "World"\n{\n    over "Objects"\n    {\n        over "car_0001" (\n            active = false\n        )\n        {\n        }\n    }\n}\n\n')
+    code, stdout, _ = _run(capsys, *_build_args(inputs, out))
+    assert code == 0 and "kept the existing edits layer" in stdout
+    assert "active = false" in edits.read_text()
+    code, stdout, _ = _run(capsys, "info", str(out), "--json")
+    assert json.loads(stdout)["objects_inactive"] == 1
+
+
+def test_image_without_objects_gives_valid_world_with_warning(capsys, tmp_path):
+    image = tmp_path / "empty.png"
+    cv2.imwrite(str(image), np.full((120, 200, 3), 128, np.uint8))
+    code, _, err = _run(capsys, "build", str(image), "-o", str(tmp_path / "w"))
+    assert code == 0 and "no objects found" in err
+    assert _run(capsys, "validate", str(tmp_path / "w"), "--no-omni")[0] == 0
+
+
+def test_debug_shows_traceback(capsys, inputs):
+    code, _, err = _run(capsys, "--debug", "build", str(inputs["dir"] / "nope.png"), "-o", str(inputs["dir"] / "w"))
+    assert code == 2 and "Traceback" in err
+
+
+def test_validate_reports_errors(capsys, tmp_path):
+    bad = tmp_path / "bad.usda"
+    bad.write_text('#usda 1.0\ndef Xform "W"\n{\n}\n')
+    code, stdout, err = _run(capsys, "validate", str(bad), "--no-omni")
+    assert code == 1 and "StageMetadataChecker" in stdout and err.startswith("error: ")

@@ -35,7 +35,7 @@ def test_world_opens_without_the_plugin(tmp_path):
         "from pxr import Usd; import sys; s = Usd.Stage.Open(sys.argv[1]); "
         "p = s.GetPrimAtPath('/World/Objects/car_0001'); "
         "assert 'UsdWorldProvenanceAPI' not in p.GetAppliedSchemas(); "
-        "assert 'UsdWorldProvenanceAPI' in p.GetMetadata('apiSchemas').prependedItems; "
+        "assert 'UsdWorldProvenanceAPI' in p.GetMetadata('apiSchemas').GetAddedOrExplicitItems(); "
         "print(p.GetAttribute('usdworld:depth').Get(), p.GetAttribute('usdworld:depthMethod').Get())"
     )
     result = subprocess.run([sys.executable, "-c", code, str(world)], capture_output=True, text=True, cwd=tmp_path)

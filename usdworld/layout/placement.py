@@ -152,19 +152,29 @@ def place_objects(
     """
     counters: dict[str, int] = {}
     drafts = []
-    skipped: list[str] = []
+    unplaced: list[tuple[ImageObject, str]] = []
     for obj in objects:
-        prior = prior_for(obj.class_name)
-        sizes = asset_sizes[obj.class_name]
         counters[obj.class_name] = counters.get(obj.class_name, 0) + 1
         name = f"{obj.class_name}_{counters[obj.class_name]:04d}"
-        draft = _draft(obj, name, prior, sizes, camera, ground_from_px, axis, depth_map, camera_sigma)
+        args = (obj, name, prior_for(obj.class_name), asset_sizes[obj.class_name], camera, ground_from_px, axis)
+        draft = _draft(*args, depth_map, camera_sigma)
         if draft is None:
-            skipped.append(name)
+            unplaced.append((obj, name))
         else:
             drafts.append(draft)
 
     _move_behind_occluders(drafts, camera)
+    # Objects with no cue at all but a placed occluder go right behind it.
+    by_instance = {d["obj"].instance_id: d for d in drafts if d["obj"].instance_id >= 0}
+    skipped: list[str] = []
+    for obj, name in unplaced:
+        occ = by_instance.get(obj.occluded_by)
+        if occ is None:
+            skipped.append(name)
+            continue
+        args = (obj, name, prior_for(obj.class_name), asset_sizes[obj.class_name], camera, ground_from_px, axis)
+        behind = occ["depth_m"] + occ["back_m"] + BEHIND_GAP_M
+        drafts.append(_draft(*args, depth_map, camera_sigma, forced=(behind, f"behind_{occ['name']}")))
 
     if depth_map is not None and drafts:
         result = apply_ordering_rules(
@@ -283,6 +293,7 @@ def _move_behind_occluders(drafts: list[dict], camera: PinholeCamera) -> None:
         d["front_depth_m"] = behind
         d["depth_m"] = behind + d["back_m"]
         d["depth_method"] = f"behind_{occ['name']}"
+        d["confidence"] = _CONFIDENCE["behind"] * float(d["obj"].score)
         d["ground"] = _point_at_depth(camera, *d["obj"].contact_px, d["depth_m"])
 
 
@@ -296,8 +307,13 @@ def _draft(  # noqa: PLR0913
     axis: RoadAxis,
     depth_map: DepthMap | None,
     camera_sigma: tuple[float, float],
+    forced: tuple[float, str] | None = None,
 ) -> dict | None:
-    """Everything about one object before ordering rules and collisions; None when it cannot be placed."""
+    """Everything about one object before ordering rules and collisions; None when it cannot be placed.
+
+    ``forced`` gives the front depth and its method when the caller knows better (an
+    object whose only clue is the object hiding it).
+    """
     u, v = (float(x) for x in obj.contact_px)
     contact_ground = apply_homography(ground_from_px, np.array([[u, v]]))[0]
     contact_ok = bool(np.all(np.isfinite(contact_ground))) and _depth_of_ground_point(camera, contact_ground) > 0
@@ -318,11 +334,15 @@ def _draft(  # noqa: PLR0913
         class_height_std_m=prior.height_std_m,
     )
     cues = [_with_camera_uncertainty(c, camera, camera_sigma) for c in cues]
-    try:
-        fused = fuse(cues)
-        front, method, confidence = fused.depth_m, fused.method, _CONFIDENCE.get(fused.method, 0.8)
-    except LayoutError:
-        front, method, confidence = _partial_front_depth(obj, prior, camera, contact_ok, front_contact)
+    if forced is not None:
+        front, method = forced
+        confidence = _CONFIDENCE["behind"]
+    else:
+        try:
+            fused = fuse(cues)
+            front, method, confidence = fused.depth_m, fused.method, _CONFIDENCE.get(fused.method, 0.8)
+        except LayoutError:
+            front, method, confidence = _partial_front_depth(obj, prior, camera, contact_ok, front_contact)
     if not np.isfinite(front):
         return None
 
@@ -373,7 +393,15 @@ def _draft(  # noqa: PLR0913
 
 
 #: Confidence of a placement by the cue that decided its depth.
-_CONFIDENCE = {"contact": 0.9, "fused": 0.8, "cnn": 0.7, "height": 0.6, "contact_partial": 0.3, "height_partial": 0.2}
+_CONFIDENCE = {
+    "contact": 0.9,
+    "fused": 0.8,
+    "cnn": 0.7,
+    "height": 0.6,
+    "contact_partial": 0.3,
+    "behind": 0.25,
+    "height_partial": 0.2,
+}
 
 
 def _with_camera_uncertainty(cue: DepthCue, camera: PinholeCamera, camera_sigma: tuple[float, float]) -> DepthCue:

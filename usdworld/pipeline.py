@@ -26,7 +26,8 @@ from usdworld.geometry.estimate import CameraEstimate, HeightObservations, estim
 from usdworld.geometry.homography import HomographyFit, apply_homography, estimate_homography
 from usdworld.io.camera_files import read_camera
 from usdworld.io.correspondences import read_correspondences
-from usdworld.io.depth_files import read_depth
+from usdworld.depth_stage import DepthOutcome, estimate_depth
+from usdworld.io.hashing import read_input
 from usdworld.io.detections import read_detections_json, read_kitti_labels
 from usdworld.io.images import read_image
 from usdworld.io.labels import read_polygons, read_segmentation
@@ -65,7 +66,10 @@ class BuildRequest:
         camera: Cityscapes camera JSON, KITTI calib, or a plain camera JSON.
         ground_plane: KITTI ``planes`` file (road plane) for the camera's height and pitch.
         correspondences: manual pixel <-> ground pairs (JSON or CSV).
-        depth_map: dense metric depth (npy, 16-bit PNG metres*256, PFM).
+        depth_map: dense metric depth (npy, 16-bit PNG metres*256, PFM); implies ``depth="file"``.
+        depth: depth backend: ``ground`` (no dense map), ``file``, ``monodepth``,
+            ``monodepth2`` or ``hf``.
+        depth_weights: weights file or folder of a network backend.
         library: a user asset library layered over the built-in one.
         max_range_m: farthest ground distance meshed.
     """
@@ -80,6 +84,8 @@ class BuildRequest:
     ground_plane: Path | None = None
     correspondences: Path | None = None
     depth_map: Path | None = None
+    depth: str = "ground"
+    depth_weights: Path | None = None
     library: Path | None = None
     max_range_m: float = MAX_RANGE_M
 
@@ -240,6 +246,17 @@ def _ground_occluders(placements: list) -> list[tuple[np.ndarray, np.ndarray, fl
     return out
 
 
+def depth_for_image(request: BuildRequest) -> tuple[DepthOutcome, PinholeCamera]:
+    """Only the depth stage of a build: the metric depth and the camera it used."""
+    image = read_image(request.image)
+    seg = _read_segmentation(request, image)
+    spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
+    objects = _objects(request, image, seg)
+    camera = _camera(spec, image, objects, seg)
+    outcome = estimate_depth(request.depth, request.depth_weights, request.depth_map, image, camera.camera, seg, objects)
+    return outcome, camera.camera
+
+
 def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldModel:
     """Read the inputs and compute the metric world (no output written).
 
@@ -253,9 +270,12 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     image = read_image(request.image)
     seg = _read_segmentation(request, image)
     spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
-    depth = read_depth(request.depth_map, image) if request.depth_map is not None else None
     objects = _objects(request, image, seg)
     camera = _camera(spec, image, objects, seg)
+    dense = estimate_depth(
+        request.depth, request.depth_weights, request.depth_map, image, camera.camera, seg, objects
+    )
+    depth = dense.depth_map
     fit, dlt_source = _ground_fit(request, camera.camera)
     axis = road_axis(_road_points(seg, fit, camera.camera, request.max_range_m))
     placements, skipped = place_objects(
@@ -288,15 +308,11 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         inputs.extend(seg.files)
     for path, role in ((request.detections, "detections"), (request.correspondences, "correspondences")):
         if path is not None:
-            from usdworld.io.hashing import read_input
-
             inputs.append(read_input(path, role)[1])
     if spec is not None:
         inputs.append(spec.file)
         inputs.extend(spec.extra_files)
-    if depth is not None and request.depth_map is not None:
-        from usdworld.io.hashing import read_input
-
+    if request.depth_map is not None:
         inputs.append(read_input(request.depth_map, "depth_map")[1])
     warnings = []
     if not objects:
@@ -314,6 +330,10 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         placements=tuple(placements),
         surfaces=surfaces,
         inputs=tuple(inputs),
+        depth_source=dense.source,
+        depth_kind=dense.kind,
+        depth_alignment=dense.alignment,
+        depth_fit=dense.fit,
         warnings=tuple(warnings),
     )
 
@@ -383,6 +403,12 @@ def make_report(model: WorldModel) -> dict[str, Any]:
             "points_px": [[_num(v) for v in row] for row in model.ground_fit.src],
             "points_ground_m": [[_num(v) for v in row] for row in model.ground_fit.dst],
             "rms_px": _num(model.ground_fit.rms_src),
+        },
+        "depth": {
+            "source": model.depth_source,
+            "kind": model.depth_kind,
+            "alignment": model.depth_alignment,
+            "fit_scale_shift_inliers_residual": [_num(v) for v in model.depth_fit],
         },
         "inputs": [{"role": f.role, "name": f.name, "sha256": f.sha256} for f in model.inputs],
         "surfaces": [{"name": s.name, "area_m2": _num(s.area_m2)} for s in model.surfaces],

@@ -34,10 +34,10 @@ re-reading the layer if another editor changed it, the permissibility rules of
 nothing; ``force=True`` applies them and records the rules overridden), the authoring,
 a history entry, and an atomic save (temporary file in the same folder, fsync, rename).
 
-History lives in the edits layer itself, ``customLayerData["usdworld"]["history"]``, one
-entry per step: operation, arguments (JSON), UTC time, forced, the violated rules, and
-the inverse: for each prim the step touched, the edits layer's previous spec of it as
-usda text and its position among its siblings. ``undo`` restores those specs, so the
+History lives in the edits layer itself, in ``customLayerData["usdworld"]``: ``history``
+holds one JSON object per step (operation, arguments, UTC time, forced, the violated
+rules, the prims touched) and ``undo`` the step's inverse: for each prim it touched, the
+edits layer's previous spec of it as usda text and its position among its siblings. ``undo`` restores those specs, so the
 layer (and the composed stage) becomes byte-identical to what it was before the step,
 and the history travels with the layer through rebuilds.
 
@@ -76,9 +76,13 @@ from usdworld.errors import AuthoringError, InputError, LayoutError
 from usdworld.layout import permissible as rules
 from usdworld.layout.priors import class_priors, prior_for
 
-#: customLayerData key of usdworld's data in an edits layer, and of the history below it.
+#: customLayerData key of usdworld's data in an edits layer, and the two arrays below it:
+#: ``history`` (one JSON object per step: op, args, time, forced, violations, paths) and
+#: ``undo`` (per step: the previous specs of those paths, their sibling index, and the
+#: ancestor specs the step created).
 DATA_KEY = "usdworld"
 HISTORY_KEY = "history"
+UNDO_KEY = "undo"
 #: Prim customData key holding an object's restyle colour (``#rrggbb``).
 COLOR_KEY = "usdworld:restyleColor"
 #: Material names recoloured by ``restyle`` (fnmatch patterns), in priority order of
@@ -323,6 +327,9 @@ class WorldEditor:
         self._base_stamp = self._stamp()
         self._sizes: dict[tuple[str, str], tuple[float, float]] = {}
         self._ground: rules.Ground | None = None
+        self._states: dict[str, ObjectState] | None = None
+        self._stale: set[str] = set()
+        self._listener = Tf.Notice.Register(Usd.Notice.ObjectsChanged, self._changed, self._stage)
         if not self._stage.GetPrimAtPath(OBJECTS_PATH):
             raise AuthoringError(f"{root}: no {OBJECTS_PATH} scope; not a usdworld world")
 
@@ -356,7 +363,7 @@ class WorldEditor:
                 layer = Sdf.Layer.Find(str(p))
                 if layer is not None:
                     layer.Reload(force=True)
-            self._base_stamp, self._ground, self._sizes = stamp, None, {}
+            self._base_stamp, self._ground, self._sizes, self._states = stamp, None, {}, None
         for stale in self.edits_path.parent.glob(f".{self.edits_path.name}.*.tmp"):
             with contextlib.suppress(OSError):
                 stale.unlink()  # a writer that died mid-save (we hold the lock)
@@ -393,17 +400,19 @@ class WorldEditor:
 
     # --- history ---------------------------------------------------------------------
 
-    def _history_dict(self) -> dict:
+    def _journal(self) -> tuple[list[str], list[str]]:
+        """The history and undo arrays (one JSON string per step, oldest first)."""
         data = self._edits.customLayerData.get(DATA_KEY, {})
-        return dict(data.get(HISTORY_KEY, {}))
+        history, undo = list(data.get(HISTORY_KEY, ())), list(data.get(UNDO_KEY, ()))
+        if len(history) != len(undo):
+            raise AuthoringError(f"{self.edits_path}: customLayerData {DATA_KEY} history and undo differ in length; the layer was edited by hand")
+        return history, undo
 
-    def _set_history(self, history: dict) -> None:
+    def _set_journal(self, history: list[str], undo: list[str]) -> None:
         cld = dict(self._edits.customLayerData)
-        data = dict(cld.get(DATA_KEY, {}))
+        data = {k: v for k, v in dict(cld.get(DATA_KEY, {})).items() if k not in (HISTORY_KEY, UNDO_KEY)}
         if history:
-            data[HISTORY_KEY] = history
-        else:
-            data.pop(HISTORY_KEY, None)
+            data[HISTORY_KEY], data[UNDO_KEY] = Vt.StringArray(history), Vt.StringArray(undo)
         if data:
             cld[DATA_KEY] = data
         else:
@@ -414,11 +423,12 @@ class WorldEditor:
             self._edits.ClearCustomLayerData()
 
     @staticmethod
-    def _entry(step: str, raw: dict) -> HistoryEntry:
+    def _entry(step: int, text: str) -> HistoryEntry:
+        raw = json.loads(text)
         return HistoryEntry(
-            step=int(step),
+            step=step,
             op=str(raw.get("op", "")),
-            args=json.loads(raw.get("args", "{}")),
+            args=dict(raw.get("args", {})),
             time=str(raw.get("time", "")),
             forced=bool(raw.get("forced", False)),
             violations=tuple(raw.get("violations", ())),
@@ -428,7 +438,7 @@ class WorldEditor:
     def history(self) -> list[HistoryEntry]:
         """Every recorded edit, oldest first."""
         with self._locked():
-            return [self._entry(k, v) for k, v in sorted(self._history_dict().items())]
+            return [self._entry(i + 1, h) for i, h in enumerate(self._journal()[0])]
 
     def _capture(self, path: Sdf.Path) -> tuple[str, int]:
         """The edits layer's spec of ``path`` as usda text ('' when none) and its sibling index."""
@@ -474,22 +484,15 @@ class WorldEditor:
         captured = [self._capture(p) for p in paths]
         with Usd.EditContext(self._stage, Usd.EditTarget(self._edits)):
             author()
-        history = self._history_dict()
-        step = int(max(history)) + 1 if history else 1
-        history[f"{step:06d}"] = {
-            "op": op,
-            "args": json.dumps(args, sort_keys=True),
-            "time": self._clock(),
-            "forced": bool(violations),
-            "violations": Vt.StringArray([str(v) for v in violations]),
-            "paths": Vt.StringArray([str(p) for p in paths]),
-            "before": Vt.StringArray([c[0] for c in captured]),
-            "index": Vt.IntArray([c[1] for c in captured]),
-            "created": Vt.StringArray(created),
-        }
-        self._set_history(history)
+        history, undo = self._journal()
+        entry = {"op": op, "args": args, "time": self._clock(), "forced": bool(violations),
+                 "violations": [str(v) for v in violations], "paths": [str(p) for p in paths]}
+        inverse = {"before": [c[0] for c in captured], "index": [c[1] for c in captured], "created": created}
+        history.append(json.dumps(entry, sort_keys=True))
+        undo.append(json.dumps(inverse, sort_keys=True))
+        self._set_journal(history, undo)
         self._save()
-        return step
+        return len(history)
 
     def undo(self, steps: int = 1) -> list[HistoryEntry]:
         """Undo the last ``steps`` edits, restoring the exact previous edits layer.
@@ -503,17 +506,18 @@ class WorldEditor:
         if steps < 1:
             raise InputError(f"undo: N must be >= 1, got {steps}")
         with self._locked():
-            history = self._history_dict()
+            history, undo = self._journal()
             if steps > len(history):
                 raise InputError(f"undo {steps}: only {len(history)} edit(s) recorded in {self.edits_path}")
             undone = []
-            for key in sorted(history)[::-1][:steps]:
-                raw = history.pop(key)
-                undone.append(self._entry(key, raw))
-                for p, text, index in reversed(list(zip(raw["paths"], raw["before"], raw["index"]))):
+            for _ in range(steps):
+                entry = self._entry(len(history), history.pop())
+                inverse = json.loads(undo.pop())
+                undone.append(entry)
+                for p, text, index in reversed(list(zip(entry.paths, inverse["before"], inverse["index"]))):
                     self._restore(Sdf.Path(p), text, int(index))
-                self._prune(list(raw.get("created", ())))
-            self._set_history(history)
+                self._prune(list(inverse.get("created", ())))
+            self._set_journal(history, undo)
             self._save()
             return undone
 
@@ -551,9 +555,36 @@ class WorldEditor:
         color = str(prim.GetCustomDataByKey(COLOR_KEY) or "")
         return ObjectState(name, str(prim.GetPath()), class_name, variant, pos, yaw, scale, (l * scale, w * scale), active, status, color)
 
+    def _changed(self, notice: Usd.Notice.ObjectsChanged, stage: Usd.Stage) -> None:
+        """Mark the objects a stage change touched (or all, when their parent changed)."""
+        if self._states is None:
+            return
+        objects = Sdf.Path(OBJECTS_PATH)
+        for resync, paths in ((True, notice.GetResyncedPaths()), (False, notice.GetChangedInfoOnlyPaths())):
+            for path in paths:
+                prim = path.GetPrimPath()
+                if prim.HasPrefix(objects) and prim != objects:
+                    while prim.GetParentPath() != objects:
+                        prim = prim.GetParentPath()
+                    self._stale.add(str(prim))
+                elif resync and objects.HasPrefix(prim):
+                    self._states = None
+                    return
+
     def _all(self) -> list[ObjectState]:
-        objects = self._stage.GetPrimAtPath(OBJECTS_PATH)
-        return [self._read(p) for p in objects.GetAllChildren() if p.IsDefined()]
+        """Every defined object; cached, re-read only where the stage changed."""
+        if self._states is not None and self._stale:
+            for path in self._stale:
+                prim = self._stage.GetPrimAtPath(path)
+                if path not in self._states or not prim or not prim.IsDefined():
+                    self._states = None  # an object appeared or vanished: re-read all, in stage order
+                    break
+                self._states[path] = self._read(prim)
+        if self._states is None:
+            objects = self._stage.GetPrimAtPath(OBJECTS_PATH)
+            self._states = {str(p.GetPath()): self._read(p) for p in objects.GetAllChildren() if p.IsDefined()}
+        self._stale = set()
+        return list(self._states.values())
 
     def objects(self) -> list[ObjectState]:
         """Every object (deleted ones too), in stage order."""
@@ -633,7 +664,7 @@ class WorldEditor:
 
     def _where(self, xy: np.ndarray) -> tuple[str, float]:
         names, z = rules.surface_at(xy[None, :], self.ground())
-        return names[0], float(z[0])
+        return names[0], round(float(z[0]), 6)
 
     # --- operations ------------------------------------------------------------------
 
@@ -689,6 +720,10 @@ class WorldEditor:
             prim = self._stage.GetPrimAtPath(obj.path)
             step = self._commit("delete", {"name": obj.name}, [prim.GetPath()], [], lambda: prim.SetActive(False))
             return self._result("delete", obj.name, step, [], f"deleted {obj.name} (inactive)")
+
+    def variants(self, class_name: str) -> tuple[str, ...]:
+        """The ``model`` variants of a class's asset (the world's copy first)."""
+        return asset_library.asset_info(class_name, self._libraries).variants
 
     def _variant(self, class_name: str, variant: str | None) -> str:
         info = asset_library.asset_info(class_name, self._libraries)
@@ -796,7 +831,7 @@ class WorldEditor:
                 self._clear_restyle(prim)
                 if ref is not None:
                     prim.GetReferences().SetReferences([Sdf.Reference(ref)])
-                    UsdSemantics.LabelsAPI.Apply(prim, "class").CreateLabelsAttr().Set([with_class])
+                    _set_label(prim, with_class)
                     self._op(prim, "scale").Set(Gf.Vec3f(scale, scale, scale))
                     if prim.HasAttribute("usdworld:scaleFactor"):
                         prim.GetAttribute("usdworld:scaleFactor").Set(float(scale))
@@ -883,9 +918,9 @@ class WorldEditor:
         """Edits whose target prim does not exist in the composed world (e.g. after a rebuild)."""
         with self._locked():
             steps: dict[str, list[int]] = {}
-            for key, raw in sorted(self._history_dict().items()):
-                for p in raw.get("paths", ()):
-                    steps.setdefault(str(p), []).append(int(key))
+            for i, text in enumerate(self._journal()[0]):
+                for p in self._entry(i + 1, text).paths:
+                    steps.setdefault(p, []).append(i + 1)
             out: list[OrphanEdit] = []
 
             def visit(spec: Sdf.PrimSpec) -> None:
@@ -901,6 +936,15 @@ class WorldEditor:
             for root in self._edits.rootPrims:
                 visit(root)
             return out
+
+
+def _set_label(prim: Usd.Prim, class_name: str) -> None:
+    """Author the ``class`` label (applying LabelsAPI only where no layer has yet)."""
+    attr = prim.GetAttribute("semantics:labels:class")
+    if attr:
+        attr.Set([class_name])
+    else:
+        UsdSemantics.LabelsAPI.Apply(prim, "class").CreateLabelsAttr([class_name])
 
 
 def _fan(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:

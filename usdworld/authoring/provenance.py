@@ -44,6 +44,10 @@ ATTRIBUTE_TYPES: dict[str, Sdf.ValueTypeName] = {
     "usdworld:dltGround": Sdf.ValueTypeNames.DoubleArray,
     "usdworld:dltRmsPx": Sdf.ValueTypeNames.Float,
     "usdworld:dltSource": Sdf.ValueTypeNames.Token,
+    "usdworld:depthSource": Sdf.ValueTypeNames.String,
+    "usdworld:depthKind": Sdf.ValueTypeNames.Token,
+    "usdworld:depthAlignment": Sdf.ValueTypeNames.String,
+    "usdworld:depthAlignmentFit": Sdf.ValueTypeNames.Float4,
     "usdworld:inputFiles": Sdf.ValueTypeNames.StringArray,
     "usdworld:inputHashes": Sdf.ValueTypeNames.StringArray,
 }

@@ -176,6 +176,10 @@ def _scene_values(model: WorldModel) -> dict:
         "usdworld:dltGround": fit.dst.ravel().tolist(),
         "usdworld:dltRmsPx": float(fit.rms_src),
         "usdworld:dltSource": model.dlt_source,
+        "usdworld:depthSource": model.depth_source,
+        "usdworld:depthKind": model.depth_kind,
+        "usdworld:depthAlignment": model.depth_alignment,
+        "usdworld:depthAlignmentFit": Gf.Vec4f(*(float(v) for v in model.depth_fit)),
         "usdworld:inputFiles": [f"{f.role}={f.name}" for f in model.inputs],
         "usdworld:inputHashes": [f.sha256 for f in model.inputs],
     }

@@ -18,7 +18,9 @@ def build(
     camera: Optional[Path] = typer.Option(None, "--camera", help="Cityscapes camera JSON, KITTI calib .txt or plain camera JSON."),
     ground_plane: Optional[Path] = typer.Option(None, "--ground-plane", help="KITTI planes file (road plane) for height and pitch."),
     ground_points: Optional[Path] = typer.Option(None, "--ground-points", help="Manual pixel <-> ground pairs (JSON or CSV, >= 4)."),
-    depth_map: Optional[Path] = typer.Option(None, "--depth-map", help="Dense metric depth: .npy, 16-bit PNG (m*256) or .pfm."),
+    depth: str = typer.Option("ground", "--depth", help="Depth backend: ground, file, monodepth, monodepth2 or hf."),
+    depth_weights: Optional[Path] = typer.Option(None, "--depth-weights", help="Weights file/folder of a network backend."),
+    depth_map: Optional[Path] = typer.Option(None, "--depth-map", help="Dense metric depth for --depth file: .npy, 16-bit PNG (m*256) or .pfm."),
     library: Optional[Path] = typer.Option(None, "--library", help="User asset library layered over the built-in one."),
     max_range: float = typer.Option(80.0, "--max-range", help="Farthest ground distance meshed, metres."),
 ) -> None:
@@ -37,6 +39,8 @@ def build(
         ground_plane=ground_plane,
         correspondences=ground_points,
         depth_map=depth_map,
+        depth=depth,
+        depth_weights=depth_weights,
         library=library,
         max_range_m=max_range,
     )

@@ -24,6 +24,10 @@ class WorldModel:
         placements: the placed objects.
         surfaces: ground meshes.
         inputs: every input file, for provenance.
+        depth_source: dense depth backend (``ground`` when none).
+        depth_kind: what that backend predicted (``none`` for ``ground``).
+        depth_alignment: one line on how the dense depth was made metric.
+        depth_fit: (scale, shift, inlier ratio, residual) of the ground fit; NaNs when none.
         warnings: things the user should know (one line each).
     """
 
@@ -35,4 +39,8 @@ class WorldModel:
     placements: tuple[Placement, ...]
     surfaces: tuple[SurfaceMesh, ...]
     inputs: tuple[InputFile, ...]
+    depth_source: str = "ground"
+    depth_kind: str = "none"
+    depth_alignment: str = "none"
+    depth_fit: tuple[float, float, float, float] = (float("nan"),) * 4
     warnings: tuple[str, ...] = ()

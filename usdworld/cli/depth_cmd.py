@@ -1,0 +1,45 @@
+"""``usdworld depth``: metric depth of one image, as .npy, 16-bit PNG and a preview."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+
+def depth(
+    image: Path = typer.Argument(..., help="The photo (PNG or JPEG)."),
+    output: Path = typer.Option(..., "--output", "-o", help="Folder for the depth files."),
+    camera: Optional[Path] = typer.Option(None, "--camera", help="Camera file (Cityscapes JSON, KITTI calib, plain JSON)."),
+    labels: Optional[Path] = typer.Option(None, "--labels", help="Cityscapes labelIds PNG (ground pixels for alignment)."),
+    instances: Optional[Path] = typer.Option(None, "--instances", help="Cityscapes instanceIds PNG."),
+    detections: Optional[Path] = typer.Option(None, "--detections", help="KITTI label_2 / detections JSON (helps estimate the camera)."),
+    backend: str = typer.Option("ground", "--depth", help="Depth backend: ground, file, monodepth, monodepth2 or hf."),
+    weights: Optional[Path] = typer.Option(None, "--depth-weights", help="Weights file/folder of a network backend."),
+    depth_map: Optional[Path] = typer.Option(None, "--depth-map", help="Depth file for --depth file."),
+) -> None:
+    """Estimate metric depth for an image (network output aligned to the ground)."""
+    from usdworld.depth_stage import write_depth_outputs
+    from usdworld.perception.depth import ground_plane_depth
+    from usdworld.io.types import DepthMap
+    from usdworld.pipeline import BuildRequest, depth_for_image
+
+    request = BuildRequest(
+        image=image, output=output, camera=camera, labels=labels, instances=instances, detections=detections,
+        depth=backend, depth_weights=weights, depth_map=depth_map,
+    )
+    outcome, camera_used = depth_for_image(request)
+    depth_map_out = outcome.depth_map
+    if depth_map_out is None:
+        values, valid = ground_plane_depth(camera_used)
+        depth_map_out = DepthMap(values, valid, "ground")
+    paths = write_depth_outputs(depth_map_out, output, image.stem)
+    typer.echo(f"depth: {outcome.source} ({outcome.kind}); alignment: {outcome.alignment}")
+    for kind, path in paths.items():
+        typer.echo(f"wrote {path}")
+
+
+def register(app: typer.Typer) -> None:
+    """Add the command to the app."""
+    app.command("depth")(depth)

@@ -259,7 +259,9 @@ def objects_from_segmentation(seg: Segmentation) -> list[ImageObject]:
             if crop.sum() < MIN_THING_AREA_PX:
                 continue
             pending.append((str(lookups.placed[label_id]), str(lookups.names[label_id]), iid, box, crop, True))
-        group_mask = np.isin(labels, thing_ids) & (inst < 1000)
+        is_thing_id = np.zeros(256, dtype=bool)
+        is_thing_id[thing_ids] = True
+        group_mask = is_thing_id[labels] & (inst < 1000)
     else:
         group_mask = None
 
@@ -270,18 +272,34 @@ def objects_from_segmentation(seg: Segmentation) -> list[ImageObject]:
         if inst is not None and lookups.is_thing[i]:
             continue
         by_class.setdefault(str(lookups.placed[i]), []).append(i)
-    for class_name, ids in sorted(by_class.items()):
-        class_mask = np.isin(labels, ids)
-        if group_mask is not None and class_name in {str(lookups.placed[i]) for i in thing_ids}:
-            class_mask &= group_mask
-        if not class_mask.any():
+    # One pass over the image: each pixel's stuff class as a small integer (0 = none).
+    class_names = sorted(by_class)
+    class_of_id = np.zeros(256, dtype=np.uint8)
+    for k, class_name in enumerate(class_names, start=1):
+        class_of_id[by_class[class_name]] = k
+    class_map = class_of_id[labels]
+    if group_mask is not None:
+        thing_classes = {str(lookups.placed[i]) for i in thing_ids}
+        for k, class_name in enumerate(class_names, start=1):
+            if class_name in thing_classes:
+                class_map[(class_map == k) & ~group_mask] = 0
+    present = np.bincount(class_map.ravel(), minlength=len(class_names) + 1)
+    for k, class_name in enumerate(class_names, start=1):
+        if present[k] < min_area:
             continue
-        n, comp, stats, _ = cv2.connectedComponentsWithStats(class_mask.astype(np.uint8), connectivity=8)
-        for k in range(1, n):
-            x, y, w, h, area = (int(s) for s in stats[k])
+        class_mask = class_map == k
+        # Label components only inside the rows and columns the class occupies.
+        rows_any = np.nonzero(class_mask.any(axis=1))[0]
+        cols_any = np.nonzero(class_mask.any(axis=0))[0]
+        oy, ox = int(rows_any[0]), int(cols_any[0])
+        window = class_mask[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
+        n, comp, stats, _ = cv2.connectedComponentsWithStats(window.astype(np.uint8), connectivity=8)
+        for k_comp in range(1, n):
+            x, y, w, h, area = (int(v) for v in stats[k_comp])
             if area < min_area:
                 continue
-            crop = comp[y : y + h, x : x + w] == k
+            crop = comp[y : y + h, x : x + w] == k_comp
+            x, y = x + ox, y + oy
             source = str(lookups.names[int(np.bincount(labels[y : y + h, x : x + w][crop]).argmax())])
             ranges = _split_columns(crop, SPLIT_ASPECT[class_name]) if class_name in SPLIT_ASPECT else [(0, w)]
             for c0, c1 in ranges:

@@ -9,7 +9,7 @@ median yaw error (degrees, and modulo 180 for front/back ambiguity).
 
 Usage::
 
-    python tools/eval_kitti.py ../shared/data/kitti/training [--planes] [--json]
+    python tools/eval_kitti.py ../shared/data/kitti/training [--planes | --level-camera 1.65] [--json]
 
 With ``--json`` the last line printed is one JSON object.
 """
@@ -55,18 +55,27 @@ def angle_diff(a: float, b: float, period: float) -> float:
     return float(min(d, period - d))
 
 
-def evaluate_frame(frame: str, data: Path, planes: bool, out: Path) -> list[dict]:
+def _level_camera(calib: Path, height_m: float, out: Path) -> Path:
+    """A plain camera JSON with P2's intrinsics, a fixed height and zero pitch and roll (the baseline)."""
+    P2 = read_kitti_projection(calib)
+    path = out / f"{calib.stem}_level_camera.json"
+    path.write_text(json.dumps({"K": P2[:, :3].tolist(), "height_m": height_m, "pitch_deg": 0.0, "roll_deg": 0.0}))
+    return path
+
+
+def evaluate_frame(frame: str, data: Path, planes: bool, out: Path, level_height: float | None = None) -> list[dict]:
     """Build one frame and compare each placed object with its label."""
+    calib = data / "calib" / f"{frame}.txt"
     request = BuildRequest(
         image=data / "image_2" / f"{frame}.png",
         output=out / frame,
         detections=data / "label_2" / f"{frame}.txt",
-        camera=data / "calib" / f"{frame}.txt",
+        camera=_level_camera(calib, level_height, out) if level_height is not None else calib,
         ground_plane=(data / "planes" / f"{frame}.txt") if planes else None,
     )
     result = build(request)
     gt = read_gt(request.detections)
-    P2 = read_kitti_projection(request.camera)
+    P2 = read_kitti_projection(calib)
     t_cam2 = np.linalg.solve(P2[:, :3], P2[:, 3])  # camera-2 offset from camera 0
     camera = result.model.camera.camera
     placed = {p.obj.instance_id: p for p in result.model.placements}
@@ -129,6 +138,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("data_dir", type=Path, help="KITTI object folder with image_2, label_2, calib (planes)")
     parser.add_argument("--planes", action="store_true", help="also pass the road plane (planes/*.txt)")
+    parser.add_argument(
+        "--level-camera",
+        type=float,
+        metavar="HEIGHT_M",
+        help="baseline: assume a level camera (zero pitch and roll) at this height instead of estimating",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     parser.add_argument("--verbose", action="store_true", help="print one line per object")
     args = parser.parse_args(argv)
@@ -140,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for image in images:
             try:
-                rows.extend(evaluate_frame(image.stem, args.data_dir, args.planes, Path(tmp)))
+                rows.extend(evaluate_frame(image.stem, args.data_dir, args.planes, Path(tmp), args.level_camera))
             except UsdWorldError as exc:
                 print(f"error: frame {image.stem}: {exc}", file=sys.stderr)
                 return 2

@@ -10,11 +10,12 @@ import logging
 import sys
 import traceback
 
-import click
 import typer
 
-from usdworld.cli import build_cmd, demo_cmd, info_cmd, validate_cmd
+from usdworld.cli import build_cmd, demo_cmd, depth_cmd, info_cmd, validate_cmd
+from usdworld.cli import edit_cmd, vary_cmd
 from usdworld.cli import batch_cmd
+from usdworld.cli import assets_cmd, export_cmd
 
 app = typer.Typer(
     add_completion=False,
@@ -36,10 +37,15 @@ def _root(
 
 
 build_cmd.register(app)
+depth_cmd.register(app)
 batch_cmd.register(app)
 demo_cmd.register(app)
 info_cmd.register(app)
 validate_cmd.register(app)
+export_cmd.register(app)
+assets_cmd.register(app)
+edit_cmd.register(app)
+vary_cmd.register(app)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -48,17 +54,12 @@ def main(argv: list[str] | None = None) -> int:
 
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args
-    command = typer.main.get_command(app)
     try:
-        result = command.main(args=args, prog_name="usdworld", standalone_mode=False)
-    except click.exceptions.Exit as exc:
-        return int(exc.exit_code)
-    except click.ClickException as exc:
-        exc.show()
-        return int(exc.exit_code)
-    except click.exceptions.Abort:
-        print("error: aborted", file=sys.stderr)
-        return 130
+        # Standalone mode: typer/click print usage errors and --help themselves and exit.
+        app(args=args, prog_name="usdworld", standalone_mode=True)
+    except SystemExit as exc:
+        code = exc.code
+        return code if isinstance(code, int) else (0 if code is None else 1)
     except UsdWorldError as exc:
         if debug:
             traceback.print_exc()
@@ -75,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
-    return int(result or 0)
+    return 0
 
 
 def run() -> None:

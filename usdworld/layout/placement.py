@@ -165,10 +165,10 @@ def place_objects(
 
     _move_behind_occluders(drafts, camera)
     # Objects with no cue at all but a placed occluder go right behind it.
-    by_instance = {d["obj"].instance_id: d for d in drafts if d["obj"].instance_id >= 0}
+    by_ref = {d["obj"].ref: d for d in drafts if d["obj"].ref >= 0}
     skipped: list[str] = []
     for obj, name in unplaced:
-        occ = by_instance.get(obj.occluded_by)
+        occ = by_ref.get(obj.occluded_by) if obj.occluded_by >= 0 else None
         if occ is None:
             skipped.append(name)
             continue
@@ -281,9 +281,9 @@ def _move_behind_occluders(drafts: list[dict], camera: PinholeCamera) -> None:
     The occluder's depth bounds it from below. A contact bound below the occluder moves
     the object just behind it; a height-only bound is replaced by that position.
     """
-    by_instance = {d["obj"].instance_id: d for d in drafts if d["obj"].instance_id >= 0}
+    by_ref = {d["obj"].ref: d for d in drafts if d["obj"].ref >= 0}
     for d in drafts:
-        occ = by_instance.get(d["obj"].occluded_by)
+        occ = by_ref.get(d["obj"].occluded_by) if d["obj"].occluded_by >= 0 else None
         method = d["depth_method"]
         if occ is None or method not in ("contact_partial", "height_partial") or occ["depth_method"].endswith("_partial"):
             continue

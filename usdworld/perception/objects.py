@@ -49,8 +49,8 @@ class ImageObject:
         top_truncated: the top touches the image border.
         standing_on: Cityscapes name of the surface below the contact ('' unknown).
         score: detection confidence in [0, 1].
-        occluded_by: instance id of the object hiding most of this one's bottom (-1 none;
-            stuff occluders have no id and count as none).
+        occluded_by: ``ref`` of the object hiding most of this one's bottom (-1 none).
+        ref: identifier of the object within its image (unique, stable for the same input).
         box_only: the object comes from a 2D box without a mask (its box bottom follows
             the projected 3D box, not the visible ground contact).
     """
@@ -67,6 +67,7 @@ class ImageObject:
     standing_on: str = ""
     score: float = 1.0
     occluded_by: int = -1
+    ref: int = -1
     box_only: bool = False
 
     def __post_init__(self) -> None:
@@ -329,7 +330,8 @@ def objects_from_segmentation(seg: Segmentation) -> list[ImageObject]:
                 bottom_occluded=contact.bottom_occluded,
                 top_truncated=y0 <= 0,
                 standing_on=contact.standing_on,
-                occluded_by=pending[contact.occluder - 1][2] if contact.occluder else -1,
+                occluded_by=contact.occluder if contact.occluder else -1,
+                ref=idx,
             )
         )
     return sort_objects(objects)
@@ -414,6 +416,7 @@ def objects_from_detections(
                 standing_on=standing_on,
                 score=float(det.score),
                 occluded_by=occluder if occluders >= OCCLUDED_FRACTION else -1,
+                ref=index,
                 box_only=det.mask is None,
             )
         )

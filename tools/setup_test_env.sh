@@ -21,4 +21,4 @@ fi
 # torch first, pinned: the pinned CPU build is on this machine's disk; an open
 # requirement would pull a multi-GB CUDA build.
 python3 -m pip install -q "torch==2.13.0"
-python3 -m pip install -q -e ".[test,render,depth]"
+python3 -m pip install -q -e ".[test,render,depth,batch]"

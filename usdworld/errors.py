@@ -39,3 +39,13 @@ class ValidationFailed(UsdWorldError):
     """A written stage failed validation."""
 
     exit_code = 1
+
+
+class FramesFailed(UsdWorldError):
+    """Some frames of a batch failed (their records in ``batch.json`` say why)."""
+
+    exit_code = 1
+
+
+class ClusterError(UsdWorldError):
+    """The Dask cluster cannot be reached or its workers cannot run the batch."""

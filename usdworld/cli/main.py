@@ -13,6 +13,7 @@ import traceback
 import typer
 
 from usdworld.cli import build_cmd, demo_cmd, depth_cmd, info_cmd, validate_cmd
+from usdworld.cli import batch_cmd
 
 app = typer.Typer(
     add_completion=False,
@@ -35,6 +36,7 @@ def _root(
 
 build_cmd.register(app)
 depth_cmd.register(app)
+batch_cmd.register(app)
 demo_cmd.register(app)
 info_cmd.register(app)
 validate_cmd.register(app)

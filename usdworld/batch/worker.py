@@ -1,0 +1,144 @@
+"""The worker function: build one frame and return its record. Pure and picklable.
+
+:func:`run_frame` takes a :class:`FrameTask` (paths and strings only) and returns a
+:class:`~usdworld.batch.records.FrameRecord`; it never raises for a frame that cannot be
+built, it records the error. It calls :func:`usdworld.pipeline.build`, the same function as
+``usdworld build``, so ``OUT/<frame_id>/`` holds exactly what ``usdworld build -o
+OUT/<frame_id>`` writes. Local pool workers and Dask workers import this module (and so
+usdworld) themselves: every worker needs the same usdworld version installed and the same
+data and output paths (a shared filesystem on a cluster).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import socket
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+
+import usdworld
+from usdworld.batch.records import FrameRecord
+from usdworld.batch.resume import frame_key, world_complete
+from usdworld.errors import UsdWorldError
+from usdworld.pipeline import BuildRequest, build
+
+_isolated_ready = False
+
+
+@dataclass(frozen=True)
+class FrameTask:
+    """One frame to build.
+
+    Attributes:
+        frame_id: the frame id.
+        source: the photo as the dataset names it.
+        request: the build request; ``request.output`` is ``OUT/<frame_id>`` (absolute).
+        previous_key: the key of the frame's earlier complete world (``--resume``), or None
+            to build unconditionally.
+        isolated: True in a worker process of a pool or cluster: the process then logs
+            only errors (warnings are in the record) and runs OpenCV single-threaded (one
+            frame per core).
+    """
+
+    frame_id: str
+    source: str
+    request: BuildRequest
+    previous_key: str | None = None
+    isolated: bool = False
+
+
+def _memory_mb() -> tuple[float | None, float | None]:
+    """(current, peak) resident memory of this process in MiB, from /proc or getrusage."""
+    try:
+        values = {}
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith(("VmRSS:", "VmHWM:")):
+                    key, kb = line.split()[:2]
+                    values[key] = int(kb) / 1024.0
+        return round(values["VmRSS:"], 1), round(values["VmHWM:"], 1)
+    except (OSError, KeyError, ValueError):
+        pass
+    try:
+        import resource
+
+        return None, round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1)
+    except (ImportError, OSError):
+        return None, None
+
+
+def _prepare_isolated_process() -> None:
+    """Once per worker process: quiet the per-frame warnings and use one OpenCV thread."""
+    global _isolated_ready
+    if _isolated_ready:
+        return
+    logging.getLogger("usdworld").setLevel(logging.ERROR)
+    import cv2
+
+    cv2.setNumThreads(1)
+    _isolated_ready = True
+
+
+def _objects_in(folder: Path) -> int | None:
+    try:
+        return len(json.loads((folder / "report.json").read_text())["objects"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def run_frame(task: FrameTask) -> FrameRecord:
+    """Build one frame (or find it unchanged) and describe what happened.
+
+    Args:
+        task: the frame.
+
+    Returns:
+        Its record: ``built``, ``unchanged`` (same key as ``task.previous_key`` and a
+        complete world) or ``failed`` with the error.
+    """
+    start, cpu_start = time.perf_counter(), time.process_time()
+    if task.isolated:
+        _prepare_isolated_process()
+    worker = f"{socket.gethostname()}:{os.getpid()}"
+    key = None
+    status, objects, error, warnings, trace = "failed", None, None, (), None
+    try:
+        key = frame_key(task.request)
+        if task.previous_key == key and world_complete(task.request.output):
+            status, objects = "unchanged", _objects_in(task.request.output)
+        else:
+            result = build(task.request)
+            status, objects = "built", len(result.report["objects"])
+            warnings = tuple(result.report["warnings"])
+    except UsdWorldError as exc:
+        error = str(exc)
+    except Exception as exc:  # noqa: BLE001  (a bug: record it with the traceback, keep the batch going)
+        error = (
+            f"unexpected {type(exc).__name__}: {exc} (a bug; see the traceback in batch.json and report it)"
+        )
+        trace = traceback.format_exc()
+    rss, peak = _memory_mb()
+    return FrameRecord(
+        frame_id=task.frame_id,
+        status=status,
+        seconds=time.perf_counter() - start,
+        cpu_seconds=time.process_time() - cpu_start,
+        objects=objects,
+        error=error,
+        key=key,
+        source=task.source,
+        warnings=warnings,
+        worker=worker,
+        rss_mb=rss,
+        peak_rss_mb=peak,
+        traceback=trace,
+    )
+
+
+def worker_info() -> dict[str, str]:
+    """usdworld version and process of a worker (the Dask runner checks every worker with it)."""
+    return {"usdworld": usdworld.__version__, "worker": f"{socket.gethostname()}:{os.getpid()}"}

@@ -22,13 +22,16 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 from pxr import Usd, UsdGeom
 
 from usdworld.errors import InputError
 from usdworld.resources import asset_library_dir
+
+if TYPE_CHECKING:  # trimesh takes ~0.5 s to import; it is loaded only when meshes are needed
+    import trimesh
 
 #: Name of the variant set that holds an asset's alternative models.
 VARIANT_SET = "model"
@@ -265,6 +268,8 @@ def _mesh_cached(path_str: str, mtime_ns: int, variant: str | None) -> trimesh.T
         raise InputError(f"{path}: variant '{variant}' has no mesh geometry")
     rgb = _srgb8(np.concatenate(colors))
     rgba = np.concatenate([rgb, np.full((len(rgb), 1), 255, dtype=np.uint8)], axis=1)
+    import trimesh
+
     result = trimesh.Trimesh(np.concatenate(vertices), np.concatenate(faces), face_colors=rgba, process=False)
     del stage
     return result

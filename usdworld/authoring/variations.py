@@ -133,10 +133,29 @@ def _attempt(editor: WorldEditor, kind: str, rng: np.random.Generator) -> str | 
                 o = pool[rng.integers(len(pool))]
                 d = float(rng.uniform(-LANE_MOVE_M, LANE_MOVE_M))
                 yaw = math.radians(o.yaw_deg)
-                return editor.move(o.name, by=(round(d * math.cos(yaw), 3), round(d * math.sin(yaw), 3))).message
+                return editor.move(
+                    o.name, by=(round(d * math.cos(yaw), 3), round(d * math.sin(yaw), 3))
+                ).message
         except LayoutError:
             continue
     return None
+
+
+def _random_edits(editor: WorldEditor, rng: np.random.Generator) -> list[str]:
+    """Make 3-8 random permissible edits; a kind with no permissible candidate gives way to another."""
+    applied = []
+    for _ in range(int(rng.integers(EDITS_PER_VARIATION[0], EDITS_PER_VARIATION[1] + 1))):
+        kinds = list(KINDS)
+        while kinds:
+            kind = kinds.pop(int(rng.integers(len(kinds))))
+            try:
+                message = _attempt(editor, kind, rng)
+            except UsdWorldError:
+                message = None
+            if message:
+                applied.append(message)
+                break
+    return applied
 
 
 def make_variations(
@@ -172,12 +191,16 @@ def make_variations(
     root = Path(world)
     root = root / ROOT_LAYER if root.is_dir() else root
     if not root.is_file():
-        raise InputError(f"{root}: no such world; pass the world's root layer (e.g. OUT/world.usda) or its folder")
+        raise InputError(
+            f"{root}: no such world; pass the world's root layer (e.g. OUT/world.usda) or its folder"
+        )
     out = Path(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise InputError(f"{out}: cannot create the output folder ({exc.strerror}); choose another -o") from exc
+        raise InputError(
+            f"{out}: cannot create the output folder ({exc.strerror}); choose another -o"
+        ) from exc
     layer = Sdf.Layer.FindOrOpen(str(root))
     if layer is None:
         raise InputError(f"{root}: not a readable USD layer")
@@ -189,21 +212,15 @@ def make_variations(
         edits, var_root = out / f"{name}.edits.usda", out / f"{name}.usda"
         atomic_write_text(edits, "#usda 1.0\n\n")
         _write_root(var_root, [edits.name, *shared])
-        editor = WorldEditor(var_root, surface_rules=surface_rules, replacement_rules=replacement_rules,
-                             library=library, clock=lambda: "")
         rng = np.random.default_rng([seed, i])
-        applied = []
-        for _ in range(int(rng.integers(EDITS_PER_VARIATION[0], EDITS_PER_VARIATION[1] + 1))):
-            kinds = list(KINDS)
-            while kinds:
-                kind = kinds.pop(int(rng.integers(len(kinds))))
-                try:
-                    message = _attempt(editor, kind, rng)
-                except UsdWorldError:
-                    message = None
-                if message:
-                    applied.append(message)
-                    break
+        with WorldEditor(
+            var_root,
+            surface_rules=surface_rules,
+            replacement_rules=replacement_rules,
+            library=library,
+            clock=lambda: "",
+        ) as editor:
+            applied = _random_edits(editor, rng)
         lock = edits.with_name(edits.name + ".lock")
         lock.unlink(missing_ok=True)
         done.append(Variation(var_root, edits, tuple(applied)))

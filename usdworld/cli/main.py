@@ -13,6 +13,7 @@ import traceback
 import typer
 
 from usdworld.cli import build_cmd, demo_cmd, depth_cmd, info_cmd, validate_cmd
+from usdworld.cli import edit_cmd, vary_cmd
 from usdworld.cli import batch_cmd
 
 app = typer.Typer(
@@ -40,6 +41,8 @@ batch_cmd.register(app)
 demo_cmd.register(app)
 info_cmd.register(app)
 validate_cmd.register(app)
+edit_cmd.register(app)
+vary_cmd.register(app)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -33,10 +33,10 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Mapping
 
 import numpy as np
 
@@ -56,6 +56,9 @@ SURFACE_RULES_FILE = "surface_rules.json"
 REPLACEMENT_RULES_FILE = "replacement_rules.json"
 #: Number of same-class neighbours whose median scale sizes a new object.
 NEIGHBOURS = 3
+#: Margin around the objects' footprints that makes the ground extent of a world
+#: without ground meshes (built from detections only), metres.
+NO_MESH_MARGIN_M = 5.0
 #: Normal z-component above which a ground-mesh face counts as a top face.
 _TOP_NORMAL_Z = 0.9
 #: Barycentric slack of the point-in-triangle test (shared edges belong to both faces).
@@ -100,7 +103,9 @@ class Footprints:
         object.__setattr__(self, "scale", _frozen(np.asarray(scale, dtype=np.float64).reshape(n)))
         if len(self.classes) != n:
             raise ValueError(f"Footprints: {n} names but {len(self.classes)} classes")
-        if not (np.all(np.isfinite(self.centers)) and np.all(self.size_lw > 0) and np.all(np.isfinite(self.yaw))):
+        if not (
+            np.all(np.isfinite(self.centers)) and np.all(self.size_lw > 0) and np.all(np.isfinite(self.yaw))
+        ):
             raise ValueError("Footprints: centres and yaws must be finite and sizes > 0")
 
     def __len__(self) -> int:
@@ -196,7 +201,9 @@ def penetration_depth(a: np.ndarray, b: np.ndarray) -> float:
     return float(overlap.min())
 
 
-def overlapping(candidate: Candidate, others: Footprints, tol: float = OVERLAP_TOLERANCE_M) -> list[tuple[str, float]]:
+def overlapping(
+    candidate: Candidate, others: Footprints, tol: float = OVERLAP_TOLERANCE_M
+) -> list[tuple[str, float]]:
     """Objects whose footprint the candidate overlaps, with the overlap depth.
 
     Axis-aligned boxes are compared first; only where they overlap are the exact
@@ -219,7 +226,9 @@ def overlapping(candidate: Candidate, others: Footprints, tol: float = OVERLAP_T
     corners = rectangle_corners(candidate.center, candidate.size_lw, candidate.yaw)
     out = []
     for i in hits:
-        depth = penetration_depth(corners, rectangle_corners(others.centers[i], others.size_lw[i], others.yaw[i]))
+        depth = penetration_depth(
+            corners, rectangle_corners(others.centers[i], others.size_lw[i], others.yaw[i])
+        )
         if depth > tol:
             out.append((others.names[i], depth))
     return sorted(out, key=lambda item: (-item[1], item[0]))
@@ -231,12 +240,16 @@ def footprint_overlaps(objects: Footprints, tol: float = OVERLAP_TOLERANCE_M) ->
     Returns:
         (name_i, name_j, depth) with i before j in the table.
     """
-    out = []
+    out: list[tuple[str, str, float]] = []
     for i in range(len(objects)):
         cand = Candidate(objects.classes[i], objects.centers[i], objects.size_lw[i], float(objects.yaw[i]))
         rest = Footprints(
-            objects.names[i + 1 :], objects.classes[i + 1 :], objects.centers[i + 1 :],
-            objects.size_lw[i + 1 :], objects.yaw[i + 1 :], objects.scale[i + 1 :],
+            objects.names[i + 1 :],
+            objects.classes[i + 1 :],
+            objects.centers[i + 1 :],
+            objects.size_lw[i + 1 :],
+            objects.yaw[i + 1 :],
+            objects.scale[i + 1 :],
         )
         out.extend((objects.names[i], name, depth) for name, depth in overlapping(cand, rest, tol))
     return out
@@ -259,12 +272,19 @@ class Ground:
     extent: np.ndarray
 
     def __post_init__(self) -> None:
-        tris = {k: _frozen(np.asarray(v, dtype=np.float64).reshape(-1, 3, 3)) for k, v in self.triangles.items()}
+        tris = {
+            k: _frozen(np.asarray(v, dtype=np.float64).reshape(-1, 3, 3)) for k, v in self.triangles.items()
+        }
         unknown = sorted(set(tris) - set(SURFACES))
         if unknown:
             raise ValueError(f"Ground: unknown surfaces {unknown}; use {SURFACES[:2]}")
         object.__setattr__(self, "triangles", MappingProxyType(tris))
         object.__setattr__(self, "extent", _frozen(np.asarray(self.extent, dtype=np.float64).reshape(2, 2)))
+
+    @property
+    def has_meshes(self) -> bool:
+        """True when any surface has triangles (surfaces are known)."""
+        return any(len(t) for t in self.triangles.values())
 
 
 def top_faces(points_world: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -290,7 +310,7 @@ def make_ground(triangles: Mapping[str, np.ndarray], fallback_bounds: np.ndarray
     Args:
         triangles: surface name -> (T, 3, 3) float64 top faces.
         fallback_bounds: (2, 2) float64 extent to use when there is no ground mesh (e.g.
-            the bounds of the objects' footprints).
+            the bounds of the objects' footprints, padded by :data:`NO_MESH_MARGIN_M`).
 
     Raises:
         InputError: no triangles and no fallback.
@@ -302,7 +322,9 @@ def make_ground(triangles: Mapping[str, np.ndarray], fallback_bounds: np.ndarray
     elif fallback_bounds is not None:
         extent = np.asarray(fallback_bounds, dtype=np.float64).reshape(2, 2)
     else:
-        raise InputError("the world has no ground meshes and no objects: there is no ground to place anything on")
+        raise InputError(
+            "the world has no ground meshes and no objects: there is no ground to place anything on"
+        )
     return Ground(dict(triangles), extent)
 
 
@@ -479,7 +501,10 @@ def load_replacement_rules(path: Path | str | None = None) -> ReplacementRules:
 
 def fit_violations(candidate: Candidate, others: Footprints) -> list[Violation]:
     """``fit``: one violation per object the candidate overlaps."""
-    return [Violation("fit", f"overlaps {name} by {depth:.2f} m") for name, depth in overlapping(candidate, others)]
+    return [
+        Violation("fit", f"overlaps {name} by {depth:.2f} m")
+        for name, depth in overlapping(candidate, others)
+    ]
 
 
 def extent_violations(candidate: Candidate, ground: Ground) -> list[Violation]:
@@ -505,7 +530,12 @@ def surface_violations(class_name: str, surface: str, rules: SurfaceRules) -> li
     allowed = rules.for_class(class_name)
     if surface in allowed:
         return []
-    return [Violation("surface", f"{class_name} may stand on {' or '.join(allowed)}, not {surface} (rules: {rules.source})")]
+    return [
+        Violation(
+            "surface",
+            f"{class_name} may stand on {' or '.join(allowed)}, not {surface} (rules: {rules.source})",
+        )
+    ]
 
 
 def replacement_violations(old: str, new: str, rules: ReplacementRules) -> list[Violation]:
@@ -515,7 +545,8 @@ def replacement_violations(old: str, new: str, rules: ReplacementRules) -> list[
     return [
         Violation(
             "class",
-            f"{old} may be replaced by {', '.join(rules.alternatives(old))}, not {new} (rules: {rules.source})",
+            f"{old} may be replaced by {', '.join(rules.alternatives(old))}, not {new} "
+            f"(rules: {rules.source})",
         )
     ]
 
@@ -533,10 +564,12 @@ def check_placement(
         surface: also check the surface rule (off for a pure rotation, which keeps the origin).
 
     Returns:
-        The violations, fit first; empty when the edit is permissible.
+        The violations, fit first; empty when the edit is permissible. The surface rule
+        is skipped on a ground without meshes (e.g. a world built from detections only),
+        where no point's surface is known.
     """
     out = fit_violations(candidate, others) + extent_violations(candidate, ground)
-    if surface:
+    if surface and ground.has_meshes:
         names, _ = surface_at(candidate.center[None, :], ground)
         out += surface_violations(candidate.class_name, names[0], rules)
     return out

@@ -22,3 +22,5 @@ fi
 # requirement would pull a multi-GB CUDA build.
 python3 -m pip install -q "torch==2.13.0"
 python3 -m pip install -q -e ".[test,render,depth,batch]"
+# Browser clients (Debian chromium, node packages pinned in web/package-lock.json).
+bash tools/setup_web.sh

@@ -225,8 +225,8 @@ def write_ground_layer(model: WorldModel, path: Path) -> None:
 def write_root_layer(path: Path) -> None:
     """Write ``world.usda``: sublayers, units, up axis and default prim."""
     layer = Sdf.Layer.CreateNew(str(path))
-    layer.subLayerPaths.append(EDITS_LAYER)
-    layer.subLayerPaths.append(BASE_LAYER)
+    layer.subLayerPaths.append(f"./{EDITS_LAYER}")
+    layer.subLayerPaths.append(f"./{BASE_LAYER}")
     layer.defaultPrim = WORLD_PATH.strip("/")
     stage = Usd.Stage.Open(layer)
     _set_stage_metadata(stage)

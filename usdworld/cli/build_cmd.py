@@ -21,7 +21,9 @@ def build(
     depth: str = typer.Option("ground", "--depth", help="Depth backend: ground, file, monodepth, monodepth2 or hf."),
     depth_weights: Optional[Path] = typer.Option(None, "--depth-weights", help="Weights file/folder of a network backend."),
     depth_map: Optional[Path] = typer.Option(None, "--depth-map", help="Dense metric depth for --depth file: .npy, 16-bit PNG (m*256) or .pfm."),
-    library: Optional[Path] = typer.Option(None, "--library", help="User asset library layered over the built-in one."),
+    library: Optional[Path] = typer.Option(
+        None, "--library", envvar="USDWORLD_LIBRARY", help="User asset library layered over the built-in one."
+    ),
     max_range: float = typer.Option(80.0, "--max-range", help="Farthest ground distance meshed, metres."),
 ) -> None:
     """Build a layered USD world from one street image."""

@@ -24,6 +24,8 @@ MAX_RANGE_M = 80.0
 SLAB_DEPTH_M = 0.05
 #: Smallest surface piece kept, square metres.
 MIN_PIECE_AREA_M2 = 0.5
+#: Triangles smaller than this are dropped from surface meshes, square metres.
+MIN_TRIANGLE_AREA_M2 = 1e-8
 #: Outline simplification tolerance in pixels.
 OUTLINE_TOLERANCE_PX = 1.0
 
@@ -106,6 +108,9 @@ def extrude_surface(name: str, section: manifold3d.CrossSection, top_z: float, b
     mesh = solid.to_mesh()
     points = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
     faces = np.asarray(mesh.tri_verts, dtype=np.int64)
+    # Drop slivers: zero-area triangles have no normal (validators and glTF reject them).
+    a, b, c = (points[faces[:, k]] for k in range(3))
+    faces = faces[np.linalg.norm(np.cross(b - a, c - a), axis=1) > MIN_TRIANGLE_AREA_M2 * 2.0]
     return SurfaceMesh(name, points, faces, float(section.area()))
 
 

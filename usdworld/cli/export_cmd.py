@@ -1,0 +1,50 @@
+"""``usdworld export``: a world as usdz, usdc, flat usda or glb, validated."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+
+def export(
+    world: Path = typer.Argument(..., help="The world folder or its world.usda."),
+    fmt: str = typer.Option(..., "--format", "-f", help="usdz, usdc, usda-flat or glb."),
+    output: Path = typer.Option(..., "--output", "-o", help="File to write (.usdz/.usdc/.usda/.glb)."),
+    bake_edits: bool = typer.Option(
+        False, "--bake-edits", help="usdz: merge the edits and base layers into one root layer (usdc/usda-flat always do)."
+    ),
+    flatten: bool = typer.Option(
+        False, "--flatten", help="Compose everything (references, variants) into one self-contained layer, e.g. for three.js."
+    ),
+    drop_inactive: bool = typer.Option(
+        False, "--drop-inactive", help="Remove deleted objects instead of keeping them deactivated."
+    ),
+    no_validate: bool = typer.Option(False, "--no-validate", help="Skip validating the written file."),
+    no_omni: bool = typer.Option(False, "--no-omni", help="Validate USD without omni-asset-validator."),
+) -> None:
+    """Export a world for other tools and validate the result (exit 1 when the validator finds errors)."""
+    from usdworld.export import export_world
+
+    result = export_world(
+        world,
+        fmt,
+        output,
+        bake_edits=bake_edits,
+        flatten=flatten,
+        drop_inactive=drop_inactive,
+        validate=not no_validate,
+        omni=not no_omni,
+    )
+    extra = len(result.files) - 1
+    typer.echo(f"wrote {result.output}" + (f" (+{extra} asset file(s) beside it)" if extra else ""))
+    check = result.check
+    if check.skipped:
+        typer.echo(f"{check.checker}: not run ({check.skipped})")
+    else:
+        typer.echo(f"{check.checker}: 0 errors, {len(check.warnings)} warning(s)")
+
+
+def register(app: typer.Typer) -> None:
+    """Add the command to the app."""
+    app.command("export")(export)

@@ -17,7 +17,7 @@ import numpy as np
 from usdworld.authoring.asset_library import load_mesh
 from usdworld.geometry.camera import PinholeCamera
 
-ROAD, SIDEWALK, SKY, BUILDING = 7, 8, 23, 11
+ROAD, SIDEWALK, SKY, TERRAIN = 7, 8, 23, 22
 CLASS_IDS = {"car": 26, "person": 24, "truck": 27}
 
 
@@ -57,9 +57,14 @@ def default_camera(width: int = 1024, height: int = 512) -> PinholeCamera:
     return PinholeCamera(width, height, K, height_m=1.5, pitch=np.radians(1.0))
 
 
-def _fill_ground(label: np.ndarray, cam: PinholeCamera, y0: float, y1: float, value: int) -> None:
+#: Sidewalks are raised by a kerb, as in real streets (and as usdworld assumes).
+KERB_M = 0.15
+ROAD_HALF_WIDTH_M = 6.0
+
+
+def _fill_ground(label: np.ndarray, cam: PinholeCamera, y0: float, y1: float, value: int, z: float = 0.0) -> None:
     xs = np.array([2.0, 200.0])
-    corners = np.array([[xs[0], y0, 0], [xs[1], y0, 0], [xs[1], y1, 0], [xs[0], y1, 0]])
+    corners = np.array([[xs[0], y0, z], [xs[1], y0, z], [xs[1], y1, z], [xs[0], y1, z]])
     px, _ = cam.project(corners)
     cv2.fillPoly(label, [np.round(px * 16).astype(np.int32)], int(value), shift=4)
 
@@ -69,16 +74,18 @@ def draw(cam: PinholeCamera, objects: list[TruthObject]) -> tuple[np.ndarray, np
     H, W = cam.height, cam.width
     label = np.full((H, W), SKY, dtype=np.uint8)
     horizon = int(np.ceil(cam.horizon_v()))
-    label[horizon:] = BUILDING  # a far backdrop band the ground polygons cover up
-    _fill_ground(label, cam, -9.5, 9.5, SIDEWALK)
-    _fill_ground(label, cam, -6.0, 6.0, ROAD)
+    label[horizon:] = TERRAIN  # open ground beyond the sidewalks
+    _fill_ground(label, cam, -9.5, -ROAD_HALF_WIDTH_M, SIDEWALK, KERB_M)
+    _fill_ground(label, cam, ROAD_HALF_WIDTH_M, 9.5, SIDEWALK, KERB_M)
+    _fill_ground(label, cam, -ROAD_HALF_WIDTH_M, ROAD_HALF_WIDTH_M, ROAD)
     inst = label.astype(np.int32)
     order = sorted(objects, key=lambda o: -np.hypot(*o.center_world))
     for obj in order:
         mesh = load_mesh(obj.class_name)
         c, s = np.cos(obj.yaw), np.sin(obj.yaw)
         R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-        pts = mesh.vertices @ R.T + [obj.center_world[0], obj.center_world[1], 0.0]
+        z = KERB_M if abs(obj.center_world[1]) > ROAD_HALF_WIDTH_M else 0.0
+        pts = mesh.vertices @ R.T + [obj.center_world[0], obj.center_world[1], z]
         px, depth = cam.project(pts)
         tris = np.round(px[mesh.faces] * 16).astype(np.int32)
         mask = np.zeros((H, W), dtype=np.uint8)
@@ -88,8 +95,8 @@ def draw(cam: PinholeCamera, objects: list[TruthObject]) -> tuple[np.ndarray, np
         label[on] = CLASS_IDS[obj.class_name]
         inst[on] = obj.instance_id
     palette = np.zeros((256, 3), dtype=np.uint8)
-    palette[[SKY, BUILDING, SIDEWALK, ROAD, 24, 26, 27]] = [
-        (130, 180, 230), (120, 110, 100), (190, 185, 175), (70, 70, 75), (200, 60, 60), (40, 60, 160), (90, 90, 140)
+    palette[[SKY, TERRAIN, SIDEWALK, ROAD, 24, 26, 27]] = [
+        (130, 180, 230), (110, 140, 80), (190, 185, 175), (70, 70, 75), (200, 60, 60), (40, 60, 160), (90, 90, 140)
     ]
     rgb = palette[label]
     return rgb, label, inst

@@ -156,8 +156,10 @@ def test_add_refusals(world, editor):
         LayoutError, match=r"add tree_0001 refused: surface: tree may stand on sidewalk or other, not road"
     ):
         editor.add("tree", (30.0, 0.0))
+    person = next(o for o in editor.objects() if o.name == "person_0001")
+    x, y = (float(v) for v in person.position_world[:2])
     with pytest.raises(LayoutError, match=r"add person_0002 refused: fit: overlaps person_0001 by"):
-        editor.add("person", (12.1, -6.6))
+        editor.add("person", (x + 0.1, y - 0.1))
     with pytest.raises(InputError, match="unknown class 'unicorn'"):
         editor.add("unicorn", (30.0, 0.0))
     with pytest.raises(

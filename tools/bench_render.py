@@ -4,12 +4,17 @@
 Usage::
 
     python tools/bench_render.py [--seed 9] [--repeats 7] [--sizes 1024x512,2048x1024]
+                                 [--flythrough-frames 120] [--flythrough-size 960x480]
 
 The world is the synthetic street scene of ``--seed`` (the demo scene by default), authored
 from the built-in asset library and read back with ``RenderScene.from_stage``. Each pass is
 timed ``--repeats`` times after one warm-up render and the median is reported, in
 milliseconds. "all passes" is one :meth:`Renderer.render` with the shadow map recomputed
 (shadow + lit colour + labels and depth), i.e. the cost of a new view.
+
+The fly-through is then timed once: ``--flythrough-frames`` frames at ``--flythrough-size``
+of the same world with the red source vehicle, as ``usdworld flythrough`` renders them
+(a shadow map per frame, lit colour, H.264 encoding into a temporary MP4); 0 frames skips it.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ import argparse
 import platform
 import statistics
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -82,6 +88,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=9)
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--sizes", default="1024x512,2048x1024")
+    parser.add_argument("--flythrough-frames", type=int, default=120)
+    parser.add_argument("--flythrough-size", default="960x480")
     args = parser.parse_args(argv)
     if args.repeats < 5:
         parser.error("--repeats must be >= 5")
@@ -116,7 +124,32 @@ def main(argv: list[str] | None = None) -> int:
     print("|---|---:|---:|---:|---:|---:|")
     for size, shadow, colour, labels, total, first in rows:
         print(f"| {size} | {shadow:.0f} | {colour:.0f} | {labels:.0f} | **{total:.0f}** | {first:.0f} |")
+    if args.flythrough_frames:
+        _bench_flythrough(scene, args.flythrough_frames, _size(args.flythrough_size))
     return 0
+
+
+def _bench_flythrough(scene: object, frames: int, size: tuple[int, int]) -> None:
+    """Time ``render_flythrough`` on the scene (saved to a temporary folder) and print one line."""
+    from pxr import Usd
+
+    from usdworld.render.flythrough import render_flythrough
+    from usdworld.render.video import read_video_frames
+
+    with tempfile.TemporaryDirectory() as tmp:
+        stage_path = Path(tmp) / "world.usda"
+        author_stage(scene, stage_path)  # type: ignore[arg-type]
+        stage = Usd.Stage.Open(str(stage_path))
+        lighting = Lighting(sun_direction_world=scene.sun_direction_world)  # type: ignore[attr-defined]
+        result = render_flythrough(
+            stage, Path(tmp) / "fly.mp4", n_frames=frames, width=size[0], height=size[1], lighting=lighting
+        )
+        decoded = len(read_video_frames(result.path)[1])
+    print(
+        f"\nFly-through, {frames} frames at {size[0]}x{size[1]} (source vehicle added, H.264 yuv420p): "
+        f"**{result.total_s:.1f} s** in all, of which rendering {result.render_s:.1f} s "
+        f"({1000.0 * result.render_s / frames:.0f} ms per frame); {decoded} frames decode."
+    )
 
 
 if __name__ == "__main__":

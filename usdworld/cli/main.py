@@ -15,6 +15,7 @@ import typer
 from usdworld.cli import build_cmd, demo_cmd, depth_cmd, info_cmd, validate_cmd
 from usdworld.cli import edit_cmd, vary_cmd
 from usdworld.cli import batch_cmd
+from usdworld.cli import evaluate_cmd, flythrough_cmd, render_cmd, synth_cmd
 from usdworld.cli import assets_cmd, export_cmd
 
 app = typer.Typer(
@@ -42,6 +43,10 @@ batch_cmd.register(app)
 demo_cmd.register(app)
 info_cmd.register(app)
 validate_cmd.register(app)
+render_cmd.register(app)
+flythrough_cmd.register(app)
+synth_cmd.register(app)
+evaluate_cmd.register(app)
 export_cmd.register(app)
 assets_cmd.register(app)
 edit_cmd.register(app)

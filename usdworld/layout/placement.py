@@ -29,6 +29,8 @@ from usdworld.perception.depth.fusion import DepthCue, fuse, object_depth_cues
 from usdworld.layout.yaw import RoadAxis, choose_yaw
 from usdworld.perception.objects import ImageObject
 
+#: Added to a stuff object's collision priority so that every thing settles before it.
+STUFF_PRIORITY_OFFSET = 1e6
 #: Height of the kerb: objects standing on the sidewalk are lifted by this much.
 CURB_HEIGHT_M = 0.15
 
@@ -106,11 +108,26 @@ def _depth_of_ground_point(camera: PinholeCamera, p_ground: np.ndarray) -> float
     return float(camera.cam_from_world_points(np.array([[p_ground[0], p_ground[1], 0.0]]))[0, 2])
 
 
-def _choose_variant(sizes: AssetSizes, measured_h: float) -> str:
-    if not np.isfinite(measured_h) or len(sizes.by_variant) < 2:
+def _choose_variant(sizes: AssetSizes, measured_h: float, aspect: float, yaw_to_ray: float) -> str:
+    """The variant whose height and silhouette aspect best match the image.
+
+    Args:
+        sizes: the class's variants.
+        measured_h: metric height seen in the image (NaN when cut).
+        aspect: the mask's width / height in pixels (NaN when cut).
+        yaw_to_ray: object yaw minus the viewing ray's bearing, radians.
+    """
+    if len(sizes.by_variant) < 2 or not (np.isfinite(measured_h) or np.isfinite(aspect)):
         return sizes.default_variant
     names = sorted(sizes.by_variant)
-    errs = [abs(np.log(measured_h / sizes.by_variant[n][2])) for n in names]
+    errs = []
+    for n in names:
+        l, w, h = sizes.by_variant[n]
+        err = abs(np.log(measured_h / h)) if np.isfinite(measured_h) else 0.0
+        if np.isfinite(aspect) and aspect > 0:
+            across = abs(l * np.sin(yaw_to_ray)) + abs(w * np.cos(yaw_to_ray))
+            err += abs(np.log(aspect / (across / h)))
+        errs.append(err)
     return names[int(np.argmin(errs))]
 
 
@@ -157,7 +174,7 @@ def place_objects(
         counters[obj.class_name] = counters.get(obj.class_name, 0) + 1
         name = f"{obj.class_name}_{counters[obj.class_name]:04d}"
         args = (obj, name, prior_for(obj.class_name), asset_sizes[obj.class_name], camera, ground_from_px, axis)
-        draft = _draft(*args, depth_map, camera_sigma)
+        draft = _draft(*args, depth_map, camera_sigma, sidewalk_lift=sidewalk_lift)
         if draft is None:
             unplaced.append((obj, name))
         else:
@@ -174,7 +191,9 @@ def place_objects(
             continue
         args = (obj, name, prior_for(obj.class_name), asset_sizes[obj.class_name], camera, ground_from_px, axis)
         behind = occ["depth_m"] + occ["back_m"] + BEHIND_GAP_M
-        drafts.append(_draft(*args, depth_map, camera_sigma, forced=(behind, f"behind_{occ['name']}")))
+        drafts.append(
+            _draft(*args, depth_map, camera_sigma, forced=(behind, f"behind_{occ['name']}"), sidewalk_lift=sidewalk_lift)
+        )
 
     if depth_map is not None and drafts:
         result = apply_ordering_rules(
@@ -193,7 +212,11 @@ def place_objects(
         return placements, skipped
     centers = np.array([d["ground"] for d in drafts])
     half = footprint_half_extents(np.array([d["size"][:2] for d in drafts]), np.array([d["yaw"] for d in drafts]))
-    priority = np.array([d["depth_m"] / max(d["confidence"], 1e-3) for d in drafts])
+    # Things (vehicles, people) settle first: they are the photo's sharpest evidence, and a
+    # stuff region (a hedge, a facade chunk) should make way for them, not push them.
+    priority = np.array(
+        [d["depth_m"] / max(d["confidence"], 1e-3) + (0.0 if d["obj"].is_thing else STUFF_PRIORITY_OFFSET) for d in drafts]
+    )
     resolved = resolve_collisions(centers, half, priority)
     for d, disp, center in zip(drafts, resolved.displacement, resolved.centers):
         obj = d["obj"]
@@ -308,6 +331,7 @@ def _draft(  # noqa: PLR0913
     depth_map: DepthMap | None,
     camera_sigma: tuple[float, float],
     forced: tuple[float, str] | None = None,
+    sidewalk_lift: bool = True,
 ) -> dict | None:
     """Everything about one object before ordering rules and collisions; None when it cannot be placed.
 
@@ -318,6 +342,10 @@ def _draft(  # noqa: PLR0913
     contact_ground = apply_homography(ground_from_px, np.array([[u, v]]))[0]
     contact_ok = bool(np.all(np.isfinite(contact_ground))) and _depth_of_ground_point(camera, contact_ground) > 0
     front_contact = _depth_of_ground_point(camera, contact_ground) if contact_ok else float("nan")
+    if contact_ok and sidewalk_lift and obj.standing_on == "sidewalk":
+        # The homography maps to the road plane z = 0; the contact lies on the kerb top,
+        # which the viewing ray meets (h - kerb) / h of the way to the road plane.
+        front_contact *= (camera.height_m - CURB_HEIGHT_M) / camera.height_m
     bottom_seen = not (obj.bottom_truncated or obj.bottom_occluded)
     whole = bottom_seen and not obj.top_truncated
 
@@ -346,19 +374,24 @@ def _draft(  # noqa: PLR0913
     if not np.isfinite(front):
         return None
 
-    # Scale and variant from the visible height at the front depth.
+    # Yaw at the front point; variant and scale from the visible height and aspect there.
+    front_ground = _point_at_depth(camera, u, v, front)
+    yaw, _ = choose_yaw(prior.yaw, front_ground, axis)
+    bearing = float(np.arctan2(front_ground[1], front_ground[0]))
     measured_h = float(obj.height_px * front / camera.fy) if whole else float("nan")
-    variant = _choose_variant(sizes, measured_h)
+    sides_cut = obj.box_px[0] <= 0 or obj.box_px[2] >= camera.width
+    # The silhouette's aspect tells stuff variants apart (a conifer from a broad tree); for
+    # vehicles and people perspective dominates it, so only their height counts.
+    use_aspect = whole and not sides_cut and not obj.is_thing and obj.height_px > 0
+    aspect = obj.width_px / obj.height_px if use_aspect else float("nan")
+    variant = _choose_variant(sizes, measured_h, aspect, yaw - bearing)
     base = np.array(sizes.by_variant[variant], dtype=np.float64)
     scale_measured = float(measured_h / base[2]) if np.isfinite(measured_h) else float("nan")
     lo, hi = prior.scale_range
     scale = float(np.clip(scale_measured, lo, hi)) if np.isfinite(scale_measured) else 1.0
     size = base * scale
 
-    # Yaw at the front point, then move back along the ray by the footprint's half extent.
-    front_ground = _point_at_depth(camera, u, v, front)
-    yaw, _ = choose_yaw(prior.yaw, front_ground, axis)
-    bearing = float(np.arctan2(front_ground[1], front_ground[0]))
+    # Move back along the ray by the footprint's half extent.
     ray = camera.rays_world(np.array([[u, v]]))[0]
     horiz = max(float(np.hypot(ray[0], ray[1])), 1e-9)  # ground metres per metre of depth
     # A mask's lowest pixel is its nearest ground contact (tyres, feet); a detector's box

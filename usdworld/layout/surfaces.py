@@ -206,6 +206,11 @@ def build_surfaces(
     out = []
     road = sections.get("road")
     sidewalk = sections.get("sidewalk")
+    if sidewalk is not None and not sidewalk.is_empty():
+        # The homography maps onto the road plane z = 0; the sidewalk's top is the kerb
+        # height, where each viewing ray lands (h - kerb) / h as far from the camera.
+        factor = (camera.height_m - curb_height_m) / camera.height_m
+        sidewalk = sidewalk.scale((factor, factor))
     if road is not None and sidewalk is not None and not sidewalk.is_empty():
         road = road - sidewalk
     if road is not None:

@@ -162,11 +162,14 @@ def _contact_from_mask(
     else:
         hidden = np.zeros_like(on_ground)
     if thing:
-        # Judge a thing by its lowest columns (feet, tyres), not by arms or bumpers.
+        # Judge a thing by its lowest columns (feet, tyres), not by arms or bumpers,
+        # whose pixels below may be ground far behind the object.
         band = rows_abs >= lowest - max(2.0, BOTTOM_BAND_FRACTION * mask.shape[0])
         occluded = (not truncated) and on_ground[band].mean() < CONTACT_FRACTION
+        support = on_ground & band
     else:
         occluded = (not truncated) and not on_ground.any()
+        support = on_ground
     use = on_ground if on_ground.any() else ~hidden if (~hidden).any() else np.ones_like(on_ground)
     if thing:
         v = float(rows_abs[use].max()) + 0.5
@@ -177,8 +180,8 @@ def _contact_from_mask(
         u = float(cols_abs[use][mid]) + 0.5
         v = float(np.median(rows_abs[use])) + 0.5
     standing_on = ""
-    if below_labels is not None and on_ground.any():
-        values, counts = np.unique(below_labels[on_ground], return_counts=True)
+    if below_labels is not None and support.any():
+        values, counts = np.unique(below_labels[support], return_counts=True)
         standing_on = str(lookups.names[values[np.argmax(counts)]])
     occluder = 0
     if occluded and owner is not None and hidden.any():

@@ -1,0 +1,193 @@
+"""Fly-through: camera path, the red source vehicle in the session layer, and the MP4 itself.
+
+Rendering tests need headless OpenGL; without it they fail with the RenderError message
+naming the packages to install (they never skip).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Usd, UsdGeom
+
+from usdworld.cli.main import main
+from usdworld.errors import InputError
+from usdworld.pipeline import BuildRequest, build
+from usdworld.render import RenderScene
+from usdworld.render.flythrough import (
+    SOURCE_VEHICLE_PATH,
+    FlythroughPath,
+    add_source_vehicle,
+    car_asset_for,
+    flythrough_poses,
+    render_flythrough,
+    video_intrinsics,
+)
+from usdworld.render.video import Mp4Writer, moov_before_mdat, read_video_frames
+from usdworld.synth import make_street_scene, write_cityscapes_frame
+
+
+def _run(capsys, *args: str) -> tuple[int, str, str]:
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _source_pose(pitch_deg: float = 3.0, roll_deg: float = 1.0, height: float = 1.5) -> np.ndarray:
+    from usdworld.geometry.camera import PinholeCamera
+
+    K = np.array([[500.0, 0, 320], [0, 500.0, 160], [0, 0, 1]])
+    cam = PinholeCamera(640, 320, K, height, pitch=np.radians(pitch_deg), roll=np.radians(roll_deg), yaw=0.02)
+    return cam.world_from_cam()
+
+
+# -- path ----------------------------------------------------------------------------------
+
+
+def test_path_starts_at_the_source_and_ends_in_the_air_looking_down() -> None:
+    T0 = _source_pose()
+    path = FlythroughPath()
+    poses = flythrough_poses(T0, 60, path)
+    assert poses.shape == (60, 4, 4)
+    assert np.allclose(poses[0], T0, atol=1e-12)
+    for T in poses:  # rigid, right-handed
+        R = T[:3, :3]
+        assert np.allclose(R.T @ R, np.eye(3), atol=1e-9) and np.linalg.det(R) == pytest.approx(1.0)
+    end = poses[-1]
+    assert end[2, 3] == pytest.approx(path.aerial_height_m)
+    assert end[:3, 2][2] < -0.5  # the optical axis points steeply down
+    # Forward first: the camera keeps its height and orientation while it drives.
+    forward = poses[: int(0.35 * 59)]
+    assert np.allclose(forward[:, 2, 3], T0[2, 3]) and np.allclose(forward[:, :3, :3], T0[:3, :3])
+    assert forward[-1, 0, 3] > T0[0, 3] + 5.0
+    # It turns about the vertical axis: the final heading differs from the start by about turn_deg.
+    h0, h1 = T0[:3, 2][:2], end[:3, 2][:2]
+    turn = np.degrees(np.arccos(np.dot(h0, h1) / np.linalg.norm(h0) / np.linalg.norm(h1)))
+    assert turn > 60.0
+
+
+def test_path_is_smooth() -> None:
+    poses = flythrough_poses(_source_pose(), 120)
+    steps = np.linalg.norm(np.diff(poses[:, :3, 3], axis=0), axis=1)
+    assert steps.max() < 1.5  # metres per frame at 120 frames
+    axes = poses[:, :3, 2]
+    angles = np.degrees(np.arccos(np.clip(np.sum(axes[1:] * axes[:-1], axis=1), -1, 1)))
+    assert angles.max() < 4.0  # degrees per frame
+
+
+def test_path_rejects_bad_arguments() -> None:
+    with pytest.raises(InputError):
+        flythrough_poses(_source_pose(), 1)
+    with pytest.raises(InputError):
+        FlythroughPath(forward_m=30.0, focus_m=25.0)
+
+
+def test_video_intrinsics_keep_the_source_view_at_the_same_aspect() -> None:
+    K = np.array([[560.6, 0, 507.6], [0, 560.6, 257.1], [0, 0, 1]])
+    half = video_intrinsics(K, (1024, 512), (512, 256))
+    assert half[0, 0] == pytest.approx(280.3) and half[1, 1] == pytest.approx(280.3)
+    assert (half[0, 2] + 0.5) == pytest.approx((507.6 + 0.5) / 2) and (half[1, 2] + 0.5) == pytest.approx(
+        (257.1 + 0.5) / 2
+    )
+    assert np.allclose(video_intrinsics(K, (1024, 512), (1024, 512)), K)
+
+
+# -- video writer --------------------------------------------------------------------------
+
+
+def test_mp4_writer_rejects_odd_sizes_and_wrong_frames(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="even"):
+        Mp4Writer(tmp_path / "a.mp4", 33, 20)
+    with pytest.raises(Exception, match="frame must be"), Mp4Writer(tmp_path / "b.mp4", 32, 20) as video:
+        video.write(np.zeros((10, 10, 3), np.uint8))
+    assert not (tmp_path / "b.mp4").exists() and not list(tmp_path.glob(".*"))  # partial file removed
+
+
+# -- rendering a world ---------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def world(tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("fly")
+    scene = make_street_scene(np.random.default_rng(4), 256, 128)
+    files = write_cityscapes_frame(scene, root, "synth_000000_000004")
+    return build(
+        BuildRequest(
+            image=files["image"],
+            labels=files["labels"],
+            instances=files["instances"],
+            camera=files["camera"],
+            output=root / "w",
+        )
+    ).world
+
+
+def _layer_hashes(world: Path) -> dict[str, str]:
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in world.parent.rglob("*.usd*")}
+
+
+def test_source_vehicle_is_red_and_lives_in_the_session_layer(world: Path) -> None:
+    before = _layer_hashes(world)
+    stage = Usd.Stage.Open(str(world))
+    prim = add_source_vehicle(stage, car_asset_for(world))
+    assert prim.GetPath() == SOURCE_VEHICLE_PATH
+    assert stage.GetSessionLayer().GetPrimAtPath(SOURCE_VEHICLE_PATH)
+    assert not stage.GetRootLayer().GetPrimAtPath(SOURCE_VEHICLE_PATH)
+    assert all(not layer.dirty for layer in stage.GetLayerStack(includeSessionLayers=False))
+    scene = RenderScene.from_stage(stage)
+    red = np.all(np.isclose(scene.colors, [1.0, 0.0, 0.0]), axis=1)
+    vehicle = (scene.object_ids == 0) & (scene.class_ids == 26)  # a car outside /World/Objects
+    assert vehicle.sum() > 1000 and np.array_equal(red, vehicle)  # all of it red, nothing else
+    box = (
+        UsdGeom.BBoxCache(Usd.TimeCode.Default(), ["default", "render"])
+        .ComputeWorldBound(prim)
+        .ComputeAlignedRange()
+    )
+    assert box.GetMax()[0] == pytest.approx(0.5, abs=1e-4)  # bumper 0.5 m ahead of the camera's ground point
+    assert abs(box.GetMin()[1] + box.GetMax()[1]) < 1e-4 and box.GetMin()[2] == pytest.approx(0.0, abs=1e-4)
+    assert _layer_hashes(world) == before
+
+
+def test_mp4_decodes_with_the_requested_frame_count(world: Path, tmp_path: Path) -> None:
+    stage = Usd.Stage.Open(str(world))
+    calls = []
+    result = render_flythrough(
+        stage,
+        tmp_path / "fly.mp4",
+        n_frames=9,
+        width=96,
+        height=48,
+        progress=lambda d, t: calls.append((d, t)),
+    )
+    assert result.frames == 9 and calls[-1] == (9, 9) and len(calls) == 9
+    meta, frames = read_video_frames(tmp_path / "fly.mp4")
+    assert len(frames) == 9 and meta["size"] == (96, 48)
+    assert meta["codec"] == "h264" and meta["pix_fmt"].startswith("yuv420p")
+    assert moov_before_mdat(tmp_path / "fly.mp4")
+    assert frames[0].std() > 5  # a scene, not a blank frame
+
+
+def test_flythrough_command_and_bad_input(world: Path, tmp_path: Path, capsys) -> None:
+    out = tmp_path / "cli.mp4"
+    code, stdout, err = _run(
+        capsys, "flythrough", str(world), "-o", str(out), "--frames", "5", "--size", "64x32"
+    )
+    assert code == 0, err
+    assert stdout.startswith(f"wrote {out}: 5 frames 64x32 at 30 fps, H.264 yuv420p +faststart")
+    assert len(read_video_frames(out)[1]) == 5
+    cases = [
+        (["--size", "65x32"], "video size must be even and positive for H.264 yuv420p, got 65x32"),
+        (["--frames", "1"], "--frames must be >= 2, got 1"),
+        (["--size", "big"], "--size 'big': expected WIDTHxHEIGHT"),
+        (["--camera", "/World/Nope"], "--camera /World/Nope: no such prim"),
+    ]
+    for extra, expected in cases:
+        code, _, err = _run(capsys, "flythrough", str(world), "-o", str(tmp_path / "x.mp4"), *extra)
+        lines = err.strip().splitlines()
+        assert code == 2 and len(lines) == 1 and lines[0].startswith(f"error: {expected}"), (extra, err)
+    code, _, err = _run(capsys, "flythrough", str(world), "-o", str(tmp_path / "x.avi"))
+    assert code == 2 and err.strip() == f"error: -o {tmp_path / 'x.avi'}: the video must be an .mp4 file"
+    assert not (tmp_path / "x.mp4").exists()

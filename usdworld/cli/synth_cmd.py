@@ -1,0 +1,62 @@
+"""``usdworld synth``: procedural street scenes rendered to Cityscapes-format files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+#: Scene ``i`` of ``--seed S`` is sampled from ``numpy.random.default_rng(S + i)`` and named
+#: ``synth_000000_<S+i, 6 digits>``, so a scene does not depend on ``--count``.
+NAME_FORMAT = "synth_000000_{seed:06d}"
+
+
+def synth(
+    output: Path = typer.Option(..., "--output", "-o", help="Folder for the files (created if missing)."),
+    seed: int = typer.Option(..., "--seed", help="Random seed of the first scene (>= 0)."),
+    count: int = typer.Option(1, "--count", help="Number of scenes (seeds SEED, SEED+1, ...)."),
+    size: str | None = typer.Option(None, "--size", help="WIDTHxHEIGHT; default 1024x512."),
+) -> None:
+    """Sample street scenes, author them as USD and render Cityscapes-format files + ground truth."""
+    import numpy as np
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from usdworld.cli.render_cmd import parse_size
+    from usdworld.errors import InputError
+    from usdworld.synth import make_street_scene, write_cityscapes_frame
+
+    if seed < 0:
+        raise InputError(f"--seed must be >= 0, got {seed}")
+    if count < 1:
+        raise InputError(f"--count must be >= 1, got {count}")
+    width, height = parse_size(size) if size else (1024, 512)
+    if output.exists() and not output.is_dir():
+        raise InputError(f"-o {output}: exists and is not a folder")
+    console = Console(stderr=True)
+    names = []
+    columns = (
+        TextColumn("[bold]synth"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("scenes"),
+        TimeElapsedColumn(),
+    )
+    with Progress(*columns, console=console) as progress:
+        task = progress.add_task("synth", total=count)
+        for i in range(count):
+            name = NAME_FORMAT.format(seed=seed + i)
+            scene = make_street_scene(np.random.default_rng(seed + i), width, height)
+            write_cityscapes_frame(scene, output, name)
+            names.append(name)
+            progress.update(task, completed=i + 1)
+    for name in names:
+        typer.echo(str(output / f"{name}_leftImg8bit.png"))
+    typer.echo(
+        f"wrote {count} scene(s) of {width}x{height} to {output} (image, labelIds, instanceIds, camera, gt)"
+    )
+
+
+def register(app: typer.Typer) -> None:
+    """Add the command to the app."""
+    app.command("synth")(synth)

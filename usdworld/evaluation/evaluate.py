@@ -1,0 +1,229 @@
+"""Evaluate a world against its inputs: layout IoU, photo SSIM and 3D object errors.
+
+Example:
+    >>> stage = open_world("world/world.usda")                                 # doctest: +SKIP
+    >>> result = evaluate_world(stage, labels=read_label_ids("x_gtFine_labelIds.png"))  # doctest: +SKIP
+    >>> result.miou, result.per_class_iou["car"]                               # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from pxr import Usd
+
+from usdworld.errors import InputError
+from usdworld.evaluation.ground_truth import GroundTruth
+from usdworld.evaluation.objects import match_errors, match_objects, summarise, truth_in_world
+from usdworld.evaluation.segmentation import class_counts, ignored_mask, mean_iou, placeable_label_ids
+from usdworld.evaluation.ssim import ssim
+from usdworld.evaluation.world_objects import world_objects
+from usdworld.io.label_table import label_table
+from usdworld.render.outputs import view_camera, world_facts, world_image_size
+from usdworld.render.renderer import Renderer
+from usdworld.render.scene import RenderScene
+
+log = logging.getLogger(__name__)
+
+
+def class_name(label_id: int) -> str:
+    """Cityscapes name of a label id (``"id<N>"`` for ids outside the table)."""
+    for row in label_table():
+        if row.id == label_id:
+            return row.name
+    return f"id{label_id}"
+
+
+def read_label_ids(path: str | Path) -> np.ndarray:
+    """(H, W) uint8 Cityscapes label ids from an 8-bit ``*_labelIds.png``.
+
+    Raises:
+        InputError: missing file, not a PNG, or not single-channel 8-bit.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{p}: no such label image; pass --labels with a Cityscapes *_gtFine_labelIds.png")
+    img = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise InputError(f"{p}: not a readable PNG; pass a Cityscapes *_gtFine_labelIds.png")
+    if img.ndim != 2 or img.dtype != np.uint8:
+        raise InputError(
+            f"{p}: {img.dtype} image with shape {img.shape}; labels must be 8-bit single-channel label ids (*_gtFine_labelIds.png)"
+        )
+    return img
+
+
+def world_input_names(stage: Usd.Stage) -> dict[str, str]:
+    """Input file names the world was built from, by role (``image``, ``labels`` ...)."""
+    out: dict[str, str] = {}
+    for item in world_facts(stage).get("usdworld:inputFiles", []) or []:
+        role, _, name = str(item).partition("=")
+        if name:
+            out.setdefault(role, name)
+    return out
+
+
+def ids_match_world(stage: Usd.Stage, gt: GroundTruth) -> bool:
+    """Whether the ground truth's instance ids are the ones the world was built with.
+
+    Synth: the world's instance map is ``<prefix>_gtFine_instanceIds.png`` of the same
+    frame as ``<prefix>_gt.json``. KITTI: the label file itself (same SHA-256) was the
+    world's detections input. nuScenes boxes carry no such ids.
+    """
+    facts = world_facts(stage)
+    if gt.kind == "synth" and gt.file_name.endswith("_gt.json"):
+        prefix = gt.file_name[: -len("_gt.json")]
+        return world_input_names(stage).get("instances") == f"{prefix}_gtFine_instanceIds.png"
+    if gt.kind == "kitti":
+        return gt.sha256 in [str(h) for h in (facts.get("usdworld:inputHashes", []) or [])]
+    return False
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Everything ``usdworld evaluate`` reports.
+
+    Attributes:
+        size: (width, height) of the evaluation render.
+        classes: Cityscapes label ids the IoU is computed over.
+        per_class_iou: Cityscapes class name -> IoU (NaN: in neither map).
+        intersections: class name -> pixels in both maps.
+        unions: class name -> pixels in either map.
+        miou: mean of the finite IoUs (NaN without labels).
+        ssim: SSIM between photo and render (None without a photo).
+        objects: summary of the 3D errors (None without ground truth).
+        object_rows: one row per ground-truth object.
+        ground_truth: ``kind`` and file name of the ground truth, or None.
+        rendered_class_ids: (H, W) int32 rendered class map, kept for further analysis.
+    """
+
+    size: tuple[int, int]
+    classes: tuple[int, ...]
+    per_class_iou: dict[str, float]
+    intersections: dict[str, int]
+    unions: dict[str, int]
+    miou: float
+    ssim: float | None
+    objects: dict[str, Any] | None
+    object_rows: list[dict[str, Any]]
+    ground_truth: dict[str, str] | None
+    rendered_class_ids: np.ndarray = field(repr=False)
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dictionary (NaN written as null)."""
+
+        def num(x: float | None) -> float | None:
+            return None if x is None or not np.isfinite(x) else round(float(x), 6)
+
+        out: dict[str, Any] = {
+            "size": list(self.size),
+            "classes": [class_name(c) for c in self.classes],
+            "miou": num(self.miou),
+            "per_class_iou": {k: num(v) for k, v in self.per_class_iou.items()},
+            "ssim": num(self.ssim),
+        }
+        if self.objects is not None:
+            out["ground_truth"] = self.ground_truth
+            out["median_position_error_m"] = num(self.objects["median_position_error_m"])
+            out["objects"] = self.objects
+            out["object_rows"] = self.object_rows
+        return out
+
+
+def evaluate_world(
+    stage: Usd.Stage,
+    labels: np.ndarray | None = None,
+    photo: np.ndarray | None = None,
+    gt: GroundTruth | None = None,
+    classes: Sequence[int] | None = None,
+    size: tuple[int, int] | None = None,
+    renderer: Renderer | None = None,
+    ids_match: bool | None = None,
+) -> Evaluation:
+    """Render the world from its source camera and compare it with its inputs.
+
+    Args:
+        stage: the composed world.
+        labels: (H, W) Cityscapes label ids of the source image, or None.
+        photo: (H', W', 3) uint8 RGB source photo, or None (no SSIM).
+        gt: 3D ground truth, or None (no object errors).
+        classes: label ids to compute IoU over; default the classes the world places
+            (every class id its meshes carry).
+        size: (width, height) of the render; default the labels' size, else the world's image size.
+        renderer: a renderer of that size to reuse (else one is created and closed).
+        ids_match: whether ground-truth instance ids are the world's (default :func:`ids_match_world`).
+
+    Raises:
+        InputError: labels of another aspect ratio than the world's image.
+        RenderError: no usable OpenGL.
+    """
+    if size is None:
+        size = (labels.shape[1], labels.shape[0]) if labels is not None else world_image_size(stage)
+    width, height = size
+    if labels is not None and labels.shape != (height, width):
+        raise InputError(f"labels are {labels.shape[1]}x{labels.shape[0]} but the render is {width}x{height}")
+    ws, hs = world_image_size(stage)
+    if abs(width / height - ws / hs) > 0.02 * ws / hs:
+        raise InputError(
+            f"the render size {width}x{height} does not have the world's image aspect ratio ({ws}x{hs}); pass labels of the source image"
+        )
+    camera = view_camera(stage, width, height)
+    scene = RenderScene.from_stage(stage)
+    own = renderer is None
+    r = renderer if renderer is not None else Renderer(width, height)
+    try:
+        class_ids, _, _, _ = r.render_labels(scene, camera.K, camera.world_from_cam)
+        rgb = r.render_rgb(scene, camera.K, camera.world_from_cam) if photo is not None else None
+    finally:
+        if own:
+            r.close()
+    if classes is None:
+        classes = sorted(int(c) for c in np.unique(scene.class_ids) if c != 0)
+    per_class: dict[str, float] = {}
+    inter: dict[str, int] = {}
+    union: dict[str, int] = {}
+    miou = float("nan")
+    if labels is not None:
+        counts = class_counts(class_ids, placeable_label_ids(labels), classes, ignored_mask(labels))
+        for c, k in counts.items():
+            per_class[class_name(c)] = k.iou
+            inter[class_name(c)] = k.intersection
+            union[class_name(c)] = k.union
+        miou = mean_iou(per_class)
+    ssim_value = None
+    if photo is not None and rgb is not None:
+        photo_fit = (
+            photo
+            if photo.shape[:2] == (height, width)
+            else cv2.resize(photo, (width, height), interpolation=cv2.INTER_AREA)
+        )
+        ssim_value = ssim(photo_fit, rgb)
+    summary, rows, gt_info = None, [], None
+    if gt is not None:
+        truth = truth_in_world(gt, camera.world_from_cam)
+        placed = world_objects(stage)
+        use_ids = ids_match_world(stage, gt) if ids_match is None else ids_match
+        matches, unmatched = match_objects(truth, placed, camera.world_from_cam[:3, 3], use_ids)
+        rows = [match_errors(m, camera.world_from_cam) for m in matches]
+        summary = summarise(rows, len(unmatched))
+        summary["matched_by_instance_id"] = use_ids
+        gt_info = {"kind": gt.kind, "file": gt.file_name}
+    return Evaluation(
+        size=(width, height),
+        classes=tuple(int(c) for c in classes),
+        per_class_iou=per_class,
+        intersections=inter,
+        unions=union,
+        miou=miou,
+        ssim=ssim_value,
+        objects=summary,
+        object_rows=rows,
+        ground_truth=gt_info,
+        rendered_class_ids=class_ids,
+    )

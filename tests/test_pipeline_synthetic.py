@@ -55,7 +55,7 @@ def test_world_validates_and_is_reproducible(built, scene, tmp_path):
 
 def test_ground_surfaces_stay_on_the_true_road(built):
     surfaces = {s.name: s for s in built.model.surfaces}
-    assert set(surfaces) == {"road", "sidewalk"}
+    assert set(surfaces) == {"road", "sidewalk", "terrain"}
     road = surfaces["road"].points_world
     top = road[np.isclose(road[:, 2], 0.0)]
     # The true road is |y| <= 6 m; outlines are traced at pixel accuracy.
@@ -65,3 +65,6 @@ def test_ground_surfaces_stay_on_the_true_road(built):
     assert 5.7 <= np.abs(walk[:, 1]).min() and np.abs(walk[:, 1]).max() <= 9.8
     # What the camera sees of the road plus what hides right behind the cars.
     assert 450 < surfaces["road"].area_m2 < 12 * 80
+    # The terrain fills the rest of the 100 x 160 m square without overlapping them.
+    total = sum(s.area_m2 for s in surfaces.values())
+    assert total == pytest.approx(100.0 * 160.0, rel=1e-6)

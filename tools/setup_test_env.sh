@@ -21,6 +21,8 @@ fi
 # torch first, pinned: the pinned CPU build is on this machine's disk; an open
 # requirement would pull a multi-GB CUDA build.
 python3 -m pip install -q "torch==2.13.0"
-python3 -m pip install -q -e ".[test,render,depth,batch]"
-# Browser clients (Debian chromium, node packages pinned in web/package-lock.json).
+python3 -m pip install -q -e ".[test,render,depth,batch,serve]"
+# Browser clients (Debian chromium, node packages pinned in web/package-lock.json), and the
+# browser editor's build tools (webapp/), so the test that its committed page is current runs.
 bash tools/setup_web.sh
+bash tools/build_webapp.sh --check

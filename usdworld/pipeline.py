@@ -287,22 +287,16 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         depth,
         camera_sigma=(camera.sigma_height_m, camera.sigma_pitch),
     )
-    surfaces = ()
+    lk = label_lookups()
+    surface_ids = {"road": [lk.id_of("road"), lk.id_of("parking")], "sidewalk": [lk.id_of("sidewalk")]}
+    filled = None
     if seg is not None:
-        lk = label_lookups()
-        surface_ids = {"road": [lk.id_of("road"), lk.id_of("parking")], "sidewalk": [lk.id_of("sidewalk")]}
         labels = np.asarray(seg.label_ids)
         fill = occluded_ground_mask(labels.shape, _ground_occluders(placements), camera.camera, FILL_REACH_M)
-        surfaces = tuple(
-            build_surfaces(
-                fill_behind_occluders(labels, fill, _vanishing_point(camera.camera, axis.angle)),
-                surface_ids,
-                camera.camera,
-                fit.dst_from_src,
-                CURB_HEIGHT_M,
-                request.max_range_m,
-            )
-        )
+        filled = fill_behind_occluders(labels, fill, _vanishing_point(camera.camera, axis.angle))
+    surfaces = tuple(
+        build_surfaces(filled, surface_ids, camera.camera, fit.dst_from_src, CURB_HEIGHT_M, request.max_range_m)
+    )
     inputs = [image.file]
     if seg is not None:
         inputs.extend(seg.files)

@@ -41,7 +41,7 @@ GROUND_LAYER = "layers/ground.usdc"
 CAMERA_PATH = "/World/SourceCamera"
 
 #: Colours of the ground surfaces (linear RGB) and their semantic class.
-SURFACE_LOOKS = {"road": (0.09, 0.09, 0.1), "sidewalk": (0.45, 0.43, 0.4)}
+SURFACE_LOOKS = {"road": (0.09, 0.09, 0.1), "sidewalk": (0.45, 0.43, 0.4), "terrain": (0.16, 0.2, 0.1)}
 
 
 def _set_stage_metadata(stage: Usd.Stage) -> None:

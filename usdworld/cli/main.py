@@ -17,6 +17,7 @@ from usdworld.cli import edit_cmd, vary_cmd
 from usdworld.cli import batch_cmd
 from usdworld.cli import evaluate_cmd, flythrough_cmd, render_cmd, synth_cmd
 from usdworld.cli import assets_cmd, export_cmd
+from usdworld.cli import serve_cmd
 
 app = typer.Typer(
     add_completion=False,
@@ -51,6 +52,7 @@ export_cmd.register(app)
 assets_cmd.register(app)
 edit_cmd.register(app)
 vary_cmd.register(app)
+serve_cmd.register(app)
 
 
 def main(argv: list[str] | None = None) -> int:

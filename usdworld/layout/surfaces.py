@@ -24,6 +24,8 @@ MAX_RANGE_M = 80.0
 SLAB_DEPTH_M = 0.05
 #: Smallest surface piece kept, square metres.
 MIN_PIECE_AREA_M2 = 0.5
+#: How far behind the camera the terrain reaches (the fly-through starts there), metres.
+TERRAIN_BEHIND_M = 20.0
 #: Triangles smaller than this are dropped from surface meshes, square metres.
 MIN_TRIANGLE_AREA_M2 = 1e-8
 #: Outline simplification tolerance in pixels.
@@ -178,7 +180,7 @@ def occluded_ground_mask(
 
 
 def build_surfaces(
-    filled_ids: np.ndarray,
+    filled_ids: np.ndarray | None,
     class_ids: dict[str, list[int]],
     camera: PinholeCamera,
     ground_from_px: np.ndarray,
@@ -188,7 +190,8 @@ def build_surfaces(
     """Road and sidewalk meshes; the road is cut where the sidewalk lies.
 
     Args:
-        filled_ids: (H, W) uint8 Cityscapes label ids with the ground behind occluders filled in
+        filled_ids: None without labels (then only the terrain is made), else (H, W)
+            uint8 Cityscapes label ids with the ground behind occluders filled in
             (:func:`fill_behind_occluders`).
         class_ids: label ids that make up each surface, e.g. ``{"road": [7, 9], "sidewalk": [8]}``.
         camera: the source camera.
@@ -197,12 +200,15 @@ def build_surfaces(
         max_range_m: farthest ground distance meshed.
 
     Returns:
-        The non-empty surfaces, road first.
+        The non-empty surfaces: road, sidewalk, then ``terrain``, the plain ground that
+        fills the rest of a square reaching ``max_range_m`` ahead and to each side.
     """
-    sections = {
-        name: ground_cross_section(np.isin(filled_ids, ids), camera, ground_from_px, max_range_m)
-        for name, ids in class_ids.items()
-    }
+    sections = {}
+    if filled_ids is not None:
+        sections = {
+            name: ground_cross_section(np.isin(filled_ids, ids), camera, ground_from_px, max_range_m)
+            for name, ids in class_ids.items()
+        }
     out = []
     road = sections.get("road")
     sidewalk = sections.get("sidewalk")
@@ -221,4 +227,14 @@ def build_surfaces(
         mesh = extrude_surface("sidewalk", sidewalk, curb_height_m, -SLAB_DEPTH_M)
         if mesh is not None:
             out.append(mesh)
+    # Everything else within range is plain ground, so no view shows sky below the horizon.
+    terrain = manifold3d.CrossSection.square((max_range_m + TERRAIN_BEHIND_M, 2.0 * max_range_m)).translate(
+        (-TERRAIN_BEHIND_M, -max_range_m)
+    )
+    for section in (road, sidewalk):
+        if section is not None and not section.is_empty():
+            terrain = terrain - section
+    mesh = extrude_surface("terrain", terrain, 0.0, -SLAB_DEPTH_M)
+    if mesh is not None:
+        out.append(mesh)
     return out

@@ -286,6 +286,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         _asset_sizes(objects, libraries),
         depth,
         camera_sigma=(camera.sigma_height_m, camera.sigma_pitch),
+        max_partial_depth_m=request.max_range_m,
     )
     lk = label_lookups()
     surface_ids = {"road": [lk.id_of("road"), lk.id_of("parking")], "sidewalk": [lk.id_of("sidewalk")]}
@@ -312,7 +313,10 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     if not objects:
         warnings.append(f"{image.file.name}: no objects found; the world has ground and camera only")
     if skipped:
-        warnings.append(f"not placed (no visible ground contact and no usable height): {', '.join(skipped)}")
+        warnings.append(
+            f"not placed (no visible ground contact, or only a bound beyond {request.max_range_m:g} m): "
+            + ", ".join(skipped)
+        )
     if camera.estimated:
         warnings.append(f"camera estimated ({', '.join(camera.estimated)}): {camera.method}")
     return WorldModel(

@@ -147,6 +147,7 @@ def place_objects(
     depth_map: DepthMap | None = None,
     sidewalk_lift: bool = True,
     camera_sigma: tuple[float, float] = (0.0, 0.0),
+    max_partial_depth_m: float = 80.0,
 ) -> tuple[list[Placement], list[str]]:
     """Place every object in the world frame, then resolve footprint collisions.
 
@@ -161,6 +162,8 @@ def place_objects(
         sidewalk_lift: lift objects standing on the sidewalk to the kerb height.
         camera_sigma: standard deviations of the camera height (m) and pitch (rad),
             which widen the ground-contact cue when the camera was estimated.
+        max_partial_depth_m: objects whose depth is only an upper bound (cut or hidden
+            bottom) are dropped beyond this depth.
 
     Returns:
         Placements in the same order as ``objects`` and the names of objects that
@@ -181,11 +184,16 @@ def place_objects(
             drafts.append(draft)
 
     _move_behind_occluders(drafts, camera)
+    # A depth known only as an upper bound (a cut or hidden bottom) that lies beyond the
+    # world's range says nothing useful: the object is not placed.
+    far = [d for d in drafts if d["depth_method"].endswith("_partial") and d["depth_m"] > max_partial_depth_m]
+    drafts = [d for d in drafts if not any(d is f for f in far)]
+    unplaced.extend((d["obj"], d["name"]) for d in far)
     # Objects with no cue at all but a placed occluder go right behind it.
     by_ref = {d["obj"].ref: d for d in drafts if d["obj"].ref >= 0}
     skipped: list[str] = []
     for obj, name in unplaced:
-        occ = by_ref.get(obj.occluded_by) if obj.occluded_by >= 0 else None
+        occ = _occluder(by_ref, obj) if obj.class_name not in NOT_BOUNDING_OCCLUDERS else None
         if occ is None:
             skipped.append(name)
             continue
@@ -296,6 +304,20 @@ def _align_box_columns(
 BEHIND_GAP_M = 0.3
 
 
+#: Classes never used as an occluder's lower bound (a facade's bottom edge hides ground
+#: and things far behind it, so "just behind the building" says little), and never
+#: placed by that bound alone (a sliver of facade seen past a tree could be anywhere).
+NOT_BOUNDING_OCCLUDERS = ("building",)
+
+
+def _occluder(by_ref: dict[int, dict], obj: ImageObject) -> dict | None:
+    """The placed draft of the object hiding ``obj``'s bottom, when it can bound its depth."""
+    occ = by_ref.get(obj.occluded_by) if obj.occluded_by >= 0 else None
+    if occ is None or occ["obj"].class_name in NOT_BOUNDING_OCCLUDERS:
+        return None
+    return occ
+
+
 def _move_behind_occluders(drafts: list[dict], camera: PinholeCamera) -> None:
     """Use the object hiding an object's bottom as a lower bound of its depth.
 
@@ -306,7 +328,7 @@ def _move_behind_occluders(drafts: list[dict], camera: PinholeCamera) -> None:
     """
     by_ref = {d["obj"].ref: d for d in drafts if d["obj"].ref >= 0}
     for d in drafts:
-        occ = by_ref.get(d["obj"].occluded_by) if d["obj"].occluded_by >= 0 else None
+        occ = _occluder(by_ref, d["obj"])
         method = d["depth_method"]
         if occ is None or method not in ("contact_partial", "height_partial") or occ["depth_method"].endswith("_partial"):
             continue

@@ -10,6 +10,7 @@ are (their fit to the ground is still computed and recorded when possible, as a 
 
 from __future__ import annotations
 
+import io
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -141,19 +142,15 @@ def write_depth_outputs(depth: DepthMap, out_dir: Path, stem: str) -> dict[str, 
     """
     import cv2
 
+    from usdworld.atomic import ensure_output_dir, write_bytes_atomic
     from usdworld.io.depth_files import write_depth_png16
-    from usdworld.errors import OutputError
 
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"{out_dir}: cannot create the output folder ({exc.strerror}); choose another -o") from exc
+    ensure_output_dir(out_dir)
     values = np.where(depth.valid, depth.depth_m, 0.0).astype(np.float32)
     paths = {"npy": out_dir / f"{stem}_depth.npy", "png16": out_dir / f"{stem}_depth.png", "preview": out_dir / f"{stem}_depth_preview.png"}
-    tmp = paths["npy"].with_suffix(".npy.tmp")
-    with open(tmp, "wb") as fh:
-        np.save(fh, values)
-    tmp.replace(paths["npy"])
+    buffer = io.BytesIO()
+    np.save(buffer, values)
+    write_bytes_atomic(paths["npy"], buffer.getvalue())
     write_depth_png16(paths["png16"], values)
     # Preview: inverse depth (near = bright) through a perceptual colour map; invalid black.
     inv = np.zeros_like(values)
@@ -163,7 +160,5 @@ def write_depth_outputs(depth: DepthMap, out_dir: Path, stem: str) -> dict[str, 
     preview = cv2.applyColorMap(grey, cv2.COLORMAP_MAGMA)
     preview[~depth.valid] = 0
     ok, data = cv2.imencode(".png", preview)
-    tmp = paths["preview"].with_suffix(".png.tmp")
-    tmp.write_bytes(data.tobytes())
-    tmp.replace(paths["preview"])
+    write_bytes_atomic(paths["preview"], data.tobytes())
     return paths

@@ -64,7 +64,6 @@ import json
 import math
 import os
 import re
-import tempfile
 import weakref
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -79,7 +78,8 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
 from usdworld.authoring import asset_library
 from usdworld.authoring.provenance import PROVENANCE_API, apply_with_values
 from usdworld.authoring.world import ASSETS_DIR, GROUND_PATH, OBJECTS_PATH, ROOT_LAYER, copy_asset
-from usdworld.errors import AuthoringError, InputError, LayoutError
+from usdworld.atomic import write_text_atomic
+from usdworld.errors import AuthoringError, InputError, LayoutError, OutputError
 from usdworld.layout import permissible as rules
 from usdworld.layout.priors import class_priors, prior_for
 
@@ -141,26 +141,8 @@ def parse_color(text: str) -> tuple[tuple[float, float, float], str]:
 
 
 def atomic_write_text(path: Path, text: str) -> None:
-    """Write a file so that readers see the old or the new content, never a mix.
-
-    The text goes to a temporary file in the same folder, is flushed to disk, and is
-    renamed over ``path``; on any failure the temporary file is removed and ``path`` is
-    untouched.
-    """
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(text.encode("utf-8"))
-            f.flush()
-            os.fsync(f.fileno())
-        with contextlib.suppress(OSError):
-            os.chmod(tmp, path.stat().st_mode & 0o777 if path.exists() else 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    """Write a layer so that readers see the old or the new content, never a mix (flushed to disk)."""
+    write_text_atomic(path, text, fsync=True)
 
 
 class _FileLock:
@@ -449,9 +431,11 @@ class WorldEditor:
         text = self._edits.ExportToString()
         try:
             atomic_write_text(self.edits_path, text)
-        except OSError as exc:
+        except OutputError as exc:
+            cause = exc.__cause__
+            reason = cause.strerror if isinstance(cause, OSError) and cause.strerror else str(exc)
             raise AuthoringError(
-                f"{self.edits_path}: cannot save the edits ({exc.strerror}); nothing was changed"
+                f"{self.edits_path}: cannot save the edits ({reason}); nothing was changed"
             ) from exc
         self._synced = text.encode("utf-8")
 

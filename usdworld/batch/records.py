@@ -22,8 +22,6 @@ it arrives, so ``--resume`` after an interrupted batch knows what was already bu
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -31,6 +29,7 @@ from typing import Any, Self, TextIO
 
 import usdworld
 from usdworld.batch.frames import Incomplete
+from usdworld.atomic import write_text_atomic
 from usdworld.errors import InputError, OutputError
 
 BATCH_FILE = "batch.json"
@@ -146,21 +145,12 @@ class BatchSummary:
 
 
 def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to a temporary file beside ``path``, then rename it over ``path``.
+    """Write ``text`` to ``path`` atomically (temporary file beside it, then rename).
 
     Raises:
         OutputError: the folder cannot be written.
     """
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise OutputError(
-            f"{path}: cannot write ({exc.strerror or exc}); check the output folder is writable"
-        ) from exc
+    write_text_atomic(path, text)
 
 
 def batch_document(summary: BatchSummary, source: str, layout: str) -> dict[str, Any]:

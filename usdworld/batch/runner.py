@@ -7,7 +7,6 @@ decides what a failure means (the CLI exits 1, see :class:`FramesFailed`).
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Iterable
 from pathlib import Path
@@ -26,7 +25,8 @@ from usdworld.batch.records import (
     write_batch_file,
 )
 from usdworld.batch.worker import FrameTask
-from usdworld.errors import FramesFailed, OutputError
+from usdworld.atomic import ensure_output_dir
+from usdworld.errors import FramesFailed
 from usdworld.layout.surfaces import MAX_RANGE_M
 
 
@@ -36,18 +36,7 @@ def prepare_output(out_dir: Path) -> Path:
     Raises:
         OutputError: it exists as a file, or cannot be created or written.
     """
-    out = Path(out_dir).absolute()
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"{out}: exists and is not a folder; choose another -o")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(
-            f"{out}: cannot create the output folder ({exc.strerror or exc}); choose another -o"
-        ) from exc
-    if not os.access(out, os.W_OK | os.X_OK):
-        raise OutputError(f"{out}: folder is not writable; choose another -o")
-    return out
+    return ensure_output_dir(Path(out_dir).absolute())
 
 
 def run_batch(

@@ -17,16 +17,14 @@ Example:
 
 from __future__ import annotations
 
-import contextlib
 import io
-import os
 import re
-import tempfile
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from usdworld.atomic import write_bytes_atomic
 from usdworld.errors import InputError, OutputError
 from usdworld.io.hashing import PathLike, read_input
 from usdworld.io.images import decode_unchanged, sniff_format
@@ -143,26 +141,6 @@ def read_depth(path: PathLike, image: SourceImage | None = None) -> DepthMap:
     return DepthMap(depth_m=depth, valid=valid, source=f"file:{name}")
 
 
-def _write_atomic(path: PathLike, data: bytes) -> None:
-    target = Path(path)
-    try:
-        fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
-    except OSError as exc:
-        raise OutputError(
-            f"{target}: cannot write in {target.parent} ({exc.strerror}); check the folder"
-        ) from exc
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, target)
-    except OSError as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise OutputError(
-            f"{target}: cannot be written ({exc.strerror}); check the path and free space"
-        ) from exc
-
-
 def _as_depth_2d(depth: np.ndarray, target: PathLike) -> np.ndarray:
     arr = np.asarray(depth)
     if arr.ndim != 2 or arr.size == 0 or arr.dtype.kind not in "fiu":
@@ -195,7 +173,7 @@ def write_depth_png16(path: PathLike, depth_m: np.ndarray) -> None:
     ok, buf = cv2.imencode(".png", stored)
     if not ok:
         raise OutputError(f"{Path(path).name}: OpenCV could not encode the PNG")
-    _write_atomic(path, buf.tobytes())
+    write_bytes_atomic(path, buf.tobytes())
 
 
 def write_pfm(path: PathLike, depth: np.ndarray) -> None:
@@ -211,4 +189,4 @@ def write_pfm(path: PathLike, depth: np.ndarray) -> None:
     arr = _as_depth_2d(depth, path).astype("<f4")
     height, width = arr.shape
     header = f"Pf\n{width} {height}\n-1.0\n".encode("ascii")
-    _write_atomic(path, header + np.ascontiguousarray(np.flipud(arr)).tobytes())
+    write_bytes_atomic(path, header + np.ascontiguousarray(np.flipud(arr)).tobytes())

@@ -96,7 +96,6 @@ def resolve_collisions(centers: np.ndarray, half: np.ndarray, priority: np.ndarr
     centers = np.asarray(centers, dtype=np.float64).reshape(-1, 2)
     half = np.asarray(half, dtype=np.float64).reshape(-1, 2)
     priority = np.asarray(priority, dtype=np.float64).reshape(-1)
-    n = len(centers)
     order = np.lexsort((half[:, 1], half[:, 0], centers[:, 1], centers[:, 0], priority))
     out = centers.copy()
     placed: list[int] = []

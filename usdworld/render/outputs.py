@@ -20,8 +20,6 @@ from __future__ import annotations
 import functools
 import io
 import logging
-import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -31,6 +29,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from usdworld.authoring.provenance import read_values
+from usdworld.atomic import ensure_output_dir, write_bytes_atomic
 from usdworld.errors import CalibrationError, InputError, OutputError
 from usdworld.io.label_table import label_table
 from usdworld.render.camera import CameraPose, camera_from_usd
@@ -174,17 +173,6 @@ def overlay(photo_rgb: np.ndarray, class_rgb: np.ndarray, alpha: float = OVERLAY
     return np.clip((1.0 - alpha) * photo + alpha * class_rgb, 0, 255).astype(np.uint8)
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise OutputError(f"{path}: cannot write ({exc.strerror}); check the folder is writable") from None
-
-
 def png_bytes(image: np.ndarray) -> bytes:
     """PNG encoding of an (H, W) grey (8/16-bit) or (H, W, 3) RGB uint8 image."""
     a = np.asarray(image)
@@ -253,15 +241,7 @@ def write_render_outputs(
     Raises:
         OutputError: the folder cannot be created or written.
     """
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"{out}: exists and is not a folder; choose another -o")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(
-            f"{out}: cannot create the output folder ({exc.strerror}); choose another -o"
-        ) from None
+    out = ensure_output_dir(out_dir)
     labels = label_ids_image(result)
     class_rgb = colorize_labels(labels)
     instances = instance_ids_image(result)
@@ -280,5 +260,5 @@ def write_render_outputs(
     paths = {}
     for role, (name, data) in images.items():
         paths[role] = out / name
-        _atomic_write(paths[role], data)
+        write_bytes_atomic(paths[role], data)
     return paths

@@ -19,14 +19,13 @@ Every file is written atomically, and the same scene gives the same bytes.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
+from usdworld.atomic import write_bytes_atomic
 from usdworld.errors import OutputError
 from usdworld.render import Lighting, Renderer, RenderResult, RenderScene, label_id_for_class
 from usdworld.synth.scene import SynthScene
@@ -40,17 +39,6 @@ GT_FORMAT = "usdworld-synth-gt/1"
 def _r(value: float, digits: int = 6) -> float:
     v = round(float(value), digits)
     return 0.0 if v == 0 else v
-
-
-def _atomic_write(path: Path, data: bytes) -> None:
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise OutputError(f"{path}: cannot write ({exc}); check the folder is writable") from None
 
 
 def _png(image: np.ndarray) -> bytes:
@@ -169,9 +157,9 @@ def write_cityscapes_frame(scene: SynthScene, out_dir: str | Path, name: str) ->
         "camera": out / f"{name}_camera.json",
         "gt": out / f"{name}_gt.json",
     }
-    _atomic_write(paths["image"], _png(result.rgb[:, :, ::-1]))
-    _atomic_write(paths["labels"], _png(labels))
-    _atomic_write(paths["instances"], _png(instances))
-    _atomic_write(paths["camera"], _json(cityscapes_camera_json(scene)))
-    _atomic_write(paths["gt"], _json(ground_truth(scene, render_input, result)))
+    write_bytes_atomic(paths["image"], _png(result.rgb[:, :, ::-1]))
+    write_bytes_atomic(paths["labels"], _png(labels))
+    write_bytes_atomic(paths["instances"], _png(instances))
+    write_bytes_atomic(paths["camera"], _json(cityscapes_camera_json(scene)))
+    write_bytes_atomic(paths["gt"], _json(ground_truth(scene, render_input, result)))
     return paths

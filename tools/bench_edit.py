@@ -130,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
 
     def add_then_undo(i: int) -> float:
         t0 = time.perf_counter()
-        editor.add("person", (30.0 + 2.0 * (i % 20), -22.0))
+        editor.add("person", (30.0 + 1.5 * (i % 20), -21.0))
         spent = time.perf_counter() - t0
         editor.undo()
         return spent

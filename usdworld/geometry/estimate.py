@@ -206,6 +206,7 @@ def estimate_camera(
         notes.append(f"intrinsics assumed: {DEFAULT_HFOV_DEG:g} deg horizontal FOV, centred principal point")
     if roll is None:
         estimated.append("roll")
+        notes.append("roll assumed level (0)")
         roll = 0.0
     if yaw is None:
         yaw = 0.0

@@ -5,7 +5,10 @@ is computed (the ground contact through the DLT homography ``ground_from_px``, t
 class-height prior, and a dense depth map's robust mean when one is given) and fused
 by inverse-variance weighting (:mod:`usdworld.perception.depth.fusion`); the contact
 cue is widened by the camera's own uncertainty when the camera was estimated. With a
-depth map, the paper's ordering rules then repair the fused depths.
+depth map, the paper's ordering rules then repair the depths the map decided alone
+(objects with no ground contact or height cue); depths carried by the contact already
+follow the ground lines the rules assume, and applying the rules to them was measured to
+make them worse (tools/eval_depth_fusion.py).
 
 Position (step 2): the object is placed on the viewing ray of its contact pixel, moved
 back by the footprint's half extent along that ray, so that the object's centre, not
@@ -29,6 +32,8 @@ from usdworld.perception.depth.fusion import DepthCue, fuse, object_depth_cues
 from usdworld.layout.yaw import RoadAxis, choose_yaw
 from usdworld.perception.objects import ImageObject
 
+#: Depth methods the paper's ordering rules may change (those decided by the dense map).
+ORDERED_METHODS = ("cnn", "contact_partial", "height_partial")
 #: Added to a stuff object's collision priority so that every thing settles before it.
 STUFF_PRIORITY_OFFSET = 1e6
 #: Height of the kerb: objects standing on the sidewalk are lifted by this much.
@@ -158,7 +163,7 @@ def place_objects(
         axis: the road axis, for yaw.
         asset_sizes: asset sizes of every class that occurs.
         depth_map: optional dense metric depth; when given, it adds the ``cnn`` cue and
-            the paper's ordering rules run on the fused depths.
+            the paper's ordering rules repair the depths the map decided alone.
         sidewalk_lift: lift objects standing on the sidewalk to the kerb height.
         camera_sigma: standard deviations of the camera height (m) and pitch (rad),
             which widen the ground-contact cue when the camera was estimated.
@@ -210,7 +215,9 @@ def place_objects(
             np.array([d["obj"].box_px for d in drafts], dtype=np.float64),
         )
         for d, depth, rule in zip(drafts, result.depth_m, result.rule):
-            if rule:
+            # The rules repair what a depth map gets wrong; a depth decided by the ground
+            # contact or the height prior already obeys the ground lines and is kept.
+            if rule and d["depth_method"] in ORDERED_METHODS:
                 d["depth_m"] = float(depth)
                 d["depth_method"] += "+" + rule
                 d["ground"] = _point_at_depth(camera, *d["obj"].contact_px, float(depth))

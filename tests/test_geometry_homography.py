@@ -41,21 +41,36 @@ def homographies(draw):
     return H
 
 
+def _well_conditioned(H: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
+    """Points away from the line that H sends to infinity (noise there is amplified without bound)."""
+    src = rng.uniform(-1, 1, size=(n, 2)) * 100
+    w = src @ H[2, :2] + H[2, 2]
+    return src[(w > 0.5) & (w < 2.0)]
+
+
 @given(H=homographies(), seed=st.integers(0, 2**16))
-def test_recovers_h_up_to_scale_from_noisy_points(H, seed):
-    rng = np.random.default_rng(seed)
-    src = rng.uniform(-1, 1, size=(30, 2)) * 100
-    dst = apply_homography(H, src)
-    if not np.isfinite(dst).all() or np.abs(dst).max() > 1e4:
+def test_recovers_h_up_to_scale_exactly_without_noise(H, seed):
+    src = _well_conditioned(H, np.random.default_rng(seed), 60)
+    if len(src) < 8:
         return
-    noisy = dst + rng.normal(0, 1e-3, size=dst.shape)
+    fit = estimate_homography(src, apply_homography(H, src))
+    unit = H / np.linalg.norm(H)
+    np.testing.assert_allclose(fit.dst_from_src, unit * np.sign(unit[2, 2]), atol=1e-8)
+
+
+@given(H=homographies(), seed=st.integers(0, 2**16))
+def test_recovers_h_from_noisy_points(H, seed):
+    rng = np.random.default_rng(seed)
+    src = _well_conditioned(H, rng, 60)
+    held_out = _well_conditioned(H, rng, 60)
+    if len(src) < 12 or len(held_out) < 1:
+        return
+    noisy = apply_homography(H, src) + rng.normal(0, 1e-3, size=(len(src), 2))
     fit = estimate_homography(src, noisy)
-    est = _normalised(fit.dst_from_src)
-    mapped = apply_homography(est, src)
-    # Transfer error stays near the noise level (amplified where points approach the
-    # line at infinity) and H matches up to scale.
-    assert np.sqrt(np.mean(np.sum((mapped - dst) ** 2, axis=1))) < 1e-4 * np.abs(dst).max() + 0.01
-    np.testing.assert_allclose(est, _normalised(H), atol=1e-3 * max(1, np.abs(_normalised(H)).max()))
+    # Under noise, H is identified by what it does: points it was not fitted on land
+    # where the true H sends them, to within a few times the noise (1e-3).
+    error = np.linalg.norm(apply_homography(fit.dst_from_src, held_out) - apply_homography(H, held_out), axis=1)
+    assert np.median(error) < 5e-3 and fit.rms_dst < 5e-3
 
 
 def test_too_few_points():

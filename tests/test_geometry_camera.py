@@ -84,3 +84,23 @@ def test_intrinsics_from_fov():
     assert (K60[0, 2], K60[1, 2]) == (100.0, 50.0)
     with pytest.raises(CalibrationError):
         intrinsics_from_fov(200, 100, 180.0)
+
+
+def test_vanishing_point_of_the_road_direction():
+    cam = PinholeCamera(1280, 720, K, height_m=1.5, pitch=np.radians(2.0))
+    u, v = cam.vanishing_point(np.array([1.0, 0.0, 0.0]))
+    assert u == pytest.approx(640.0) and v == pytest.approx(cam.horizon_v())
+    # A direction 45 degrees to the left vanishes f * tan(45) = 1000 px left of centre (level camera).
+    level = PinholeCamera(1280, 720, K, height_m=1.5)
+    assert level.vanishing_point(np.array([1.0, 1.0, 0.0]))[0] == pytest.approx(640.0 - 1000.0)
+    assert level.vanishing_point(np.array([-1.0, 0.0, 0.0])) is None
+
+
+def test_ground_correspondences_lie_on_the_ground():
+    from usdworld.geometry.camera import ground_correspondences
+
+    cam = PinholeCamera(1280, 720, K, height_m=1.6, pitch=0.03)
+    px, ground = ground_correspondences(cam, (4, 5))
+    assert len(px) == 20 and px[:, 1].min() > cam.horizon_v()
+    back, _ = cam.project(np.column_stack([ground, np.zeros(len(ground))]))
+    np.testing.assert_allclose(back, px, atol=1e-9)

@@ -1,7 +1,7 @@
 """``build``: one image (plus labels or detections and a camera) to a USD world folder.
 
-This module wires the stages together and holds no logic of its own beyond choosing
-which inputs feed which stage. :func:`build` is a pure function of its request (no
+This module wires the stages together: it chooses which inputs feed which stage and
+holds only the small adapters that turn one stage's output into the next one's input. :func:`build` is a pure function of its request (no
 global state, picklable arguments), so batch runners can call it in worker processes.
 """
 
@@ -21,14 +21,14 @@ import numpy as np
 from usdworld.authoring import asset_library
 from usdworld.authoring.world import EDITS_LAYER, ROOT_LAYER, write_world
 from usdworld.errors import InputError, OutputError
-from usdworld.geometry.camera import PinholeCamera
+from usdworld.geometry.camera import PinholeCamera, ground_correspondences
 from usdworld.geometry.estimate import CameraEstimate, HeightObservations, estimate_camera
 from usdworld.geometry.homography import HomographyFit, apply_homography, estimate_homography
+from usdworld.depth_stage import DepthOutcome, estimate_depth
 from usdworld.io.camera_files import read_camera
 from usdworld.io.correspondences import read_correspondences
-from usdworld.depth_stage import DepthOutcome, estimate_depth
-from usdworld.io.hashing import read_input
 from usdworld.io.detections import read_detections_json, read_kitti_labels
+from usdworld.io.hashing import read_input
 from usdworld.io.images import read_image
 from usdworld.io.labels import read_polygons, read_segmentation
 from usdworld.io.types import CameraSpec, Segmentation, SourceImage
@@ -171,43 +171,19 @@ def _camera(spec: CameraSpec | None, image: SourceImage, objects: list[ImageObje
     )
 
 
-def _camera_correspondences(camera: PinholeCamera) -> tuple[np.ndarray, np.ndarray]:
-    """A grid of pixels below the horizon and their ground points under the camera model."""
-    horizon = max(camera.horizon_v(0.0), camera.horizon_v(float(camera.width)))
-    top = max(horizon + DLT_HORIZON_MARGIN * camera.height, 0.0)
-    if top >= camera.height - 1:
-        top = camera.height * 0.5
-    rows, cols = DLT_GRID
-    vs = np.linspace(top, camera.height - 1.0, rows)
-    us = np.linspace(0.0, camera.width - 1.0, cols)
-    U, V = np.meshgrid(us, vs)
-    px = np.column_stack([U.ravel(), V.ravel()])
-    ground, _ = camera.ground_points(px)
-    ok = np.isfinite(ground).all(axis=1)
-    return px[ok], ground[ok]
-
-
 def _ground_fit(request: BuildRequest, camera: PinholeCamera) -> tuple[HomographyFit, str]:
     if request.correspondences is not None:
         pairs = read_correspondences(request.correspondences)
         return estimate_homography(pairs.points_px, pairs.points_ground), "manual"
-    px, ground = _camera_correspondences(camera)
+    px, ground = ground_correspondences(camera, DLT_GRID, DLT_HORIZON_MARGIN)
     return estimate_homography(px, ground), "camera_model"
-
-
-#: Vertices this close to an asset's lowest point count as ground contact (metres).
-CONTACT_HEIGHT_M = 0.03
 
 
 def _asset_sizes(objects: list[ImageObject], libraries: tuple[Path, ...]) -> dict[str, AssetSizes]:
     sizes = {}
     for name in sorted({o.class_name for o in objects}):
         info = asset_library.asset_info(name, libraries)
-        contact = {}
-        for variant in info.variants:
-            verts = asset_library.load_mesh(name, variant, libraries).vertices
-            low = verts[verts[:, 2] <= verts[:, 2].min() + CONTACT_HEIGHT_M]
-            contact[variant] = (float(np.abs(low[:, 0]).max()), float(np.abs(low[:, 1]).max()))
+        contact = {v: asset_library.contact_half_extents(name, v, libraries) for v in info.variants}
         sizes[name] = AssetSizes(dict(info.size_by_variant), info.default_variant, contact)
     return sizes
 
@@ -224,15 +200,6 @@ def _road_points(seg: Segmentation | None, fit: HomographyFit, camera: PinholeCa
     _, depth = camera.ground_points(px)
     keep = np.isfinite(pts).all(axis=1) & (depth > 0) & (depth <= max_range_m)
     return pts[keep]
-
-
-def _vanishing_point(camera: PinholeCamera, angle: float) -> tuple[float, float]:
-    """Image point where ground lines along ``angle`` (world yaw) meet; (u, v) pixels."""
-    d_cam = camera.rotation_world_from_cam.T @ np.array([np.cos(angle), np.sin(angle), 0.0])
-    if d_cam[2] <= 1e-6:  # the road runs across the view: use the point ahead on the horizon
-        return (float(camera.cx), float(camera.horizon_v()))
-    p = camera.K @ (d_cam / d_cam[2])
-    return (float(p[0]), float(p[1]))
 
 
 def _ground_occluders(placements: list) -> list[tuple[np.ndarray, np.ndarray, float]]:
@@ -294,7 +261,9 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     if seg is not None:
         labels = np.asarray(seg.label_ids)
         fill = occluded_ground_mask(labels.shape, _ground_occluders(placements), camera.camera, FILL_REACH_M)
-        filled = fill_behind_occluders(labels, fill, _vanishing_point(camera.camera, axis.angle))
+        ahead = np.array([np.cos(axis.angle), np.sin(axis.angle), 0.0])
+        vanishing = camera.camera.vanishing_point(ahead) or (camera.camera.cx, camera.camera.horizon_v())
+        filled = fill_behind_occluders(labels, fill, vanishing)
     surfaces = tuple(
         build_surfaces(filled, surface_ids, camera.camera, fit.dst_from_src, CURB_HEIGHT_M, request.max_range_m)
     )

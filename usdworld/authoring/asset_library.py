@@ -301,3 +301,23 @@ def load_mesh(
         info = asset_info(class_name, libraries)
         variant = info.default_variant or None
     return _mesh_cached(*_stamp(path), variant).copy()
+
+
+#: Vertices this close to an asset's lowest point count as its ground contact (metres).
+CONTACT_HEIGHT_M = 0.03
+
+
+def contact_half_extents(
+    class_name: str, variant: str | None = None, libraries: tuple[Path, ...] | None = None
+) -> tuple[float, float]:
+    """Half extents (along the asset's X and Y) of where a variant touches the ground.
+
+    A car touches the ground at its tyres, a person at the feet: the lowest image point
+    of such an object is its nearest contact point, not its bumper.
+
+    Returns:
+        (half length, half width) in metres at unit scale.
+    """
+    verts = load_mesh(class_name, variant, libraries).vertices
+    low = verts[verts[:, 2] <= verts[:, 2].min() + CONTACT_HEIGHT_M]
+    return float(np.abs(low[:, 0]).max()), float(np.abs(low[:, 1]).max())

@@ -165,6 +165,22 @@ class PinholeCamera:
         ground = rays[:, :2] * t[:, None]
         return ground, t
 
+    def vanishing_point(self, direction_world: np.ndarray) -> tuple[float, float] | None:
+        """Image point where lines along a world direction meet; None when it points backwards.
+
+        Args:
+            direction_world: (3,) float64 direction.
+
+        Returns:
+            (u, v) pixels, or None when the direction is parallel to the image plane or
+            points behind the camera.
+        """
+        d_cam = self._world_from_cam.T @ np.asarray(direction_world, dtype=np.float64)
+        if d_cam[2] <= 1e-6:
+            return None
+        p = self.K @ (d_cam / d_cam[2])
+        return (float(p[0]), float(p[1]))
+
     def replace(self, **changes: object) -> "PinholeCamera":
         """A copy with some fields changed."""
         values = {
@@ -195,3 +211,31 @@ def intrinsics_from_fov(width: int, height: int, hfov_deg: float) -> np.ndarray:
         raise CalibrationError(f"horizontal field of view must be in (0, 180) degrees, got {hfov_deg}")
     f = (width / 2.0) / np.tan(np.radians(hfov_deg) / 2.0)
     return np.array([[f, 0.0, width / 2.0], [0.0, f, height / 2.0], [0.0, 0.0, 1.0]])
+
+
+def ground_correspondences(
+    camera: PinholeCamera, grid: tuple[int, int] = (4, 5), horizon_margin: float = 0.05
+) -> tuple[np.ndarray, np.ndarray]:
+    """A grid of pixels below the horizon and their ground points under the camera model.
+
+    These are the correspondences the paper picked by hand, generated instead.
+
+    Args:
+        camera: the camera.
+        grid: rows x columns of the pixel grid.
+        horizon_margin: the grid starts this fraction of the image height below the horizon.
+
+    Returns:
+        points_px: (N, 2) float64 pixels.
+        points_ground: (N, 2) float64 their ground points, metres.
+    """
+    horizon = max(camera.horizon_v(0.0), camera.horizon_v(float(camera.width)))
+    top = max(horizon + horizon_margin * camera.height, 0.0)
+    if top >= camera.height - 1:
+        top = camera.height * 0.5
+    rows, cols = grid
+    U, V = np.meshgrid(np.linspace(0.0, camera.width - 1.0, cols), np.linspace(top, camera.height - 1.0, rows))
+    px = np.column_stack([U.ravel(), V.ravel()])
+    ground, _ = camera.ground_points(px)
+    ok = np.isfinite(ground).all(axis=1)
+    return px[ok], ground[ok]

@@ -47,6 +47,8 @@ import trimesh
 from manifold3d import CrossSection, JoinType, Manifold, OpType
 from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
 
+from usdworld.authoring.shading import crease_normals, extent
+
 REPO = Path(__file__).resolve().parents[1]
 PRIORS_PATH = REPO / "usdworld" / "data" / "class_priors.json"
 DEFAULT_OUT = REPO / "asset_library"
@@ -54,7 +56,6 @@ CREATOR = "usdworld tools/make_assets.py"
 VARIANT_SET = "model"
 TAXONOMY = "class"
 #: Edges whose faces meet at more than this angle stay hard.
-CREASE_DEG = 40.0
 #: Points are rounded to this many decimals (metres) so output does not depend on float noise.
 POINT_DECIMALS = 5
 #: How far the built default variant may be from size_m before it is scaled to fit (a design check).
@@ -1076,43 +1077,6 @@ class VariantData:
     size: Vec3
 
 
-def crease_normals(points: np.ndarray, faces: np.ndarray, crease_deg: float = CREASE_DEG) -> np.ndarray:
-    """Per-corner normals, angle-weighted over the faces around each vertex within ``crease_deg``.
-
-    Args:
-        points: (N, 3) float64 vertex positions.
-        faces: (M, 3) int triangles, counter-clockwise seen from outside.
-        crease_deg: faces meeting at a larger angle keep a hard edge.
-
-    Returns:
-        (3M, 3) float32 unit normals in face-corner order (USD faceVarying).
-    """
-    tri = points[faces]
-    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    length = np.linalg.norm(face_n, axis=1, keepdims=True)
-    face_n = face_n / np.where(length > 0, length, 1.0)
-    e1 = np.roll(tri, -1, axis=1) - tri
-    e2 = np.roll(tri, -2, axis=1) - tri
-    angle = np.arctan2(np.linalg.norm(np.cross(e1, e2), axis=2), np.einsum("ijk,ijk->ij", e1, e2)).reshape(-1)
-    corner_v = faces.reshape(-1)
-    corner_f = np.repeat(np.arange(len(faces)), 3)
-    order = np.argsort(corner_v, kind="stable")
-    _, start, count = np.unique(corner_v[order], return_index=True, return_counts=True)
-    group = np.repeat(np.arange(len(start)), count)
-    reps = count[group]
-    a = np.repeat(np.arange(len(order)), reps)
-    offset = np.arange(len(a)) - np.repeat(np.cumsum(reps) - reps, reps)
-    b = start[group][a] + offset
-    ca, cb = order[a], order[b]
-    fa, fb = corner_f[ca], corner_f[cb]
-    ok = np.einsum("ij,ij->i", face_n[fa], face_n[fb]) >= math.cos(math.radians(crease_deg))
-    acc = np.zeros((len(corner_v), 3))
-    np.add.at(acc, ca[ok], face_n[fb[ok]] * angle[cb[ok], None])
-    norm = np.linalg.norm(acc, axis=1, keepdims=True)
-    out = np.where(norm > 1e-12, acc / np.where(norm > 1e-12, norm, 1.0), face_n[corner_f])
-    return out.astype(np.float32)
-
-
 def mesh_variant(model: Model, target: Vec3 | None, where: str) -> VariantData:
     """Union each material's solids, move the footprint centre to the origin, fit ``target``, shade."""
     solids = {name: union(parts) for name, parts in model.parts.items()}
@@ -1166,11 +1130,6 @@ def _define_material(stage: Usd.Stage, path: str, material: Material) -> UsdShad
     return mat
 
 
-def _extent(points: np.ndarray) -> Vt.Vec3fArray:
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    return Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)), Gf.Vec3f(*map(float, hi))])
-
-
 def write_asset(out_dir: Path, class_name: str, variants: dict[str, VariantData], default: str) -> list[Path]:
     """Write ``<class>.usda`` and its ``<class>.geom.usdc`` sublayer into ``out_dir``."""
     usda_path = out_dir / f"{class_name}.usda"
@@ -1213,12 +1172,12 @@ def write_asset(out_dir: Path, class_name: str, variants: dict[str, VariantData]
         vset.SetVariantSelection(variant)
         with vset.GetVariantEditContext():
             all_points = np.concatenate([m.points for m in data.meshes])
-            UsdGeom.ModelAPI(prim).SetExtentsHint(_extent(all_points))
+            UsdGeom.ModelAPI(prim).SetExtentsHint(extent(all_points))
             for md in data.meshes:
                 mat = _define_material(stage, f"{root_path}/Looks/{md.name}", md.material)
                 mesh = UsdGeom.Mesh.Define(stage, f"{root_path}/Geom/{md.name}")
                 mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
-                mesh.CreateExtentAttr(_extent(md.points))
+                mesh.CreateExtentAttr(extent(md.points))
                 mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set(
                     Vt.Vec3fArray([Gf.Vec3f(*md.material.color)])
                 )

@@ -51,6 +51,7 @@ import numpy as np
 from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
 
 from usdworld.authoring.asset_library import DEFAULT_KEY, SIZE_KEY, VARIANT_SET, available_classes
+from usdworld.authoring.shading import crease_normals, extent
 from usdworld.errors import InputError
 from usdworld.resources import asset_library_dir
 
@@ -65,7 +66,6 @@ CREATOR = "usdworld assets add"
 MESH_SUFFIXES = (".obj", ".gltf", ".glb", ".ply")
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 #: Edges whose faces meet at more than this angle stay hard (same as the built-in assets).
-CREASE_DEG = 40.0
 #: Sizes outside these bounds (metres, largest dimension) are refused.
 MIN_SIZE_M, MAX_SIZE_M = 0.02, 1000.0
 #: Largest allowed ratio between the model's largest dimension and the class's usual one.
@@ -423,45 +423,6 @@ def _closed_parts(faces: np.ndarray, part: np.ndarray) -> np.ndarray:
     return closed
 
 
-def crease_normals(points: np.ndarray, faces: np.ndarray, crease_deg: float = CREASE_DEG) -> np.ndarray:
-    """Per-corner normals, angle-weighted over the faces around each vertex within ``crease_deg``.
-
-    The same shading rule as the built-in assets (``tools/make_assets.py``).
-
-    Args:
-        points: (N, 3) float64 vertex positions.
-        faces: (M, 3) int triangles, counter-clockwise seen from outside.
-        crease_deg: faces meeting at a larger angle keep a hard edge.
-
-    Returns:
-        (3M, 3) float32 unit normals in face-corner order (USD faceVarying).
-    """
-    tri = points[faces]
-    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    length = np.linalg.norm(face_n, axis=1, keepdims=True)
-    face_n = face_n / np.where(length > 0, length, 1.0)
-    e1 = np.roll(tri, -1, axis=1) - tri
-    e2 = np.roll(tri, -2, axis=1) - tri
-    angle = np.arctan2(np.linalg.norm(np.cross(e1, e2), axis=2), np.einsum("ijk,ijk->ij", e1, e2)).reshape(-1)
-    corner_v = faces.reshape(-1)
-    corner_f = np.repeat(np.arange(len(faces)), 3)
-    order = np.argsort(corner_v, kind="stable")
-    _, start, count = np.unique(corner_v[order], return_index=True, return_counts=True)
-    group = np.repeat(np.arange(len(start)), count)
-    reps = count[group]
-    a = np.repeat(np.arange(len(order)), reps)
-    offset = np.arange(len(a)) - np.repeat(np.cumsum(reps) - reps, reps)
-    b = start[group][a] + offset
-    ca, cb = order[a], order[b]
-    fa, fb = corner_f[ca], corner_f[cb]
-    ok = np.einsum("ij,ij->i", face_n[fa], face_n[fb]) >= math.cos(math.radians(crease_deg))
-    acc = np.zeros((len(corner_v), 3))
-    np.add.at(acc, ca[ok], face_n[fb[ok]] * angle[cb[ok], None])
-    norm = np.linalg.norm(acc, axis=1, keepdims=True)
-    out = np.where(norm > 1e-12, acc / np.where(norm > 1e-12, norm, 1.0), face_n[corner_f])
-    return out.astype(np.float32)
-
-
 def _clean(points: np.ndarray, faces: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray, int, int]:
     """Weld points closer than ``tolerance``, drop unused points, degenerate and duplicate faces.
 
@@ -697,11 +658,6 @@ def _vec3f_array(points: np.ndarray) -> Vt.Vec3fArray:
     return Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(points, dtype=np.float32))
 
 
-def _extent(points: np.ndarray) -> Vt.Vec3fArray:
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    return Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)), Gf.Vec3f(*map(float, hi))])
-
-
 def _new_asset(usda: Path, geom: Path, class_name: str) -> None:
     """Create an empty class asset (root, Geom, Looks, label, metadata) and its geometry sublayer."""
     geom_layer = Sdf.Layer.CreateNew(str(geom))
@@ -760,7 +716,7 @@ def _write_variant(usda: Path, geom: Path, class_name: str, variant: str, model:
     vset.SetVariantSelection(variant)
     all_points = np.concatenate([p.points for p in model.parts])
     with vset.GetVariantEditContext():
-        UsdGeom.ModelAPI(prim).SetExtentsHint(_extent(all_points))
+        UsdGeom.ModelAPI(prim).SetExtentsHint(extent(all_points))
         for part in model.parts:
             mat = UsdShade.Material.Define(stage, f"{root_path}/Looks/{part.name}")
             shader = UsdShade.Shader.Define(stage, f"{root_path}/Looks/{part.name}/PreviewSurface")
@@ -771,7 +727,7 @@ def _write_variant(usda: Path, geom: Path, class_name: str, variant: str, model:
             mat.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
             mesh = UsdGeom.Mesh.Define(stage, f"{root_path}/Geom/{part.name}")
             mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
-            mesh.CreateExtentAttr(_extent(part.points))
+            mesh.CreateExtentAttr(extent(part.points))
             mesh.CreateDoubleSidedAttr(part.double_sided)
             mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set(Vt.Vec3fArray([Gf.Vec3f(*part.color)]))
             UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(mat)

@@ -152,7 +152,8 @@ def rgb_to_tensor(rgb: np.ndarray, height: int, width: int, device: torch.device
     Downsizing uses area averaging (no aliasing), upsizing bilinear interpolation.
     """
     torch = import_torch("depth")
-    x = torch.from_numpy(np.ascontiguousarray(rgb)).to(device).permute(2, 0, 1)[None].float() / 255.0
+    # A copy: inputs are often read-only (frozen dataclass arrays), which torch warns about.
+    x = torch.from_numpy(np.array(rgb, dtype=np.uint8, copy=True)).to(device).permute(2, 0, 1)[None].float() / 255.0
     if x.shape[2:] != (height, width):
         shrink = height <= x.shape[2] and width <= x.shape[3]
         mode = "area" if shrink else "bilinear"

@@ -22,11 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
+from usdworld.authoring.asset_library import library_dirs
 from usdworld.io.camera_files import read_camera
 from usdworld.io.images import read_image
 from usdworld.io.labels import read_segmentation
 from usdworld.pipeline import BuildRequest, build, build_model
-from usdworld.authoring.asset_library import library_dirs
 from usdworld.synth import make_street_scene, write_cityscapes_frame
 
 

@@ -45,8 +45,9 @@ from pathlib import Path
 import numpy as np
 import trimesh
 from manifold3d import CrossSection, JoinType, Manifold, OpType
-from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
 
+from usdworld.authoring.asset_library import TAXONOMY, define_asset_root
 from usdworld.authoring.shading import crease_normals, extent
 
 REPO = Path(__file__).resolve().parents[1]
@@ -54,8 +55,7 @@ PRIORS_PATH = REPO / "usdworld" / "data" / "class_priors.json"
 DEFAULT_OUT = REPO / "asset_library"
 CREATOR = "usdworld tools/make_assets.py"
 VARIANT_SET = "model"
-TAXONOMY = "class"
-#: Edges whose faces meet at more than this angle stay hard.
+
 #: Points are rounded to this many decimals (metres) so output does not depend on float noise.
 POINT_DECIMALS = 5
 #: How far the built default variant may be from size_m before it is scaled to fit (a design check).
@@ -1151,15 +1151,7 @@ def write_asset(out_dir: Path, class_name: str, variants: dict[str, VariantData]
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
 
     root_path = f"/{class_name}"
-    root = UsdGeom.Xform.Define(stage, root_path)
-    prim = root.GetPrim()
-    stage.SetDefaultPrim(prim)
-    model_api = Usd.ModelAPI(prim)
-    model_api.SetKind(Kind.Tokens.component)
-    model_api.SetAssetName(class_name)
-    UsdSemantics.LabelsAPI.Apply(prim, TAXONOMY).CreateLabelsAttr([class_name])
-    UsdGeom.Xform.Define(stage, f"{root_path}/Geom")
-    UsdGeom.Scope.Define(stage, f"{root_path}/Looks")
+    prim = define_asset_root(stage, class_name)
     # nested under "usdworld", so prim.GetCustomDataByKey("usdworld:sizeByVariant") reads it
     prim.SetCustomDataByKey("usdworld:defaultVariant", default)
     prim.SetCustomDataByKey(

@@ -18,13 +18,14 @@ from typing import Any
 
 import numpy as np
 
+from usdworld.atomic import ensure_output_dir
 from usdworld.authoring import asset_library
 from usdworld.authoring.world import EDITS_LAYER, ROOT_LAYER, write_world
+from usdworld.depth_stage import DepthOutcome, estimate_depth
 from usdworld.errors import InputError, OutputError
 from usdworld.geometry.camera import PinholeCamera, ground_correspondences
 from usdworld.geometry.estimate import CameraEstimate, HeightObservations, estimate_camera
 from usdworld.geometry.homography import HomographyFit, apply_homography, estimate_homography
-from usdworld.depth_stage import DepthOutcome, estimate_depth
 from usdworld.io.camera_files import read_camera
 from usdworld.io.correspondences import read_correspondences
 from usdworld.io.detections import read_detections_json, read_kitti_labels
@@ -38,7 +39,12 @@ from usdworld.layout.priors import prior_for
 from usdworld.layout.surfaces import MAX_RANGE_M, build_surfaces, fill_behind_occluders, occluded_ground_mask
 from usdworld.layout.yaw import road_axis
 from usdworld.perception.classes import label_lookups
-from usdworld.perception.objects import ImageObject, objects_from_detections, objects_from_segmentation, sort_objects
+from usdworld.perception.objects import (
+    ImageObject,
+    objects_from_detections,
+    objects_from_segmentation,
+    sort_objects,
+)
 
 log = logging.getLogger(__name__)
 
@@ -397,13 +403,7 @@ def _prepare_output(out: Path) -> Path | None:
             return edits if edits.is_file() else None
         if any(out.iterdir()):
             raise OutputError(f"{out}: folder exists, is not empty and holds no {ROOT_LAYER}; choose another -o")
-    parent = out.parent
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"{parent}: cannot create the output's parent folder ({exc.strerror}); choose another -o") from exc
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise OutputError(f"{parent}: folder is not writable; choose another -o")
+    ensure_output_dir(out.parent)
     return None
 
 

@@ -25,14 +25,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from pxr import Usd, UsdGeom
+from pxr import Kind, Usd, UsdGeom, UsdSemantics
 
+from usdworld.authoring.stages import open_stage
 from usdworld.errors import InputError
 from usdworld.resources import asset_library_dir
 
 if TYPE_CHECKING:  # trimesh takes ~0.5 s to import; it is loaded only when meshes are needed
     import trimesh
 
+#: Semantic taxonomy of the class labels on assets and placed objects.
+TAXONOMY = "class"
 #: Name of the variant set that holds an asset's alternative models.
 VARIANT_SET = "model"
 #: Root customData key paths written by tools/make_assets.py (nested dictionary "usdworld";
@@ -131,12 +134,7 @@ def asset_path(class_name: str, libraries: tuple[Path, ...] | None = None) -> Pa
 
 
 def _open(path: Path) -> tuple[Usd.Stage, Usd.Prim]:
-    try:
-        stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
-    except Exception as exc:  # pxr raises Tf.ErrorException
-        raise InputError(f"{path}: not a readable USD asset ({str(exc).strip().splitlines()[-1]})") from exc
-    if stage is None:
-        raise InputError(f"{path}: not a readable USD asset")
+    stage = open_stage(path, "USD asset")
     root = stage.GetDefaultPrim()
     if not root:
         raise InputError(f"{path}: no defaultPrim; author defaultPrim = the asset's root prim")
@@ -321,3 +319,26 @@ def contact_half_extents(
     verts = load_mesh(class_name, variant, libraries).vertices
     low = verts[verts[:, 2] <= verts[:, 2].min() + CONTACT_HEIGHT_M]
     return float(np.abs(low[:, 0]).max()), float(np.abs(low[:, 1]).max())
+
+
+def define_asset_root(stage: Usd.Stage, class_name: str) -> Usd.Prim:
+    """Author a class asset's root: ``/<class>`` Xform as defaultPrim, kind component, asset
+    name, class label, and the empty ``Geom`` Xform and ``Looks`` Scope the variants fill.
+
+    Args:
+        stage: the asset's stage (its edit target receives the prims).
+        class_name: the placed class, also the root prim's name.
+
+    Returns:
+        The root prim.
+    """
+    root = UsdGeom.Xform.Define(stage, f"/{class_name}")
+    prim = root.GetPrim()
+    stage.SetDefaultPrim(prim)
+    model = Usd.ModelAPI(prim)
+    model.SetKind(Kind.Tokens.component)
+    model.SetAssetName(class_name)
+    UsdSemantics.LabelsAPI.Apply(prim, TAXONOMY).CreateLabelsAttr([class_name])
+    UsdGeom.Xform.Define(stage, f"/{class_name}/Geom")
+    UsdGeom.Scope.Define(stage, f"/{class_name}/Looks")
+    return prim

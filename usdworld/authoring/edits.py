@@ -75,10 +75,11 @@ from typing import Any, Self
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
 
+from usdworld.atomic import write_text_atomic
 from usdworld.authoring import asset_library
 from usdworld.authoring.provenance import PROVENANCE_API, apply_with_values
+from usdworld.authoring.stages import open_stage
 from usdworld.authoring.world import ASSETS_DIR, GROUND_PATH, OBJECTS_PATH, ROOT_LAYER, copy_asset
-from usdworld.atomic import write_text_atomic
 from usdworld.errors import AuthoringError, InputError, LayoutError, OutputError
 from usdworld.layout import permissible as rules
 from usdworld.layout.priors import class_priors, prior_for
@@ -315,12 +316,7 @@ class WorldEditor:
         self.surface_rules = rules.load_surface_rules(surface_rules)
         self.replacement_rules = rules.load_replacement_rules(replacement_rules)
         self._clock = clock
-        try:
-            self._stage = Usd.Stage.Open(str(root))
-        except Tf.ErrorException as exc:
-            raise InputError(
-                f"{root}: not a readable USD world ({str(exc).strip().splitlines()[-1]})"
-            ) from exc
+        self._stage = open_stage(root, "USD world")
         sublayers = list(self._stage.GetRootLayer().subLayerPaths)
         if len(sublayers) < 2:
             raise AuthoringError(

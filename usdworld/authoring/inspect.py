@@ -9,6 +9,7 @@ from typing import Any
 from pxr import Sdf, Usd, UsdSemantics
 
 from usdworld.authoring.provenance import read_values
+from usdworld.authoring.stages import open_stage
 from usdworld.authoring.world import OBJECTS_PATH, WORLD_PATH
 from usdworld.errors import InputError
 
@@ -20,11 +21,8 @@ def open_world(path: str | Path) -> Usd.Stage:
         path = path / "world.usda"
     if not path.is_file():
         raise InputError(f"{path}: no such file; pass a world's world.usda (or its folder)")
-    try:
-        stage = Usd.Stage.Open(str(path))
-    except Exception as exc:
-        raise InputError(f"{path}: not a readable USD stage ({str(exc).strip().splitlines()[-1]})") from exc
-    if stage is None or not stage.GetPrimAtPath(WORLD_PATH):
+    stage = open_stage(path)
+    if not stage.GetPrimAtPath(WORLD_PATH):
         raise InputError(f"{path}: has no {WORLD_PATH} prim; is it a usdworld world?")
     return stage
 

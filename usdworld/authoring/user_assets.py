@@ -48,10 +48,18 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
 
-from usdworld.authoring.asset_library import DEFAULT_KEY, SIZE_KEY, VARIANT_SET, available_classes
+from usdworld.authoring.asset_library import (
+    DEFAULT_KEY,
+    SIZE_KEY,
+    TAXONOMY,
+    VARIANT_SET,
+    available_classes,
+    define_asset_root,
+)
 from usdworld.authoring.shading import crease_normals, extent
+from usdworld.authoring.stages import open_stage
 from usdworld.errors import InputError
 from usdworld.resources import asset_library_dir
 
@@ -59,8 +67,6 @@ log = logging.getLogger(__name__)
 
 #: Environment variable naming the user asset library folder.
 LIBRARY_ENV = "USDWORLD_LIBRARY"
-#: Semantic taxonomy of the class label.
-TAXONOMY = "class"
 CREATOR = "usdworld assets add"
 #: File suffixes read by trimesh, and those read by OpenUSD.
 MESH_SUFFIXES = (".obj", ".gltf", ".glb", ".ply")
@@ -267,12 +273,7 @@ def _read_usd(path: Path) -> tuple[list[SourcePart], str, float]:
     """Parts of a USD file (world space of its stage), its up axis and metres per unit."""
     from usdworld.authoring.usd_geometry import read_look, read_mesh, renderable_meshes
 
-    try:
-        stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
-    except Exception as exc:  # pxr raises Tf.ErrorException
-        raise InputError(f"{path}: not a readable USD file ({str(exc).strip().splitlines()[-1]})") from exc
-    if stage is None:
-        raise InputError(f"{path}: not a readable USD file")
+    stage = open_stage(path, "USD file")
     root = stage.GetDefaultPrim() or stage.GetPseudoRoot()
     cache = UsdGeom.XformCache(Usd.TimeCode.Default())
     parts = []
@@ -674,15 +675,7 @@ def _new_asset(usda: Path, geom: Path, class_name: str) -> None:
     stage.SetEditTarget(Usd.EditTarget(layer))
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
-    root = UsdGeom.Xform.Define(stage, f"/{class_name}")
-    prim = root.GetPrim()
-    stage.SetDefaultPrim(prim)
-    model = Usd.ModelAPI(prim)
-    model.SetKind(Kind.Tokens.component)
-    model.SetAssetName(class_name)
-    UsdSemantics.LabelsAPI.Apply(prim, TAXONOMY).CreateLabelsAttr([class_name])
-    UsdGeom.Xform.Define(stage, f"/{class_name}/Geom")
-    UsdGeom.Scope.Define(stage, f"/{class_name}/Looks")
+    prim = define_asset_root(stage, class_name)
     prim.GetVariantSets().AddVariantSet(VARIANT_SET)
     layer.Save()
 

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from pxr import Usd, UsdValidation
 
+from usdworld.authoring.stages import open_stage
 from usdworld.errors import InputError
 
 #: Requirements enabled on top of omni-asset-validator's default rules.
@@ -103,12 +104,7 @@ def validate_file(path: str | Path, *, omni: bool = True) -> list[ValidationIssu
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such USD file; pass the world's .usda path (e.g. OUT/world.usda)")
-    try:
-        stage = Usd.Stage.Open(str(path))
-    except Exception as exc:  # pxr raises Tf.ErrorException
-        raise InputError(f"{path}: not a readable USD stage ({str(exc).strip().splitlines()[-1]})") from exc
-    if stage is None:
-        raise InputError(f"{path}: not a readable USD stage")
+    stage = open_stage(path)
     issues = _usd_issues(stage)
     if omni and omni_validator_available():
         issues.extend(_omni_issues(path))

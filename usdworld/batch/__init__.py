@@ -69,8 +69,8 @@ from usdworld.batch.frames import Frame, Incomplete
 from usdworld.batch.records import BatchSummary, FrameRecord
 from usdworld.batch.resume import frame_key
 from usdworld.batch.runner import check_failures, run_batch
-from usdworld.errors import FramesFailed
 from usdworld.batch.worker import FrameTask, run_frame
+from usdworld.errors import FramesFailed
 
 __all__ = [
     "LAYOUTS",

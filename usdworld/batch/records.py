@@ -28,8 +28,8 @@ from pathlib import Path
 from typing import Any, Self, TextIO
 
 import usdworld
-from usdworld.batch.frames import Incomplete
 from usdworld.atomic import write_text_atomic
+from usdworld.batch.frames import Incomplete
 from usdworld.errors import InputError, OutputError
 
 BATCH_FILE = "batch.json"

@@ -11,9 +11,10 @@ import time
 from collections.abc import Iterable
 from pathlib import Path
 
+from usdworld.atomic import ensure_output_dir
+from usdworld.authoring.batch_index import IndexEntry, write_index
 from usdworld.batch.executors import FrameExecutor, cancelled_record
 from usdworld.batch.frames import Frame, Incomplete
-from usdworld.authoring.batch_index import IndexEntry, write_index
 from usdworld.batch.progress import BatchProgress
 from usdworld.batch.records import (
     DONE,
@@ -25,7 +26,6 @@ from usdworld.batch.records import (
     write_batch_file,
 )
 from usdworld.batch.worker import FrameTask
-from usdworld.atomic import ensure_output_dir
 from usdworld.errors import FramesFailed
 from usdworld.layout.surfaces import MAX_RANGE_M
 

@@ -28,7 +28,8 @@ def build(
 ) -> None:
     """Build a layered USD world from one street image."""
     from usdworld.cli.summary import print_build_summary
-    from usdworld.pipeline import BuildRequest, build as run_build
+    from usdworld.pipeline import BuildRequest
+    from usdworld.pipeline import build as run_build
 
     request = BuildRequest(
         image=image,

@@ -21,8 +21,8 @@ def depth(
 ) -> None:
     """Estimate metric depth for an image (network output aligned to the ground)."""
     from usdworld.depth_stage import write_depth_outputs
-    from usdworld.perception.depth import ground_plane_depth
     from usdworld.io.types import DepthMap
+    from usdworld.perception.depth import ground_plane_depth
     from usdworld.pipeline import BuildRequest, depth_for_image
 
     request = BuildRequest(

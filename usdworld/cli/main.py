@@ -12,12 +12,23 @@ import traceback
 
 import typer
 
-from usdworld.cli import build_cmd, demo_cmd, depth_cmd, info_cmd, validate_cmd
-from usdworld.cli import edit_cmd, vary_cmd
-from usdworld.cli import batch_cmd
-from usdworld.cli import evaluate_cmd, flythrough_cmd, render_cmd, synth_cmd
-from usdworld.cli import assets_cmd, export_cmd
-from usdworld.cli import serve_cmd
+from usdworld.cli import (
+    assets_cmd,
+    batch_cmd,
+    build_cmd,
+    demo_cmd,
+    depth_cmd,
+    edit_cmd,
+    evaluate_cmd,
+    export_cmd,
+    flythrough_cmd,
+    info_cmd,
+    render_cmd,
+    serve_cmd,
+    synth_cmd,
+    validate_cmd,
+    vary_cmd,
+)
 
 app = typer.Typer(
     add_completion=False,

@@ -35,9 +35,9 @@ import trimesh
 from pxr import Gf, Usd, UsdGeom, UsdSemantics
 
 import usdworld
+from usdworld.authoring.usd_geometry import Look, read_look, read_mesh, renderable_meshes, weld_corners
 from usdworld.errors import InputError, OutputError
 from usdworld.export.usd_formats import open_world
-from usdworld.authoring.usd_geometry import Look, read_look, read_mesh, renderable_meshes, weld_corners
 
 log = logging.getLogger(__name__)
 

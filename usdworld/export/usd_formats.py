@@ -33,6 +33,7 @@ from pathlib import Path, PurePosixPath
 
 from pxr import Sdf, Usd, UsdUtils
 
+from usdworld.authoring.stages import open_stage
 from usdworld.errors import InputError, OutputError
 
 log = logging.getLogger(__name__)
@@ -47,13 +48,7 @@ def open_world(root: Path) -> Usd.Stage:
     Raises:
         InputError: the file does not open as a USD stage.
     """
-    try:
-        stage = Usd.Stage.Open(str(root), Usd.Stage.LoadAll)
-    except Exception as exc:  # pxr raises Tf.ErrorException
-        raise InputError(f"{root}: not a readable USD stage ({str(exc).strip().splitlines()[-1]})") from exc
-    if stage is None:
-        raise InputError(f"{root}: not a readable USD stage")
-    return stage
+    return open_stage(root)
 
 
 class _Anchor:

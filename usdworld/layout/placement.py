@@ -21,15 +21,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from usdworld.errors import LayoutError
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.geometry.homography import apply_homography
 from usdworld.io.types import DepthMap
 from usdworld.layout.collision import footprint_half_extents, resolve_collisions
 from usdworld.layout.ordering import apply_ordering_rules
-from usdworld.errors import LayoutError
 from usdworld.layout.priors import ClassPrior, prior_for
-from usdworld.perception.depth.fusion import DepthCue, fuse, object_depth_cues
 from usdworld.layout.yaw import RoadAxis, choose_yaw
+from usdworld.perception.depth.fusion import DepthCue, fuse, object_depth_cues
 from usdworld.perception.objects import ImageObject
 
 #: Depth methods the paper's ordering rules may change (those decided by the dense map).

@@ -28,8 +28,8 @@ import cv2
 import numpy as np
 from pxr import Usd, UsdGeom
 
-from usdworld.authoring.provenance import read_values
 from usdworld.atomic import ensure_output_dir, write_bytes_atomic
+from usdworld.authoring.provenance import read_values
 from usdworld.errors import CalibrationError, InputError, OutputError
 from usdworld.io.label_table import label_table
 from usdworld.render.camera import CameraPose, camera_from_usd

@@ -47,14 +47,14 @@ import trimesh
 from manifold3d import CrossSection, JoinType, Manifold, OpType
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
 
-from usdworld.authoring.asset_library import TAXONOMY, define_asset_root
+from usdworld.authoring.asset_library import TAXONOMY, VARIANT_SET, define_asset_root
 from usdworld.authoring.shading import crease_normals, extent
 
 REPO = Path(__file__).resolve().parents[1]
 PRIORS_PATH = REPO / "usdworld" / "data" / "class_priors.json"
 DEFAULT_OUT = REPO / "asset_library"
 CREATOR = "usdworld tools/make_assets.py"
-VARIANT_SET = "model"
+
 
 #: Points are rounded to this many decimals (metres) so output does not depend on float noise.
 POINT_DECIMALS = 5

@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 
 from usdworld.geometry.camera import PinholeCamera
-from usdworld.geometry.estimate import CAMERA_HEIGHT_PRIOR_M, DEFAULT_HFOV_DEG, HeightObservations, estimate_camera
+from usdworld.geometry.estimate import (
+    CAMERA_HEIGHT_PRIOR_M,
+    DEFAULT_HFOV_DEG,
+    HeightObservations,
+    estimate_camera,
+)
 
 K = np.array([[720.0, 0.0, 620.0], [0.0, 720.0, 187.0], [0.0, 0.0, 1.0]])
 
@@ -17,17 +22,18 @@ def _observe(cam: PinholeCamera, feet: np.ndarray, heights: np.ndarray) -> Heigh
     return HeightObservations(bottom[:, 0], bottom[:, 1], top[:, 1], heights.copy(), np.full(len(feet), 0.1))
 
 
-# Far from the height prior's mean (1.5 m) the prior pulls the MAP estimate a little.
-@pytest.mark.parametrize("height_m, pitch_deg, tol_m", [(1.65, 1.0, 0.02), (1.2, -1.5, 0.03), (2.2, 3.0, 0.1)])
+# Far from the height prior's mean (1.5 m) the prior pulls the posterior mean a little
+# (class heights spread by 0.1 m make each object a weak constraint on its own).
+@pytest.mark.parametrize("height_m, pitch_deg, tol_m", [(1.65, 1.0, 0.02), (1.2, -1.5, 0.06), (2.2, 3.0, 0.15)])
 def test_recovers_height_and_pitch_from_exact_objects(height_m, pitch_deg, tol_m):
     true = PinholeCamera(1240, 375, K, height_m, pitch=np.radians(pitch_deg))
     feet = np.array([[8.0, 2.0], [15.0, -3.0], [25.0, 4.0], [40.0, -1.0], [12.0, 6.0]])
     heights = np.array([1.5, 1.5, 1.75, 1.5, 1.75])
     est = estimate_camera(1240, 375, K, None, None, 0.0, 0.0, _observe(true, feet, heights))
     assert est.camera.height_m == pytest.approx(height_m, abs=tol_m)
-    assert est.camera.pitch == pytest.approx(np.radians(pitch_deg), abs=np.radians(0.25))
+    assert est.camera.pitch == pytest.approx(np.radians(pitch_deg), abs=np.radians(0.35))
     assert set(est.estimated) == {"height_m", "pitch"}
-    assert est.n_objects == 5 and est.residual_px < 1.0
+    assert est.n_objects == 5 and est.residual_px < 1.5
 
 
 def test_one_outlier_does_not_drag_the_fit():
@@ -63,3 +69,41 @@ def test_road_top_row_bounds_the_horizon():
     # The road reaches up to row 150, so the horizon must lie at or above it (pitch up).
     est = estimate_camera(1240, 375, K, 1.6, None, 0.0, 0.0, empty, road_top_v=150.0)
     assert est.camera.horizon_v() <= 150.0 + 3.0
+
+
+def _car_boxes(cam: PinholeCamera, centres: np.ndarray, lwh: tuple[float, float, float]) -> HeightObservations:
+    """Image boxes of cars seen along their length (bottom: near corner, top: far roof edge)."""
+    l, w, h = lwh
+    rows = []
+    for x, y in centres:
+        foot = np.array([[x + sx * l / 2, y + sy * w / 2] for sx in (-1, 1) for sy in (-1, 1)])
+        px, _ = cam.project(np.vstack([np.column_stack([foot, np.zeros(4)]), np.column_stack([foot, np.full(4, h)])]))
+        rows.append((px[:, 0].mean(), px[:, 1].max(), px[:, 1].min()))
+    r = np.array(rows)
+    n = len(r)
+    return HeightObservations(r[:, 0], r[:, 1], r[:, 2], np.full(n, h), np.full(n, 0.1), np.zeros(n), np.full(n, l))
+
+
+def test_cars_with_depth_extent_give_the_true_camera_height():
+    true = PinholeCamera(1240, 375, K, 1.65, pitch=np.radians(0.3))
+    centres = np.array([[12.0, -3.0], [20.0, 2.5], [30.0, -3.0], [45.0, 3.0], [16.0, 6.0]])
+    obs = _car_boxes(true, centres, (3.9, 1.6, 1.5))
+    est = estimate_camera(1240, 375, K, None, None, 0.0, 0.0, obs)
+    assert est.camera.height_m == pytest.approx(1.65, abs=0.03)
+    # Treating the same boxes as flat boards underestimates the height (and so every depth).
+    flat = HeightObservations(obs.u, obs.v_bottom, obs.v_top, obs.height_m, obs.height_std_m)
+    assert estimate_camera(1240, 375, K, None, None, 0.0, 0.0, flat).camera.height_m < 1.61
+
+
+def test_vanishing_point_fixes_the_pitch_of_a_single_object():
+    from usdworld.geometry.vanishing import VanishingPoint
+
+    true = PinholeCamera(1240, 375, K, 1.65, pitch=np.radians(-1.5))
+    obs = _observe(true, np.array([[14.0, 1.0]]), np.array([1.75]))
+    horizon = true.horizon_v()
+    vp = VanishingPoint(600.0, horizon, 0.5, 20, 40)
+    with_vp = estimate_camera(1240, 375, K, None, None, 0.0, 0.0, obs, vanishing=vp)
+    without = estimate_camera(1240, 375, K, None, None, 0.0, 0.0, obs)
+    assert with_vp.camera.pitch == pytest.approx(np.radians(-1.5), abs=np.radians(0.1))
+    assert abs(with_vp.camera.height_m - 1.65) < abs(without.camera.height_m - 1.65)
+    assert "vanishing row" in with_vp.method

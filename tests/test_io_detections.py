@@ -88,6 +88,7 @@ def test_kitti_labels_parsed_and_clipped(tmp_path: Path) -> None:
     assert [d.label for d in dets.items] == ["Car", "Pedestrian"]
     np.testing.assert_allclose(dets.items[0].box_px, [387.63, 181.54, 423.81, 203.12])
     assert dets.items[0].score == 1.0 and dets.items[0].mask is None
+    assert all(d.amodal for d in dets.items)  # projected 3D boxes
     np.testing.assert_allclose(dets.items[1].box_px, [0.0, 10.0, 20.0, 240.0])
     assert dets.items[1].score == 0.75
     assert dets.file.role == "detections" and dets.file.name == "000001.txt"
@@ -158,11 +159,12 @@ def test_detections_json_all_forms(tmp_path: Path) -> None:
                 "mask": {"size": [8, 10], "counts": rle_to_string(rle_encode(mask))},
             },
             {"class": "person", "box": [-2, 0, 3, 4], "polygon": [[0, 0], [2, 0], [2, 3], [0, 3]]},
-            {"class": "sign", "box": [1, 1, 2, 2]},
+            {"class": "sign", "box": [1, 1, 2, 2], "amodal": True},
         ],
     }
     dets = read_detections_json(_write_json(tmp_path, doc), image)
     a, b, c, d = dets.items
+    assert d.amodal and not (a.amodal or b.amodal or c.amodal)
     assert a.score == 0.9 and b.score == 1.0
     assert a.mask is not None and b.mask is not None
     np.testing.assert_array_equal(a.mask, mask)
@@ -234,6 +236,10 @@ def test_detections_json_all_forms(tmp_path: Path) -> None:
                 ]
             },
             r"has both polygon and mask; keep one",
+        ),
+        (
+            {"detections": [{"class": "car", "box": [0, 0, 1, 1], "amodal": "yes"}]},
+            r"-> amodal: must be true or false, got string 'yes'",
         ),
     ],
 )

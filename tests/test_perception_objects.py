@@ -78,3 +78,18 @@ def test_detections_boxes_occlusion_and_truncation():
     assert by_index[0].bottom_occluded and not by_index[1].bottom_occluded
     assert by_index[2].class_name == "person" and by_index[2].bottom_truncated
     np.testing.assert_allclose(by_index[1].contact_px, [170.0, 150.0])
+
+
+def test_amodal_box_bottom_is_its_contact_even_behind_another_box():
+    # KITTI boxes are projected 3D boxes: the far car's box bottom is where it meets the
+    # road although the near car hides it.
+    near = np.array([100.0, 50.0, 260.0, 150.0])
+    far = np.array([150.0, 55.0, 200.0, 90.0])
+    file = InputFile("detections", "d.txt", "0" * 64)
+    modal = objects_from_detections(Detections((Detection("Car", near), Detection("Car", far)), file), 400, 200)
+    amodal = objects_from_detections(
+        Detections((Detection("Car", near, amodal=True), Detection("Car", far, amodal=True)), file), 400, 200
+    )
+    assert [o.bottom_occluded for o in sorted(modal, key=lambda o: o.instance_id)] == [False, True]
+    assert not any(o.bottom_occluded for o in amodal)
+    assert all(o.occluded_by == -1 for o in amodal)

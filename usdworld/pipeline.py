@@ -26,6 +26,7 @@ from usdworld.errors import InputError, OutputError
 from usdworld.geometry.camera import PinholeCamera, ground_correspondences
 from usdworld.geometry.estimate import CameraEstimate, HeightObservations, estimate_camera
 from usdworld.geometry.homography import HomographyFit, apply_homography, estimate_homography
+from usdworld.geometry.vanishing import street_vanishing_point
 from usdworld.io.camera_files import read_camera
 from usdworld.io.correspondences import read_correspondences
 from usdworld.io.detections import read_detections_json, read_kitti_labels
@@ -33,6 +34,7 @@ from usdworld.io.hashing import read_input
 from usdworld.io.images import read_image
 from usdworld.io.labels import read_polygons, read_segmentation
 from usdworld.io.types import CameraSpec, Segmentation, SourceImage
+from usdworld.layout.boxes import box_view_angle
 from usdworld.layout.model import WorldModel
 from usdworld.layout.placement import CURB_HEIGHT_M, AssetSizes, place_objects
 from usdworld.layout.priors import prior_for
@@ -146,15 +148,24 @@ def _objects(request: BuildRequest, image: SourceImage, seg: Segmentation | None
     return sort_objects(things + stuff)
 
 
-def _height_observations(objects: list[ImageObject]) -> HeightObservations:
+def _height_observations(
+    objects: list[ImageObject], sizes: dict[str, AssetSizes], image_width: int
+) -> HeightObservations:
+    """Objects of rigid class height with bottom and top in view; the top's extent beyond
+    the contact takes a box's turn from its aspect, else assumes it is seen end on."""
     rows = []
     for o in objects:
         prior = prior_for(o.class_name)
         if not prior.rigid_height or o.top_truncated or o.bottom_truncated or o.bottom_occluded:
             continue
-        rows.append((o.contact_px[0], o.contact_px[1], float(o.box_px[1]), prior.size_m[2], prior.height_std_m))
-    arr = np.array(rows, dtype=np.float64).reshape(-1, 5)
-    return HeightObservations(*(arr[:, k].copy() for k in range(5)))
+        s = sizes[o.class_name]
+        angle = box_view_angle(o, prior, image_width)
+        near, far = s.top_offsets(s.default_variant, angle or 0.0, o.box_only)
+        rows.append(
+            (o.contact_px[0], o.contact_px[1], float(o.box_px[1]), prior.size_m[2], prior.height_std_m, near, far)
+        )
+    arr = np.array(rows, dtype=np.float64).reshape(-1, 7)
+    return HeightObservations(*(arr[:, k].copy() for k in range(7)))
 
 
 def _road_top_row(seg: Segmentation | None) -> float | None:
@@ -167,13 +178,26 @@ def _road_top_row(seg: Segmentation | None) -> float | None:
     return float(rows[0]) if len(rows) else None
 
 
-def _camera(spec: CameraSpec | None, image: SourceImage, objects: list[ImageObject], seg: Segmentation | None) -> CameraEstimate:
+def _camera(
+    spec: CameraSpec | None,
+    image: SourceImage,
+    objects: list[ImageObject],
+    seg: Segmentation | None,
+    sizes: dict[str, AssetSizes],
+) -> CameraEstimate:
     if spec is None:
         spec_values: tuple = (None, None, None, None, None)
     else:
         spec_values = (spec.K, spec.height_m, spec.pitch, spec.roll, spec.yaw)
+    # The photo's own lines measure the horizon when the pitch is not given.
+    vanishing = street_vanishing_point(image.rgb) if spec_values[2] is None else None
     return estimate_camera(
-        image.width, image.height, *spec_values, _height_observations(objects), _road_top_row(seg)
+        image.width,
+        image.height,
+        *spec_values,
+        _height_observations(objects, sizes, image.width),
+        _road_top_row(seg),
+        vanishing=vanishing,
     )
 
 
@@ -190,7 +214,8 @@ def _asset_sizes(objects: list[ImageObject], libraries: tuple[Path, ...]) -> dic
     for name in sorted({o.class_name for o in objects}):
         info = asset_library.asset_info(name, libraries)
         contact = {v: asset_library.contact_half_extents(name, v, libraries) for v in info.variants}
-        sizes[name] = AssetSizes(dict(info.size_by_variant), info.default_variant, contact)
+        top = {v: asset_library.top_half_extents(name, v, libraries) for v in info.variants}
+        sizes[name] = AssetSizes(dict(info.size_by_variant), info.default_variant, contact, top)
     return sizes
 
 
@@ -225,7 +250,8 @@ def depth_for_image(request: BuildRequest) -> tuple[DepthOutcome, PinholeCamera]
     seg = _read_segmentation(request, image)
     spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
     objects = _objects(request, image, seg)
-    camera = _camera(spec, image, objects, seg)
+    sizes = _asset_sizes(objects, asset_library.library_dirs(request.library))
+    camera = _camera(spec, image, objects, seg, sizes)
     outcome = estimate_depth(request.depth, request.depth_weights, request.depth_map, image, camera.camera, seg, objects)
     return outcome, camera.camera
 
@@ -244,7 +270,8 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     seg = _read_segmentation(request, image)
     spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
     objects = _objects(request, image, seg)
-    camera = _camera(spec, image, objects, seg)
+    sizes = _asset_sizes(objects, libraries)
+    camera = _camera(spec, image, objects, seg, sizes)
     dense = estimate_depth(
         request.depth, request.depth_weights, request.depth_map, image, camera.camera, seg, objects
     )
@@ -256,7 +283,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         camera.camera,
         fit.dst_from_src,
         axis,
-        _asset_sizes(objects, libraries),
+        sizes,
         depth,
         camera_sigma=(camera.sigma_height_m, camera.sigma_pitch),
         max_partial_depth_m=request.max_range_m,

@@ -321,6 +321,27 @@ def contact_half_extents(
     return float(np.abs(low[:, 0]).max()), float(np.abs(low[:, 1]).max())
 
 
+#: Vertices within this fraction of the height below an asset's top count as its top.
+TOP_BAND_FRACTION = 0.05
+
+
+def top_half_extents(
+    class_name: str, variant: str | None = None, libraries: tuple[Path, ...] | None = None
+) -> tuple[float, float]:
+    """Half extents (along the asset's X and Y) of a variant's top: a car's roof, a head.
+
+    The top row of an object's silhouette is the near or far edge of its top (the far
+    one when the top is below the camera), which :mod:`usdworld.layout.silhouette` uses.
+
+    Returns:
+        (half length, half width) in metres at unit scale.
+    """
+    verts = load_mesh(class_name, variant, libraries).vertices
+    z0, z1 = float(verts[:, 2].min()), float(verts[:, 2].max())
+    top = verts[verts[:, 2] >= z1 - TOP_BAND_FRACTION * (z1 - z0)]
+    return float(np.abs(top[:, 0]).max()), float(np.abs(top[:, 1]).max())
+
+
 def define_asset_root(stage: Usd.Stage, class_name: str) -> Usd.Prim:
     """Author a class asset's root: ``/<class>`` Xform as defaultPrim, kind component, asset
     name, class label, and the empty ``Geom`` Xform and ``Looks`` Scope the variants fill.

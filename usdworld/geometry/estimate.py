@@ -4,10 +4,15 @@ Objects of known class-height distribution constrain the camera height and the
 horizon (Hoiem, Efros and Hebert 2006, "Putting Objects in Perspective"): an object
 standing on the ground whose bottom is at row ``v_b`` and top at ``v_t`` has, for a
 camera at height ``h`` pitched by ``theta``, a predicted top row that depends only on
-``(h, theta)`` and its metric height. We search ``(h, theta)`` for the maximum a
-posteriori fit: robust (Cauchy) image residuals of every usable object plus Gaussian
-priors on the height and pitch of a vehicle-mounted camera. The top row of the road
-region bounds the horizon from below when it is known.
+``(h, theta)`` and its metric height. The posterior over ``(h, theta)`` combines robust
+(Cauchy) image residuals of every usable object with Gaussian priors on the height and
+pitch of a vehicle-mounted camera; a coarse-to-fine grid search finds its mode, and the
+estimate is the posterior mean (and spread) summed on a fine grid round it, which a few
+objects' long valleys and the cusps of roofs at camera height do not throw off as they
+do the mode (measured on the 10 KITTI frames: median depth error 4.5 % with the mode,
+3.4 % with the mean). Far from the prior's mean the prior pulls the estimate by a few per cent. The top row of the road
+region bounds the horizon from below when it is known, and the street's vanishing point
+(:mod:`usdworld.geometry.vanishing`) is a robust (Cauchy) measurement of the horizon row.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ import numpy as np
 
 from usdworld.errors import CalibrationError
 from usdworld.geometry.camera import PinholeCamera, intrinsics_from_fov
+from usdworld.geometry.vanishing import VanishingPoint, horizon_measurement
 
 #: Horizontal field of view assumed when no intrinsics are given (degrees).
 DEFAULT_HFOV_DEG = 60.0
@@ -43,6 +49,11 @@ class HeightObservations:
         v_top: (N,) float64 row of the object's top, pixels.
         height_m: (N,) float64 expected metric height of each object's class.
         height_std_m: (N,) float64 spread of that height.
+        top_near_m: (N,) float64 how far beyond the contact point, along the view, the
+            near edge of the object's top lies (metres; default 0: a flat object).
+        top_far_m: (N,) float64 the same for the top's far edge. A car's box bottom is
+            its nearest corner while its top row is the far edge of the roof (the top is
+            below the camera); a person's top is the head above the feet (0, 0).
     """
 
     u: np.ndarray
@@ -50,15 +61,35 @@ class HeightObservations:
     v_top: np.ndarray
     height_m: np.ndarray
     height_std_m: np.ndarray
+    top_near_m: np.ndarray | None = None
+    top_far_m: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.u)
-        for name in ("v_bottom", "v_top", "height_m", "height_std_m"):
+        for name in ("top_near_m", "top_far_m"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, np.zeros(n))
+        for name in ("v_bottom", "v_top", "height_m", "height_std_m", "top_near_m", "top_far_m"):
             if len(getattr(self, name)) != n:
                 raise CalibrationError(f"height observations: {name} has a different length than u")
 
     def __len__(self) -> int:
         return len(self.u)
+
+
+@dataclass(frozen=True)
+class HorizonEvidence:
+    """What the image says about the horizon row, apart from the objects.
+
+    Attributes:
+        road_top_v: highest row of the road region (the horizon is above it), or None.
+        vanishing_v: row of the street's vanishing point, or None.
+        vanishing_sigma_px: its standard error, pixels (road slope included).
+    """
+
+    road_top_v: float | None = None
+    vanishing_v: float | None = None
+    vanishing_sigma_px: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -90,6 +121,9 @@ def predicted_top_rows(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Top rows predicted for each object under each candidate (height, pitch); zero roll.
 
+    The object's top is at ``height_m`` above the ground, from ``top_near_m`` to
+    ``top_far_m`` beyond its contact point; its highest image row is the predicted top.
+
     Args:
         h: (G,) float64 candidate camera heights, metres.
         pitch: (G,) float64 candidate pitches, radians.
@@ -109,11 +143,25 @@ def predicted_top_rows(
         t = np.where(denom > 1e-9, hh / denom, np.nan)
         forward = t * (c - b * s)
         dz = obs.height_m[None, :] - hh
-        z_cam = c * forward - s * dz
-        y_cam = -(s * forward + c * dz)
-        v_top = cy + fy * y_cam / z_cam
-    v_top = np.where(z_cam > 0.1, v_top, np.nan)
-    return v_top, z_cam
+        rows, depths = [], []
+        for offset in (obs.top_near_m, obs.top_far_m):
+            ahead = forward + offset[None, :]
+            z_cam = c * ahead - s * dz
+            y_cam = -(s * ahead + c * dz)
+            rows.append(np.where(z_cam > 0.1, cy + fy * y_cam / z_cam, np.nan))
+            depths.append(z_cam)
+    far_higher = rows[1] < rows[0]
+    depth = np.where(far_higher, depths[1], depths[0])
+    # Smooth minimum over the roof height's spread: real roofs are not all at the class
+    # height, so the switch from the far edge to the near edge as the camera passes the
+    # roof is gradual, not a kink in the cost. min(a, b) = (a + b - |a - b|) / 2 with |g|
+    # replaced by g tanh(g / tau): exact when the edges coincide (a flat object) and when
+    # they are far apart, smooth in between.
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        tau = np.maximum(fy * obs.height_std_m[None, :] / np.maximum(depth, 0.1), 1e-6)
+        gap = rows[1] - rows[0]
+        v_top = 0.5 * (rows[0] + rows[1] - gap * np.tanh(gap / tau))
+    return v_top, depth
 
 
 def _cost(
@@ -121,7 +169,7 @@ def _cost(
     pitch: np.ndarray,
     K: np.ndarray,
     obs: HeightObservations,
-    road_top_v: float | None,
+    evidence: HorizonEvidence,
 ) -> np.ndarray:
     """Negative log posterior (up to a constant) of each candidate; (G,) float64."""
     mean_h, std_h = CAMERA_HEIGHT_PRIOR_M
@@ -131,17 +179,19 @@ def _cost(
         sigma = np.sqrt((K[1, 1] * obs.height_std_m[None, :] / np.maximum(z, 0.1)) ** 2 + EDGE_NOISE_PX**2)
         r = (v_top - obs.v_top[None, :]) / sigma
         cost = cost + np.where(np.isfinite(r), np.log1p(r**2), 10.0).sum(axis=1)
-    if road_top_v is not None:
-        horizon = K[1, 2] - K[1, 1] * np.tan(pitch)
-        excess = np.maximum(horizon - road_top_v, 0.0)
+    horizon = K[1, 2] - K[1, 1] * np.tan(pitch)
+    if evidence.road_top_v is not None:
+        excess = np.maximum(horizon - evidence.road_top_v, 0.0)
         cost = cost + 0.5 * (excess / 2.0) ** 2
+    if evidence.vanishing_v is not None:
+        cost = cost + np.log1p(((horizon - evidence.vanishing_v) / evidence.vanishing_sigma_px) ** 2)
     return cost
 
 
 def _search(
     K: np.ndarray,
     obs: HeightObservations,
-    road_top_v: float | None,
+    evidence: HorizonEvidence,
     fixed_h: float | None,
     fixed_pitch: float | None,
 ) -> tuple[float, float]:
@@ -154,7 +204,7 @@ def _search(
         hs = np.array([fixed_h]) if fixed_h is not None else np.arange(h_lo, h_hi + 1e-9, h_step)
         ps = np.array([fixed_pitch]) if fixed_pitch is not None else np.arange(p_lo, p_hi + 1e-12, p_step)
         H, P = np.meshgrid(hs, ps, indexing="ij")
-        cost = _cost(H.ravel(), P.ravel(), K, obs, road_top_v)
+        cost = _cost(H.ravel(), P.ravel(), K, obs, evidence)
         k = int(np.argmin(cost))
         best_h, best_p = float(H.ravel()[k]), float(P.ravel()[k])
         h_lo, h_hi = best_h - 2 * h_step, best_h + 2 * h_step
@@ -164,11 +214,48 @@ def _search(
     return best_h, best_p
 
 
-def _laplace_sigma(f, x0: float, step: float) -> float:
-    """Standard deviation from the curvature of a negative log posterior at its minimum."""
-    c0, cp, cm = f(x0), f(x0 + step), f(x0 - step)
-    curvature = (cp + cm - 2.0 * c0) / step**2
-    return float(1.0 / np.sqrt(curvature)) if curvature > 0 else float("inf")
+#: Half widths and steps of the grid the posterior moments are summed over.
+_MOMENT_HALF_H_M, _MOMENT_STEP_H_M = 0.8, 0.01
+_MOMENT_HALF_P_DEG, _MOMENT_STEP_P_DEG = 4.0, 0.05
+
+
+def _posterior_moments(
+    K: np.ndarray,
+    obs: HeightObservations,
+    evidence: HorizonEvidence,
+    mode: tuple[float, float],
+    free: tuple[bool, bool],
+) -> tuple[float, float, float, float]:
+    """Posterior mean and standard deviation of height and pitch, summed on a grid round the mode.
+
+    The posterior is not a smooth bowl: where a car's roof crosses the camera height its
+    top row switches from the roof's far edge to its near edge, which puts a cusp in the
+    cost, and a few objects leave a long valley of height-pitch pairs. The mean and the
+    spread over the grid are stable where the mode and the local curvature are not.
+
+    Returns:
+        (mean height, mean pitch, sigma height, sigma pitch); a fixed parameter keeps its
+        value with sigma 0.
+    """
+    h0, p0 = mode
+    h_lo, h_hi = _HEIGHT_RANGE_M
+    if free[0]:
+        hs = np.arange(max(h_lo, h0 - _MOMENT_HALF_H_M), min(h_hi, h0 + _MOMENT_HALF_H_M) + 1e-9, _MOMENT_STEP_H_M)
+    else:
+        hs = np.array([h0])
+    if free[1]:
+        half, step = np.radians(_MOMENT_HALF_P_DEG), np.radians(_MOMENT_STEP_P_DEG)
+        ps = np.arange(p0 - half, p0 + half + 1e-12, step)
+    else:
+        ps = np.array([p0])
+    H, P = np.meshgrid(hs, ps, indexing="ij")
+    cost = _cost(H.ravel(), P.ravel(), K, obs, evidence)
+    w = np.exp(-(cost - cost.min()))
+    w /= w.sum()
+    mean_h, mean_p = float(w @ H.ravel()), float(w @ P.ravel())
+    sigma_h = float(np.sqrt(w @ (H.ravel() - mean_h) ** 2)) if free[0] else 0.0
+    sigma_p = float(np.sqrt(w @ (P.ravel() - mean_p) ** 2)) if free[1] else 0.0
+    return mean_h, mean_p, sigma_h, sigma_p
 
 
 def estimate_camera(
@@ -181,6 +268,7 @@ def estimate_camera(
     yaw: float | None,
     observations: HeightObservations,
     road_top_v: float | None = None,
+    vanishing: VanishingPoint | None = None,
 ) -> CameraEstimate:
     """Complete a partially known camera.
 
@@ -194,6 +282,7 @@ def estimate_camera(
         yaw: radians, or None (then 0: the world's X axis is the camera's heading).
         observations: upright objects with visible bottom and top.
         road_top_v: highest image row (smallest v) of the road region, or None.
+        vanishing: the street's vanishing point, or None.
 
     Returns:
         The camera and a record of what was estimated and how.
@@ -219,7 +308,12 @@ def estimate_camera(
         if pitch is None:
             estimated.append("pitch")
         usable = observations
-        h_est, p_est = _search(np.asarray(K), usable, road_top_v, height_m, pitch)
+        v_vp = horizon_measurement(vanishing, float(np.asarray(K)[1, 1])) if vanishing is not None else None
+        evidence = HorizonEvidence(road_top_v, *(v_vp or (None, 1.0)))
+        mode = _search(np.asarray(K), usable, evidence, height_m, pitch)
+        h_est, p_est, sigma_h, sigma_p = _posterior_moments(
+            np.asarray(K), usable, evidence, mode, (height_m is None, pitch is None)
+        )
         n_used = len(usable)
         if n_used:
             v_top, _ = predicted_top_rows(np.array([h_est]), np.array([p_est]), np.asarray(K), usable)
@@ -228,24 +322,16 @@ def estimate_camera(
             notes.append(
                 f"height/pitch fitted to {n_used} object(s) of known class height"
                 + (" and the road's top row" if road_top_v is not None else "")
+                + (f", horizon near the vanishing row {vanishing.v:.1f}" if vanishing is not None else "")
                 + f" (median residual {residual:.1f} px)"
             )
+        elif vanishing is not None:
+            notes.append(f"no usable objects: height from the prior, horizon near the vanishing row {vanishing.v:.1f}")
         elif road_top_v is not None:
             notes.append("no usable objects: height from the prior, pitch bounded by the road's top row")
         else:
             notes.append(
                 f"nothing to go on: default camera height {CAMERA_HEIGHT_PRIOR_M[0]:g} m and level pitch"
-            )
-        Kf = np.asarray(K)
-        if "height_m" in estimated:
-            sigma_h = _laplace_sigma(
-                lambda x: float(_cost(np.array([x]), np.array([p_est]), Kf, usable, road_top_v)[0]), h_est, 0.01
-            )
-        if "pitch" in estimated:
-            sigma_p = _laplace_sigma(
-                lambda x: float(_cost(np.array([h_est]), np.array([x]), Kf, usable, road_top_v)[0]),
-                p_est,
-                np.radians(0.05),
             )
         height_m, pitch = h_est, p_est
     method = "; ".join(notes) if notes else "all camera parameters given"

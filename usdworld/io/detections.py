@@ -5,7 +5,9 @@ KITTI ``label_2`` (one object per line, fields separated by spaces)::
     type truncated occluded alpha x1 y1 x2 y2 h w l x y z rotation_y [score]
 
 Only ``type``, the 2D box ``x1 y1 x2 y2`` (pixels) and the optional ``score`` are kept;
-``DontCare`` lines are skipped and the 3D fields are ignored.
+``DontCare`` lines are skipped and the 3D fields are ignored. KITTI's 2D boxes are the
+image projections of the annotated 3D boxes (clipped to the image): they are *amodal*,
+so an occluded object's box bottom is still where it meets the road.
 
 usdworld detections JSON::
 
@@ -17,8 +19,9 @@ usdworld detections JSON::
           "score": 0.9,                        # optional, in [0, 1], default 1.0
           "polygon": [[u, v], [u, v], ...],    # optional, >= 3 vertices in pixels
           "mask": {"size": [H, W],             # optional, COCO RLE of an H x W mask,
-                   "counts": ...}              #   H x W = the image size
-        }
+                   "counts": ...},             #   H x W = the image size
+          "amodal": false                      # optional: true when the box bounds the
+        }                                      #   whole object, hidden parts included
       ]
     }
 
@@ -27,7 +30,10 @@ Give at most one of ``polygon`` and ``mask``. ``polygon`` is filled with
 ``mask.counts`` is COCO run-length encoding over the mask in column-major order
 (down the first column, then the next), starting with a run of zeros: either a list
 of ints (uncompressed RLE, e.g. ``[3, 2, 5]``) or the COCO compressed string
-(``pycocotools.mask.encode(...)["counts"].decode()``). Other keys are ignored.
+(``pycocotools.mask.encode(...)["counts"].decode()``). ``amodal`` (default false) says the
+box was drawn around the whole object, as a projected 3D box is, rather than around its
+visible pixels; its bottom edge then locates the ground contact even when something hides
+it. Other keys are ignored.
 
 In both formats boxes use the image frame (origin at the top-left corner, u right,
 v down; ``xmax`` / ``ymax`` are edges) and are clipped to the image when the image is
@@ -252,7 +258,7 @@ def read_kitti_labels(path: PathLike, image: SourceImage | None = None) -> Detec
             values.append(v)
         box = _check_box(values[:4], image, where)
         score = _check_score(values[4], where) if len(values) == 5 else 1.0
-        items.append(Detection(label=label, box_px=box, score=score))
+        items.append(Detection(label=label, box_px=box, score=score, amodal=True))
     return Detections(items=tuple(items), file=file)
 
 
@@ -314,7 +320,10 @@ def _read_detection(value: Any, image: SourceImage, where: str) -> Detection:
     if mask is not None and not mask.any():
         key = "polygon" if "polygon" in obj else "mask"
         raise InputError(f"{where} -> {key}: covers no pixel of the image; fix it or drop the {key}")
-    return Detection(label=label, box_px=box, score=score, mask=mask)
+    amodal = obj.get("amodal", False)
+    if not isinstance(amodal, bool):
+        raise InputError(f"{where} -> amodal: must be true or false, got {json_type(amodal)} {amodal!r}")
+    return Detection(label=label, box_px=box, score=score, mask=mask, amodal=amodal)
 
 
 def read_detections_json(path: PathLike, image: SourceImage) -> Detections:

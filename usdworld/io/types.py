@@ -84,12 +84,16 @@ class Detection:
         box_px: (4,) float64 ``xmin, ymin, xmax, ymax`` in pixels (xmax/ymax exclusive edges).
         score: detector confidence in [0, 1] (1.0 for ground-truth labels).
         mask: (H, W) bool full-image mask, or None for box-only detections.
+        amodal: the box bounds the whole object, hidden parts included (KITTI labels are
+            projections of 3D boxes), so its bottom edge is the object's ground contact
+            even where another object hides it; False for boxes of the visible part.
     """
 
     label: str
     box_px: np.ndarray
     score: float = 1.0
     mask: np.ndarray | None = None
+    amodal: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "box_px", _frozen_array(np.asarray(self.box_px, dtype=np.float64)))

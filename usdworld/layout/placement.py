@@ -25,10 +25,12 @@ from usdworld.errors import LayoutError
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.geometry.homography import apply_homography
 from usdworld.io.types import DepthMap
+from usdworld.layout.boxes import align_box_columns, box_aspect_usable, fit_view_angle
 from usdworld.layout.collision import footprint_half_extents, resolve_collisions
 from usdworld.layout.ordering import apply_ordering_rules
 from usdworld.layout.priors import ClassPrior, prior_for
-from usdworld.layout.yaw import RoadAxis, choose_yaw
+from usdworld.layout.silhouette import depth_from_silhouette, top_offsets
+from usdworld.layout.yaw import RoadAxis, choose_yaw, yaw_from_view_angle
 from usdworld.perception.depth.fusion import DepthCue, fuse, object_depth_cues
 from usdworld.perception.objects import ImageObject
 
@@ -51,17 +53,31 @@ class AssetSizes:
             each variant touches the ground (a car's tyres, a person's feet), metres; the
             lowest image point of an object is its nearest contact point, not its bumper.
             Missing variants use half the footprint.
+        top_half_by_variant: half extents of each variant's top (a car's roof), metres;
+            the top row of a silhouette is the top's near or far edge. Missing variants
+            use 0 (a top right above the centre).
     """
 
     by_variant: dict[str, tuple[float, float, float]]
     default_variant: str
     contact_half_by_variant: dict[str, tuple[float, float]] = field(default_factory=dict)
+    top_half_by_variant: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def contact_half(self, variant: str) -> np.ndarray:
         """(2,) float64 contact half extents of a variant at unit scale."""
         if variant in self.contact_half_by_variant:
             return np.asarray(self.contact_half_by_variant[variant], dtype=np.float64)
         return 0.5 * np.asarray(self.by_variant[variant][:2], dtype=np.float64)
+
+    def top_half(self, variant: str) -> np.ndarray:
+        """(2,) float64 half extents of a variant's top at unit scale."""
+        return np.asarray(self.top_half_by_variant.get(variant, (0.0, 0.0)), dtype=np.float64)
+
+    def top_offsets(self, variant: str, rel_yaw: float, box_only: bool) -> tuple[float, float]:
+        """Near and far edges of the variant's top beyond its lowest image point at unit
+        scale, metres (:func:`usdworld.layout.silhouette.top_offsets`)."""
+        size = np.asarray(self.by_variant[variant][:2], dtype=np.float64)
+        return top_offsets(self.contact_half(variant), self.top_half(variant), size, rel_yaw, box_only)
 
 
 @dataclass(frozen=True)
@@ -257,56 +273,6 @@ def place_objects(
     return placements, skipped
 
 
-#: Largest sideways correction of the box alignment, as a fraction of the object's width.
-MAX_ALIGN_SHIFT = 1.0
-
-
-def _align_box_columns(
-    camera: PinholeCamera, ground: np.ndarray, yaw: float, size: np.ndarray, obj: ImageObject
-) -> np.ndarray:
-    """Shift an object sideways so that its projected 3D box spans the same columns as the image box.
-
-    The box centre column is not the projection of the object's centre when the object
-    is seen at an angle (its near side widens the box). A few fixed-point steps move the
-    centre perpendicular to the viewing ray until the projected and observed box centres
-    agree. Boxes cut by the left or right image border are left alone.
-
-    Args:
-        camera: the source camera.
-        ground: (2,) float64 footprint centre.
-        yaw: object yaw, radians.
-        size: (3,) float64 length, width, height.
-        obj: the image evidence.
-
-    Returns:
-        (2,) float64 corrected footprint centre.
-    """
-    x0, _, x1, _ = (float(b) for b in obj.box_px)
-    if x0 <= 0.5 or x1 >= camera.width - 0.5:
-        return ground
-    l, w, h = (float(v) for v in size)
-    c, s = np.cos(yaw), np.sin(yaw)
-    local = np.array([[sx * l / 2, sy * w / 2] for sx in (-1, 1) for sy in (-1, 1)])
-    offsets = local @ np.array([[c, s], [-s, c]])
-    start = np.asarray(ground, dtype=np.float64)
-    centre = start.copy()
-    for _ in range(4):
-        pts = np.concatenate(
-            [np.column_stack([centre + offsets, np.full(4, z)]) for z in (0.0, h)]
-        )
-        px, depth = camera.project(pts)
-        if not np.isfinite(px).all():
-            return ground
-        error_px = 0.5 * (x0 + x1) - 0.5 * (px[:, 0].min() + px[:, 0].max())
-        bearing = np.arctan2(centre[1], centre[0])
-        left = np.array([-np.sin(bearing), np.cos(bearing)])
-        centre = centre - left * error_px * float(np.mean(depth)) / camera.fx
-    shift = centre - start
-    limit = MAX_ALIGN_SHIFT * w
-    norm = float(np.linalg.norm(shift))
-    return start + shift * (limit / norm) if norm > limit else centre
-
-
 #: Gap left between an occluded object and the object hiding it, metres.
 BEHIND_GAP_M = 0.3
 
@@ -377,6 +343,15 @@ def _draft(  # noqa: PLR0913
         front_contact *= (camera.height_m - CURB_HEIGHT_M) / camera.height_m
     bottom_seen = not (obj.bottom_truncated or obj.bottom_occluded)
     whole = bottom_seen and not obj.top_truncated
+    height_depth = None
+    if whole and obj.height_px > 0:
+        # The silhouette's height, with the object's own depth extent (its roof's far
+        # edge is its top row when the roof is below the camera); yaw guessed at the
+        # contact point, default variant at unit scale.
+        guess = contact_ground if contact_ok else _point_at_depth(camera, u, v, 10.0)
+        rel_yaw = _object_yaw(prior, guess, axis, obj, camera)[0] - float(np.arctan2(guess[1], guess[0]))
+        offsets = sizes.top_offsets(sizes.default_variant, rel_yaw, obj.box_only)
+        height_depth = depth_from_silhouette(camera, (u, v), obj.height_px, prior.size_m[2], offsets)
 
     # Cues for the depth of the object's front (its contact row / visible surface).
     cues = object_depth_cues(
@@ -389,6 +364,7 @@ def _draft(  # noqa: PLR0913
         camera.fy,
         camera_height_m=camera.height_m,
         class_height_std_m=prior.height_std_m,
+        height_depth_m=height_depth,
     )
     cues = [_with_camera_uncertainty(c, camera, camera_sigma) for c in cues]
     if forced is not None:
@@ -405,7 +381,7 @@ def _draft(  # noqa: PLR0913
 
     # Yaw at the front point; variant and scale from the visible height and aspect there.
     front_ground = _point_at_depth(camera, u, v, front)
-    yaw, _ = choose_yaw(prior.yaw, front_ground, axis)
+    yaw, _ = _object_yaw(prior, front_ground, axis, obj, camera)
     bearing = float(np.arctan2(front_ground[1], front_ground[0]))
     measured_h = float(obj.height_px * front / camera.fy) if whole else float("nan")
     sides_cut = obj.box_px[0] <= 0 or obj.box_px[2] >= camera.width
@@ -429,9 +405,9 @@ def _draft(  # noqa: PLR0913
     back = _forward_half_extent(reach, yaw, bearing) / horiz
     depth = front + back
     ground = _point_at_depth(camera, u, v, depth)
-    yaw, yaw_source = choose_yaw(prior.yaw, ground, axis)
+    yaw, yaw_source = _object_yaw(prior, ground, axis, obj, camera)
     if obj.is_thing:
-        ground = _align_box_columns(camera, ground, yaw, size, obj)
+        ground = align_box_columns(camera, ground, yaw, size, obj)
     centre_cues = tuple(
         DepthCue(c.name, c.depth_m + back, c.sigma_m, c.note) if c.available else c for c in cues
     )
@@ -452,6 +428,19 @@ def _draft(  # noqa: PLR0913
         "front_depth_m": front,
         "back_m": back,
     }
+
+
+def _object_yaw(
+    prior: ClassPrior, point: np.ndarray, axis: RoadAxis, obj: ImageObject, camera: PinholeCamera
+) -> tuple[float, str]:
+    """The class's yaw rule at ``point``, turned to match a whole box's aspect when there is one
+    (:mod:`usdworld.layout.boxes`)."""
+    yaw, source = choose_yaw(prior.yaw, point, axis)
+    if not box_aspect_usable(obj, prior, camera.width):
+        return yaw, source
+    angle = fit_view_angle(camera, point, prior.size_m, obj)
+    bearing = float(np.arctan2(point[1], point[0]))
+    return yaw_from_view_angle(angle, bearing, yaw), f"box_aspect_{source}"
 
 
 #: Confidence of a placement by the cue that decided its depth.

@@ -75,6 +75,63 @@ def choose_yaw(mode: str, position_ground: np.ndarray, axis: RoadAxis) -> tuple[
     return 0.0, "none"
 
 
+def view_angle_from_box(box_w_px: float, box_h_px: float, size_lwh: tuple[float, float, float]) -> float:
+    """How far a box-shaped object is turned from the viewing ray, from its image box's aspect.
+
+    An upright box of length ``L``, width ``W`` and height ``H`` turned by ``a`` from the
+    line of sight shows ``W cos a + L sin a`` metres across for ``H`` metres up, so the
+    image box's aspect gives ``a`` (perspective ignored). That width rises from ``W``
+    (seen end on) to ``sqrt(W^2 + L^2)`` at ``atan(L / W)`` and falls back to ``L`` (side
+    on): an aspect wider than ``L / H`` has two answers, and the angle between them,
+    ``atan(L / W)``, is returned.
+
+    Args:
+        box_w_px: image box width, pixels (> 0).
+        box_h_px: image box height, pixels (> 0).
+        size_lwh: the class's typical length, width and height, metres.
+
+    Returns:
+        The angle in [0, pi/2] radians (0: seen end on, pi/2: side on).
+
+    Example:
+        >>> round(float(np.degrees(view_angle_from_box(100.0, 100.0, (4.0, 1.5, 1.5)))), 1)
+        0.0
+        >>> round(float(np.degrees(view_angle_from_box(200.0, 100.0, (4.0, 1.5, 1.5)))), 1)
+        24.1
+    """
+    length, width, height = (float(x) for x in size_lwh)
+    across = box_w_px / box_h_px * height
+    peak = float(np.arctan2(length, width))
+    if across >= length:
+        return peak
+    radius = float(np.hypot(length, width))
+    return float(np.clip(peak - np.arccos(np.clip(across / radius, -1.0, 1.0)), 0.0, np.pi / 2))
+
+
+def yaw_from_view_angle(view_angle: float, bearing: float, road_yaw: float) -> float:
+    """The yaw ``bearing +- view_angle`` (either way round) closest to ``road_yaw``.
+
+    The box's aspect says how far the object is turned from the line of sight but not to
+    which side, nor which way it faces: the candidate nearest to the road's yaw is kept,
+    facing the way the road's yaw faces.
+
+    Args:
+        view_angle: in [0, pi/2] radians (:func:`view_angle_from_box`).
+        bearing: world yaw of the line of sight to the object, radians.
+        road_yaw: the yaw the road gives (:func:`choose_yaw`), radians.
+
+    Returns:
+        Yaw in radians, wrapped to (-pi, pi].
+    """
+    best = None
+    for candidate in (bearing + view_angle, bearing - view_angle, bearing + view_angle + np.pi, bearing - view_angle + np.pi):
+        gap = abs(_wrap(candidate - road_yaw))
+        if best is None or gap < best[0]:
+            best = (gap, candidate)
+    assert best is not None
+    return _wrap(best[1])
+
+
 def _wrap(angle: float) -> float:
     """Angle wrapped to (-pi, pi]."""
     a = (angle + np.pi) % (2 * np.pi) - np.pi

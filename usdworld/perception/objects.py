@@ -359,7 +359,9 @@ def objects_from_detections(
     """Things from 2D detections (boxes, optionally masks).
 
     A box's contact is its bottom centre. Its bottom counts as occluded when another
-    box whose bottom is lower (closer) covers at least half of its bottom edge.
+    box whose bottom is lower (closer) covers at least half of its bottom edge, unless
+    the box is amodal (drawn around the whole object, hidden parts included): then its
+    bottom edge is the contact row whatever hides it.
 
     Args:
         detections: the detections; labels without a placed class are skipped.
@@ -395,7 +397,7 @@ def objects_from_detections(
         occluders = 0.0
         occluder = -1
         for other_index, _, _, obox, _, _ in items:
-            if other_index == index or obox[3] <= bottom + 1.0 or obox[1] >= bottom:
+            if det.amodal or other_index == index or obox[3] <= bottom + 1.0 or obox[1] >= bottom:
                 continue
             overlap = (min(fbox[2], obox[2]) - max(fbox[0], obox[0])) / max(fbox[2] - fbox[0], 1e-9)
             if overlap > occluders:

@@ -19,7 +19,8 @@ Cues (each a :class:`DepthCue`; an unavailable cue keeps its name with ``depth_m
     the object, not the object).
 ``height``
     Class height prior: ``d = f H / h_px`` for an object of height ``H`` metres seen
-    ``h_px`` pixels tall (None when its top or bottom is cut). The spread of real
+    ``h_px`` pixels tall (None when its top or bottom is cut), or the caller's depth
+    from a silhouette model that includes the object's depth extent. The spread of real
     heights ``std_H`` and one pixel of height error give
     ``sigma = d sqrt((std_H / H)^2 + (1 / h_px)^2)``.
 
@@ -180,6 +181,7 @@ def object_depth_cues(
     *,
     camera_height_m: float,
     class_height_std_m: float | None = None,
+    height_depth_m: float | None = None,
 ) -> list[DepthCue]:
     """Every depth cue of one object (module docstring for the models and sigmas).
 
@@ -196,6 +198,9 @@ def object_depth_cues(
         camera_height_m: camera height above the ground, metres (contact sigma).
         class_height_std_m: spread of the class's real heights, metres; default 10 %
             of ``class_height_m``.
+        height_depth_m: the depth the caller found for ``height_px`` with a model of the
+            object's silhouette (:mod:`usdworld.layout.silhouette`), replacing the flat
+            ``f H / h``; its sigma is the same.
 
     Returns:
         ``[contact, cnn, height]`` cues; unavailable ones have ``depth_m`` None and a
@@ -238,9 +243,14 @@ def object_depth_cues(
     elif not (np.isfinite(height_px) and height_px >= 1):
         height = DepthCue("height", None, None, f"height {height_px} px too small")
     else:
-        d = fy * class_height_m / height_px
+        if height_depth_m is not None and np.isfinite(height_depth_m) and height_depth_m > 0:
+            d = float(height_depth_m)
+            how = f"silhouette of a {class_height_m:g} m object {height_px:.1f} px tall"
+        else:
+            d = fy * class_height_m / height_px
+            how = f"f*H/h = {fy:.1f}*{class_height_m:g}/{height_px:.1f}"
         sigma = d * float(np.hypot(std_h / class_height_m, 1.0 / height_px))
-        height = DepthCue("height", d, sigma, f"f*H/h = {fy:.1f}*{class_height_m:g}/{height_px:.1f}")
+        height = DepthCue("height", d, sigma, how)
 
     return [contact, _cnn_cue(mask, occluders, depth_map), height]
 

@@ -1,0 +1,174 @@
+"""The horizon from the photo itself: the vanishing point of the street's lines.
+
+Lane markings, kerbs, roof lines and window rows run along the street; in the image
+they converge on one vanishing point, which lies on the horizon. With a level roll the
+horizon row fixes the camera pitch (``v_h = c_y - f_y tan(pitch)``), the part of the
+camera that objects of known height constrain worst when there are few of them.
+
+Line segments come from OpenCV's LSD detector. A deterministic RANSAC over pairs of
+segments finds the point most segments point at (within :data:`ANGLE_TOL_DEG`, weighted
+by length); a weighted least-squares fit over its inliers refines it. The estimate is
+kept only when enough segments from both sides of the point agree, so a single facade
+or a fence does not decide it.
+
+Frames: image pixels (u right, v down, origin at the top-left corner).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+#: Wider photos are shrunk to this width before segment detection (pixels).
+MAX_WIDTH_PX = 1280
+#: Shortest segment used, as a fraction of the image width (and at least 15 px).
+MIN_LENGTH_FRACTION = 0.025
+#: Segments closer than this to horizontal or vertical are ignored (degrees): they
+#: belong to lateral or upright structure, not to lines along the street.
+MIN_SLANT_DEG = 8.0
+#: A segment supports a point when its direction is within this of the point's (degrees).
+ANGLE_TOL_DEG = 1.5
+#: RANSAC pairs tried.
+TRIALS = 600
+#: Spread of the road's slope against the camera's ground plane (degrees): a street that
+#: climbs or falls moves its vanishing point off the horizon of the ground under the car.
+ROAD_SLOPE_SIGMA_DEG = 1.0
+#: Fewest supporting segments, and fewest on each side of the point.
+MIN_INLIERS = 8
+MIN_PER_SIDE = 2
+
+
+@dataclass(frozen=True)
+class VanishingPoint:
+    """The street's vanishing point.
+
+    Attributes:
+        u: column, pixels.
+        v: row, pixels (the horizon's row when the roll is level).
+        sigma_v_px: standard error of ``v`` from the inliers' scatter, pixels.
+        n_inliers: segments supporting it.
+        n_segments: slanted segments considered.
+    """
+
+    u: float
+    v: float
+    sigma_v_px: float
+    n_inliers: int
+    n_segments: int
+
+
+def detect_segments(rgb: np.ndarray) -> np.ndarray:
+    """Line segments of a photo (found at most :data:`MAX_WIDTH_PX` wide, for speed).
+
+    Args:
+        rgb: (H, W, 3) uint8 image.
+
+    Returns:
+        (N, 4) float64 ``u0, v0, u1, v1`` in the photo's pixels.
+    """
+    gray = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY)
+    scale = min(1.0, MAX_WIDTH_PX / gray.shape[1])
+    if scale < 1.0:
+        size = (round(gray.shape[1] * scale), round(gray.shape[0] * scale))
+        gray = cv2.resize(gray, size, interpolation=cv2.INTER_AREA)
+    lines = cv2.createLineSegmentDetector().detect(gray)[0]
+    if lines is None:
+        return np.zeros((0, 4))
+    return lines.reshape(-1, 4).astype(np.float64) / scale
+
+
+def _slanted(segments: np.ndarray, width: int) -> np.ndarray:
+    d = segments[:, 2:] - segments[:, :2]
+    length = np.hypot(d[:, 0], d[:, 1])
+    angle = np.degrees(np.arctan2(np.abs(d[:, 1]), np.abs(d[:, 0])))
+    keep = (length >= max(15.0, MIN_LENGTH_FRACTION * width)) & (angle >= MIN_SLANT_DEG) & (angle <= 90 - MIN_SLANT_DEG)
+    return segments[keep]
+
+
+def _support(segments: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """(N,) angle in degrees between each segment and the direction from its middle to ``point``."""
+    mid = 0.5 * (segments[:, :2] + segments[:, 2:])
+    d = segments[:, 2:] - segments[:, :2]
+    to = point[None, :] - mid
+    cross = np.abs(d[:, 0] * to[:, 1] - d[:, 1] * to[:, 0])
+    dot = np.abs(np.sum(d * to, axis=1))
+    return np.degrees(np.arctan2(cross, dot))
+
+
+def _lines(segments: np.ndarray) -> np.ndarray:
+    """(N, 3) homogeneous lines through the segments, normalised so a^2 + b^2 = 1."""
+    p = np.column_stack([segments[:, :2], np.ones(len(segments))])
+    q = np.column_stack([segments[:, 2:], np.ones(len(segments))])
+    lines = np.cross(p, q)
+    return lines / np.linalg.norm(lines[:, :2], axis=1, keepdims=True)
+
+
+def _refine(segments: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, float]:
+    """Weighted least-squares intersection of the lines; the point and the sigma of its v."""
+    lines = _lines(segments)
+    A, b = lines[:, :2], -lines[:, 2]
+    w = np.sqrt(weights)
+    sol, *_ = np.linalg.lstsq(A * w[:, None], b * w, rcond=None)
+    resid = A @ sol - b
+    dof = max(len(b) - 2, 1)
+    s2 = float(np.sum(weights * resid**2) / np.sum(weights)) * len(b) / dof
+    cov = s2 * np.linalg.pinv((A * weights[:, None]).T @ A / np.mean(weights))
+    return sol, float(np.sqrt(max(cov[1, 1], 0.0)))
+
+
+def find_vanishing_point(segments: np.ndarray, width: int, height: int) -> VanishingPoint | None:
+    """The point the most (length-weighted) slanted segments converge on.
+
+    Args:
+        segments: (N, 4) ``u0, v0, u1, v1`` pixels.
+        width: image width, pixels.
+        height: image height, pixels.
+
+    Returns:
+        The vanishing point, or None when too few segments agree (fewer than
+        :data:`MIN_INLIERS`, or fewer than :data:`MIN_PER_SIDE` on either side of it) or it
+        lies outside the image rows.
+    """
+    seg = _slanted(np.asarray(segments, dtype=np.float64).reshape(-1, 4), width)
+    n = len(seg)
+    if n < MIN_INLIERS:
+        return None
+    lines = _lines(seg)
+    length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+    rng = np.random.default_rng(0)
+    pairs = rng.integers(0, n, size=(TRIALS, 2))
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    points = np.cross(lines[pairs[:, 0]], lines[pairs[:, 1]])
+    ok = np.abs(points[:, 2]) > 1e-9
+    points = points[ok, :2] / points[ok, 2:3]
+    inside = (points[:, 1] >= 0) & (points[:, 1] < height) & (np.abs(points[:, 0] - width / 2) < width)
+    points = points[inside]
+    if not len(points):
+        return None
+    scores = np.array([length[_support(seg, p) < ANGLE_TOL_DEG].sum() for p in points])
+    best = points[int(np.argmax(scores))]
+    inliers = _support(seg, best) < ANGLE_TOL_DEG
+    for _ in range(2):
+        if inliers.sum() < MIN_INLIERS:
+            return None
+        best, sigma_v = _refine(seg[inliers], length[inliers])
+        inliers = _support(seg, best) < ANGLE_TOL_DEG
+    mid_u = 0.5 * (seg[inliers, 0] + seg[inliers, 2])
+    if min((mid_u < best[0]).sum(), (mid_u > best[0]).sum()) < MIN_PER_SIDE or not (0 <= best[1] < height):
+        return None
+    return VanishingPoint(float(best[0]), float(best[1]), sigma_v, int(inliers.sum()), n)
+
+
+def street_vanishing_point(rgb: np.ndarray) -> VanishingPoint | None:
+    """:func:`find_vanishing_point` of the photo's LSD segments."""
+    return find_vanishing_point(detect_segments(rgb), rgb.shape[1], rgb.shape[0])
+
+
+def horizon_measurement(vp: VanishingPoint, fy: float) -> tuple[float, float]:
+    """The horizon row the vanishing point measures and its standard error, pixels.
+
+    The error adds the point's own scatter and :data:`ROAD_SLOPE_SIGMA_DEG` of road slope.
+    """
+    return vp.v, float(np.hypot(vp.sigma_v_px, fy * np.tan(np.radians(ROAD_SLOPE_SIGMA_DEG))))

@@ -1,0 +1,130 @@
+"""What an image box says about a box-shaped object: its turn and its sideways position.
+
+A detector's box (or a KITTI label, the projection of a 3D box) of a car whose whole
+outline is in view carries more than its bottom row: its aspect says how far the car is
+turned from the line of sight, and its centre column where the car's centre is once
+that turn is known. Both are found by projecting the class's 3D box with the camera.
+
+Frames: world (Z up, metres, ground z = 0, camera above the origin); image pixels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from usdworld.geometry.camera import PinholeCamera
+from usdworld.layout.priors import ClassPrior
+from usdworld.layout.yaw import view_angle_from_box
+from usdworld.perception.objects import ImageObject
+
+#: Largest sideways correction of the box alignment, as a fraction of the object's width.
+MAX_ALIGN_SHIFT = 1.0
+#: Turns tried when fitting a box's aspect, degrees (0 = end on, 90 = side on).
+VIEW_ANGLES_DEG = np.arange(0.0, 90.5, 1.0)
+
+
+def box_corners(centre_xy: np.ndarray, yaw: float, size_lwh: np.ndarray) -> np.ndarray:
+    """(8, 3) float64 world corners of an upright box standing on the ground (bottom four first)."""
+    l, w, h = (float(v) for v in size_lwh)
+    c, s = np.cos(yaw), np.sin(yaw)
+    local = np.array([[sx * l / 2, sy * w / 2] for sx in (-1, 1) for sy in (-1, 1)])
+    foot = np.asarray(centre_xy, dtype=np.float64) + local @ np.array([[c, s], [-s, c]])
+    return np.concatenate([np.column_stack([foot, np.full(4, z)]) for z in (0.0, h)])
+
+
+def box_aspect_usable(obj: ImageObject, prior: ClassPrior, image_width: int) -> bool:
+    """True for a box-only road object (a vehicle) whose whole box is in view and unhidden."""
+    if not obj.box_only or prior.yaw != "road" or obj.bottom_occluded or obj.bottom_truncated or obj.top_truncated:
+        return False
+    x0, y0, x1, y1 = (float(b) for b in obj.box_px)
+    return x0 > 0.5 and x1 < image_width - 0.5 and x1 > x0 and y1 > y0
+
+
+def box_view_angle(obj: ImageObject, prior: ClassPrior, image_width: int) -> float | None:
+    """Camera-free turn from the box's aspect (:func:`usdworld.layout.yaw.view_angle_from_box`),
+    for when the camera is not known yet; None when the box is not usable."""
+    if not box_aspect_usable(obj, prior, image_width):
+        return None
+    x0, y0, x1, y1 = (float(b) for b in obj.box_px)
+    return view_angle_from_box(x1 - x0, y1 - y0, prior.size_m)
+
+
+def fit_view_angle(camera: PinholeCamera, ground: np.ndarray, size_lwh: np.ndarray, obj: ImageObject) -> float:
+    """The turn from the line of sight whose projected box has the image box's aspect.
+
+    Unlike the camera-free :func:`box_view_angle`, perspective is included: a near car's
+    box is taller than ``f H / d`` (its near bottom edge is lower), which the flat
+    formula reads as a narrower, less turned car. The aspect rises from end on to a peak
+    near ``atan(L / W)`` and falls to side on; an aspect beyond the side-on one is
+    ambiguous and gives the peak.
+
+    Args:
+        camera: the source camera.
+        ground: (2,) footprint centre, metres.
+        size_lwh: (3,) the class's length, width and height, metres.
+        obj: the image evidence (a usable box: :func:`box_aspect_usable`).
+
+    Returns:
+        The angle in [0, pi/2] radians.
+    """
+    x0, y0, x1, y1 = (float(b) for b in obj.box_px)
+    observed = (x1 - x0) / (y1 - y0)
+    bearing = float(np.arctan2(ground[1], ground[0]))
+    aspects = []
+    for angle in np.radians(VIEW_ANGLES_DEG):
+        px, depth = camera.project(box_corners(ground, bearing + angle, np.asarray(size_lwh)))
+        ok = np.isfinite(px).all() and bool(np.all(depth > 0))
+        aspects.append(np.ptp(px[:, 0]) / max(np.ptp(px[:, 1]), 1e-9) if ok else np.nan)
+    curve = np.array(aspects)
+    if not np.isfinite(curve).all():
+        return float(view_angle_from_box(x1 - x0, y1 - y0, tuple(size_lwh)))
+    peak = int(np.argmax(curve))
+    if observed <= curve[0]:
+        return 0.0
+    if observed >= curve[-1]:
+        return float(np.radians(VIEW_ANGLES_DEG[peak]))
+    rising = curve[: peak + 1]
+    k = int(np.searchsorted(rising, observed))
+    k = min(max(k, 1), peak)
+    a0, a1 = VIEW_ANGLES_DEG[k - 1], VIEW_ANGLES_DEG[k]
+    t = (observed - rising[k - 1]) / max(rising[k] - rising[k - 1], 1e-12)
+    return float(np.radians(a0 + np.clip(t, 0.0, 1.0) * (a1 - a0)))
+
+
+def align_box_columns(
+    camera: PinholeCamera, ground: np.ndarray, yaw: float, size: np.ndarray, obj: ImageObject
+) -> np.ndarray:
+    """Shift an object sideways so that its projected 3D box spans the same columns as the image box.
+
+    The box centre column is not the projection of the object's centre when the object
+    is seen at an angle (its near side widens the box). A few fixed-point steps move the
+    centre perpendicular to the viewing ray until the projected and observed box centres
+    agree. Boxes cut by the left or right image border are left alone.
+
+    Args:
+        camera: the source camera.
+        ground: (2,) float64 footprint centre.
+        yaw: object yaw, radians.
+        size: (3,) float64 length, width, height.
+        obj: the image evidence.
+
+    Returns:
+        (2,) float64 corrected footprint centre.
+    """
+    x0, _, x1, _ = (float(b) for b in obj.box_px)
+    if x0 <= 0.5 or x1 >= camera.width - 0.5:
+        return ground
+    start = np.asarray(ground, dtype=np.float64)
+    centre = start.copy()
+    for _ in range(4):
+        px, depth = camera.project(box_corners(centre, yaw, size))
+        if not np.isfinite(px).all():
+            return ground
+        error_px = 0.5 * (x0 + x1) - 0.5 * (px[:, 0].min() + px[:, 0].max())
+        bearing = np.arctan2(centre[1], centre[0])
+        left = np.array([-np.sin(bearing), np.cos(bearing)])
+        centre = centre - left * error_px * float(np.mean(depth)) / camera.fx
+    shift = centre - start
+    limit = MAX_ALIGN_SHIFT * float(size[1])
+    norm = float(np.linalg.norm(shift))
+    return start + shift * (limit / norm) if norm > limit else centre

@@ -27,8 +27,8 @@ import pytest
 from pxr import Usd
 from test_export_fixtures import WEB, add_edits, build_street_world, require_web_tools
 
-from usdworld.export import export_world
 from usdworld.authoring.usd_geometry import scene_bounds
+from usdworld.export import export_world
 
 NPM = ("three", "playwright-core", "esbuild")
 #: Seconds the whole browser run may take.

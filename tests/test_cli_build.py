@@ -9,8 +9,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-
 from golden_scene import write_inputs
+
 from usdworld.cli.main import main
 
 

@@ -6,9 +6,9 @@ import json
 
 import numpy as np
 import pytest
+from synthetic_scene import default_camera, write_scene
 
 import usdworld.depth_stage as depth_stage
-from synthetic_scene import default_camera, write_scene
 from usdworld.cli.main import main
 from usdworld.perception.depth import DepthPrediction, ground_plane_depth
 from usdworld.pipeline import BuildRequest, build

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from pxr import Sdf
 
 W, H, F, CAM_H = 512, 256, 300.0, 1.5
 ROAD_HALF_WIDTH_M = 5.0
@@ -114,3 +115,10 @@ def test_template_world_has_the_drawn_objects(tmp_path_factory):
         assert objects["car_0001"].position_world[0] > 20 and objects["car_0002"].position_world[1] < 0
         ground = editor.ground()
         assert set(ground.triangles) == {"road", "sidewalk"}
+
+
+def base_x(world: Path, name: str) -> float:
+    """World x of an object as the base layer places it (before any edit)."""
+    layer = Sdf.Layer.FindOrOpen(str(world.parent / "layers/base.usda"))
+    spec = layer.GetAttributeAtPath(f"/World/Objects/{name}.xformOp:translate")
+    return float(spec.default[0])

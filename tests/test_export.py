@@ -24,12 +24,12 @@ import pytest
 from pxr import Sdf, Usd, UsdGeom, UsdShade
 from test_export_fixtures import add_edits, build_street_world
 
+from usdworld.authoring.usd_geometry import scene_bounds
 from usdworld.cli.main import main as cli
 from usdworld.errors import InputError, OutputError
 from usdworld.export import export_world
 from usdworld.export.gltf import read_glb_json
 from usdworld.export.usd_formats import check_crate_version, crate_version, objects_with_payloads
-from usdworld.authoring.usd_geometry import scene_bounds
 
 #: (name, format, file name, options) of the exports made once per module.
 EXPORTS = [

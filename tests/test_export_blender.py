@@ -26,8 +26,8 @@ import pytest
 from pxr import Usd
 from test_export_fixtures import add_edits, build_street_world
 
-from usdworld.export import export_world
 from usdworld.authoring.usd_geometry import scene_bounds
+from usdworld.export import export_world
 
 PROBE = "import bpy, json; print('USDWORLD ' + json.dumps({'usd': bool(bpy.app.build_options.usd), 'version': bpy.app.version_string}))"
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 import difflib
 
 import pytest
-
 from golden_scene import GOLDEN_DIR, GOLDEN_FILES, build_golden
 
 

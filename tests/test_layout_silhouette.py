@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from usdworld.geometry.camera import PinholeCamera
-from usdworld.layout.silhouette import depth_from_silhouette, silhouette_rows, top_offsets
+from usdworld.layout.silhouette import depth_from_silhouette, depth_from_top_row, silhouette_rows, top_offsets
 
 K = np.array([[721.5, 0.0, 609.6], [0.0, 721.5, 172.9], [0.0, 0.0, 1.0]])
 CAM = PinholeCamera(1242, 375, K, 1.65, pitch=np.radians(0.5))
@@ -78,3 +78,15 @@ def test_no_depth_fits_returns_none():
 def test_rows_fall_with_depth():
     h = silhouette_rows(CAM, (609.6, 250.0), np.array([5.0, 10.0, 20.0, 40.0]), 1.5, (0.0, 3.9))
     assert np.all(np.diff(h) < 0)
+
+
+def test_top_row_places_a_person_and_refuses_a_car_roof():
+    level = PinholeCamera(1242, 375, K, 1.3)
+    v_top = 172.9 + 721.5 * (1.3 - 1.75) / 20.0
+    found = depth_from_top_row(level, 609.6, v_top, 1.75, 0.1)
+    assert found is not None
+    d, sigma = found
+    assert d == pytest.approx(20.0, rel=1e-3)
+    assert sigma == pytest.approx(20.0 * np.hypot(0.1 / 0.45, 20.0 / (721.5 * 0.45)), rel=1e-3)
+    # A car's roof (1.5 m) is too close to the camera height for its row to place it.
+    assert depth_from_top_row(level, 609.6, 180.0, 1.5, 0.12) is None

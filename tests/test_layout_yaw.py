@@ -62,3 +62,15 @@ def test_candidate_nearest_the_road_and_its_facing():
     assert np.degrees(yaw_from_view_angle(np.radians(25.0), bearing, 0.0)) == pytest.approx(-15.0)
     # Oncoming (road yaw pi): same line, facing the other way.
     assert np.degrees(yaw_from_view_angle(np.radians(25.0), bearing, np.pi)) == pytest.approx(165.0)
+
+
+def test_road_axis_takes_the_vanishing_direction_and_refuses_a_crossing():
+    from usdworld.layout.yaw import road_axis
+
+    pts = np.column_stack([np.linspace(5, 40, 200), np.where(np.arange(200) % 2, 4.0, -6.0)])  # lopsided
+    axis = road_axis(pts, vanishing_angle=np.radians(2.0))
+    assert axis.source == "vanishing_point" and axis.angle == pytest.approx(np.radians(2.0))
+    np.testing.assert_allclose(axis.center_ground, np.median(pts, axis=0))
+    assert road_axis(pts, vanishing_angle=np.radians(70.0)).source == "road_pca"
+    assert road_axis(None, vanishing_angle=np.radians(3.0)).source == "vanishing_point"
+    assert road_axis(None).source == "camera_forward"

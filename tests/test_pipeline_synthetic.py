@@ -6,8 +6,8 @@ import hashlib
 
 import numpy as np
 import pytest
-
 from synthetic_scene import default_camera, default_objects, write_scene
+
 from usdworld.authoring.validate import errors_only, validate_file
 from usdworld.pipeline import BuildRequest, build
 
@@ -40,7 +40,7 @@ def test_cars_follow_the_road_and_face_by_side(built):
         expected = 0.0 if p.position_world[1] < 0 else np.pi
         diff = abs((p.yaw - expected + np.pi) % (2 * np.pi) - np.pi)
         assert diff < np.radians(5), (p.name, np.degrees(p.yaw))
-        assert p.yaw_source.startswith("road_pca")
+        assert p.yaw_source.startswith(("vanishing_point", "road_pca"))
 
 
 def test_world_validates_and_is_reproducible(built, scene, tmp_path):

@@ -28,6 +28,7 @@ def test_schemas_registered_on_import():
 
 def test_world_opens_without_the_plugin(tmp_path):
     from golden_scene import write_inputs
+
     from usdworld.pipeline import build
 
     world = build(write_inputs(tmp_path)).world

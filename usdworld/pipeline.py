@@ -26,7 +26,7 @@ from usdworld.errors import InputError, OutputError
 from usdworld.geometry.camera import PinholeCamera, ground_correspondences
 from usdworld.geometry.estimate import CameraEstimate, HeightObservations, estimate_camera
 from usdworld.geometry.homography import HomographyFit, apply_homography, estimate_homography
-from usdworld.geometry.vanishing import street_vanishing_point
+from usdworld.geometry.vanishing import VanishingPoint, street_vanishing_point
 from usdworld.io.camera_files import read_camera
 from usdworld.io.correspondences import read_correspondences
 from usdworld.io.detections import read_detections_json, read_kitti_labels
@@ -184,21 +184,28 @@ def _camera(
     objects: list[ImageObject],
     seg: Segmentation | None,
     sizes: dict[str, AssetSizes],
+    vanishing: VanishingPoint | None,
 ) -> CameraEstimate:
     if spec is None:
         spec_values: tuple = (None, None, None, None, None)
     else:
         spec_values = (spec.K, spec.height_m, spec.pitch, spec.roll, spec.yaw)
-    # The photo's own lines measure the horizon when the pitch is not given.
-    vanishing = street_vanishing_point(image.rgb) if spec_values[2] is None else None
     return estimate_camera(
         image.width,
         image.height,
         *spec_values,
         _height_observations(objects, sizes, image.width),
         _road_top_row(seg),
-        vanishing=vanishing,
+        vanishing=vanishing,  # the photo's own lines measure the horizon when the pitch is not given
     )
+
+
+def _vanishing_yaw(vanishing: VanishingPoint | None, camera: PinholeCamera) -> float | None:
+    """World yaw of the direction the street's vanishing point lies in, or None."""
+    if vanishing is None:
+        return None
+    ray = camera.rays_world(np.array([[vanishing.u, vanishing.v]]))[0]
+    return float(np.arctan2(ray[1], ray[0]))
 
 
 def _ground_fit(request: BuildRequest, camera: PinholeCamera) -> tuple[HomographyFit, str]:
@@ -215,7 +222,9 @@ def _asset_sizes(objects: list[ImageObject], libraries: tuple[Path, ...]) -> dic
         info = asset_library.asset_info(name, libraries)
         contact = {v: asset_library.contact_half_extents(name, v, libraries) for v in info.variants}
         top = {v: asset_library.top_half_extents(name, v, libraries) for v in info.variants}
-        sizes[name] = AssetSizes(dict(info.size_by_variant), info.default_variant, contact, top)
+        reach = {v: asset_library.contact_mean_reach(name, v, libraries) for v in info.variants}
+        shapes = {v: asset_library.top_shape_ratio(name, v, libraries) for v in info.variants}
+        sizes[name] = AssetSizes(dict(info.size_by_variant), info.default_variant, contact, top, reach, shapes)
     return sizes
 
 
@@ -251,7 +260,7 @@ def depth_for_image(request: BuildRequest) -> tuple[DepthOutcome, PinholeCamera]
     spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
     objects = _objects(request, image, seg)
     sizes = _asset_sizes(objects, asset_library.library_dirs(request.library))
-    camera = _camera(spec, image, objects, seg, sizes)
+    camera = _camera(spec, image, objects, seg, sizes, street_vanishing_point(image.rgb))
     outcome = estimate_depth(request.depth, request.depth_weights, request.depth_map, image, camera.camera, seg, objects)
     return outcome, camera.camera
 
@@ -271,13 +280,17 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
     objects = _objects(request, image, seg)
     sizes = _asset_sizes(objects, libraries)
-    camera = _camera(spec, image, objects, seg, sizes)
+    vanishing = street_vanishing_point(image.rgb)
+    camera = _camera(spec, image, objects, seg, sizes, vanishing)
     dense = estimate_depth(
         request.depth, request.depth_weights, request.depth_map, image, camera.camera, seg, objects
     )
     depth = dense.depth_map
     fit, dlt_source = _ground_fit(request, camera.camera)
-    axis = road_axis(_road_points(seg, fit, camera.camera, request.max_range_m))
+    axis = road_axis(
+        _road_points(seg, fit, camera.camera, request.max_range_m),
+        vanishing_angle=_vanishing_yaw(vanishing, camera.camera),
+    )
     placements, skipped = place_objects(
         objects,
         camera.camera,
@@ -295,8 +308,8 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         labels = np.asarray(seg.label_ids)
         fill = occluded_ground_mask(labels.shape, _ground_occluders(placements), camera.camera, FILL_REACH_M)
         ahead = np.array([np.cos(axis.angle), np.sin(axis.angle), 0.0])
-        vanishing = camera.camera.vanishing_point(ahead) or (camera.camera.cx, camera.camera.horizon_v())
-        filled = fill_behind_occluders(labels, fill, vanishing)
+        road_vp = camera.camera.vanishing_point(ahead) or (camera.camera.cx, camera.camera.horizon_v())
+        filled = fill_behind_occluders(labels, fill, road_vp)
     surfaces = tuple(
         build_surfaces(filled, surface_ids, camera.camera, fit.dst_from_src, CURB_HEIGHT_M, request.max_range_m)
     )

@@ -29,13 +29,17 @@ from usdworld.layout.boxes import align_box_columns, box_aspect_usable, fit_view
 from usdworld.layout.collision import footprint_half_extents, resolve_collisions
 from usdworld.layout.ordering import apply_ordering_rules
 from usdworld.layout.priors import ClassPrior, prior_for
-from usdworld.layout.silhouette import depth_from_silhouette, top_offsets
+from usdworld.layout.silhouette import depth_from_silhouette, depth_from_top_row, top_offsets
 from usdworld.layout.yaw import RoadAxis, choose_yaw, yaw_from_view_angle
 from usdworld.perception.depth.fusion import DepthCue, fuse, object_depth_cues
 from usdworld.perception.objects import ImageObject
+from usdworld.perception.shape import top_shape_ratio
 
 #: Depth methods the paper's ordering rules may change (those decided by the dense map).
-ORDERED_METHODS = ("cnn", "contact_partial", "height_partial")
+ORDERED_METHODS = ("cnn", "contact_partial", "height_partial", "top_row")
+#: Depth methods of objects whose bottom is cut or hidden (an upper bound, or the weak
+#: top-row estimate): never a lower bound for others, dropped beyond the world's range.
+PARTIAL_METHODS = ("contact_partial", "height_partial", "top_row")
 #: Added to a stuff object's collision priority so that every thing settles before it.
 STUFF_PRIORITY_OFFSET = 1e6
 #: Height of the kerb: objects standing on the sidewalk are lifted by this much.
@@ -56,12 +60,26 @@ class AssetSizes:
         top_half_by_variant: half extents of each variant's top (a car's roof), metres;
             the top row of a silhouette is the top's near or far edge. Missing variants
             use 0 (a top right above the centre).
+        contact_mean_reach_by_variant: for objects whose heading is unknown (people), the
+            mean over headings of how far the nearest contact lies from the centre, metres.
+        top_shape_by_variant: each variant's side-view top shape
+            (:func:`usdworld.perception.shape.top_shape_ratio`): a conifer's against a
+            broad tree's, a plain pole's against a street lamp's.
     """
 
     by_variant: dict[str, tuple[float, float, float]]
     default_variant: str
     contact_half_by_variant: dict[str, tuple[float, float]] = field(default_factory=dict)
     top_half_by_variant: dict[str, tuple[float, float]] = field(default_factory=dict)
+    contact_mean_reach_by_variant: dict[str, float] = field(default_factory=dict)
+    top_shape_by_variant: dict[str, float] = field(default_factory=dict)
+
+    def mean_reach(self, variant: str) -> float:
+        """Mean distance of the nearest contact from the centre over all headings, unit scale
+        (missing variants: the mean of the contact half extents)."""
+        if variant in self.contact_mean_reach_by_variant:
+            return float(self.contact_mean_reach_by_variant[variant])
+        return float(np.mean(self.contact_half(variant)))
 
     def contact_half(self, variant: str) -> np.ndarray:
         """(2,) float64 contact half extents of a variant at unit scale."""
@@ -96,7 +114,7 @@ class Placement:
         size_m: (3,) float64 size after scaling (length, width, height).
         depth_m: centre depth along the optical axis, metres.
         depth_method: ``contact``, ``cnn``, ``height`` (the cue holding >= 80 % of the
-            weight), ``fused``, ``contact_partial`` / ``height_partial`` (cut or hidden
+            weight), ``fused``, ``contact_partial`` / ``height_partial`` / ``top_row`` (cut or hidden
             objects), with ``+rule1`` / ``+rule2`` when the ordering rules changed it.
         cues: every depth cue computed, as centre depths (unavailable ones have None).
         collision_displacement: (2,) float64 displacement applied by collision resolution.
@@ -129,16 +147,21 @@ def _depth_of_ground_point(camera: PinholeCamera, p_ground: np.ndarray) -> float
     return float(camera.cam_from_world_points(np.array([[p_ground[0], p_ground[1], 0.0]]))[0, 2])
 
 
-def _choose_variant(sizes: AssetSizes, measured_h: float, aspect: float, yaw_to_ray: float) -> str:
-    """The variant whose height and silhouette aspect best match the image.
+def _choose_variant(
+    sizes: AssetSizes, measured_h: float, aspect: float, yaw_to_ray: float, top_shape: float | None = None
+) -> str:
+    """The variant whose height, silhouette aspect and top shape best match the image.
 
     Args:
         sizes: the class's variants.
         measured_h: metric height seen in the image (NaN when cut).
         aspect: the mask's width / height in pixels (NaN when cut).
         yaw_to_ray: object yaw minus the viewing ray's bearing, radians.
+        top_shape: the mask's :func:`usdworld.perception.shape.top_shape_ratio` (None when
+            not usable); compared with the variants' side views.
     """
-    if len(sizes.by_variant) < 2 or not (np.isfinite(measured_h) or np.isfinite(aspect)):
+    shape_usable = top_shape is not None and len(sizes.top_shape_by_variant) == len(sizes.by_variant)
+    if len(sizes.by_variant) < 2 or not (np.isfinite(measured_h) or np.isfinite(aspect) or shape_usable):
         return sizes.default_variant
     names = sorted(sizes.by_variant)
     errs = []
@@ -148,8 +171,15 @@ def _choose_variant(sizes: AssetSizes, measured_h: float, aspect: float, yaw_to_
         if np.isfinite(aspect) and aspect > 0:
             across = abs(l * np.sin(yaw_to_ray)) + abs(w * np.cos(yaw_to_ray))
             err += abs(np.log(aspect / (across / h)))
+        if shape_usable:
+            # Offset so that near-zero ratios (round tops) compare on a sane scale.
+            err += abs(np.log((top_shape + TOP_SHAPE_OFFSET) / (sizes.top_shape_by_variant[n] + TOP_SHAPE_OFFSET)))
         errs.append(err)
     return names[int(np.argmin(errs))]
+
+
+#: Added to top-shape ratios before comparing them in log space.
+TOP_SHAPE_OFFSET = 0.1
 
 
 def _point_at_depth(camera: PinholeCamera, u: float, v: float, depth: float) -> np.ndarray:
@@ -207,7 +237,7 @@ def place_objects(
     _move_behind_occluders(drafts, camera)
     # A depth known only as an upper bound (a cut or hidden bottom) that lies beyond the
     # world's range says nothing useful: the object is not placed.
-    far = [d for d in drafts if d["depth_method"].endswith("_partial") and d["depth_m"] > max_partial_depth_m]
+    far = [d for d in drafts if d["depth_method"] in PARTIAL_METHODS and d["depth_m"] > max_partial_depth_m]
     drafts = [d for d in drafts if not any(d is f for f in far)]
     unplaced.extend((d["obj"], d["name"]) for d in far)
     # Objects with no cue at all but a placed occluder go right behind it.
@@ -294,19 +324,20 @@ def _occluder(by_ref: dict[int, dict], obj: ImageObject) -> dict | None:
 def _move_behind_occluders(drafts: list[dict], camera: PinholeCamera) -> None:
     """Use the object hiding an object's bottom as a lower bound of its depth.
 
-    A hidden bottom leaves only upper bounds: the visible bottom's ground point
-    (``contact_partial``, usually close) or the cut height (``height_partial``, poor).
-    The occluder's depth bounds it from below. A contact bound below the occluder moves
-    the object just behind it; a height-only bound is replaced by that position.
+    A hidden bottom leaves upper bounds, the visible bottom's ground point
+    (``contact_partial``, usually close) or the cut height (``height_partial``, poor),
+    and perhaps the top-row estimate (``top_row``). The occluder's depth bounds it from
+    below. A contact bound or top-row estimate short of the occluder moves the object
+    just behind it; a height-only bound is replaced by that position.
     """
     by_ref = {d["obj"].ref: d for d in drafts if d["obj"].ref >= 0}
     for d in drafts:
         occ = _occluder(by_ref, d["obj"])
         method = d["depth_method"]
-        if occ is None or method not in ("contact_partial", "height_partial") or occ["depth_method"].endswith("_partial"):
+        if occ is None or method not in PARTIAL_METHODS or occ["depth_method"] in PARTIAL_METHODS:
             continue
         behind = occ["depth_m"] + occ["back_m"] + BEHIND_GAP_M
-        if method == "contact_partial" and d["front_depth_m"] >= behind:
+        if method in ("contact_partial", "top_row") and d["front_depth_m"] >= behind:
             continue
         d["front_depth_m"] = behind
         d["depth_m"] = behind + d["back_m"]
@@ -389,7 +420,10 @@ def _draft(  # noqa: PLR0913
     # vehicles and people perspective dominates it, so only their height counts.
     use_aspect = whole and not sides_cut and not obj.is_thing and obj.height_px > 0
     aspect = obj.width_px / obj.height_px if use_aspect else float("nan")
-    variant = _choose_variant(sizes, measured_h, aspect, yaw - bearing)
+    # Objects that look the same from every side (trees, poles) show their variant in the
+    # shape of their top, even when their bottom is hidden.
+    shape_seen = prior.yaw == "none" and not obj.box_only and not obj.top_truncated and not sides_cut
+    variant = _choose_variant(sizes, measured_h, aspect, yaw - bearing, top_shape_ratio(obj.mask) if shape_seen else None)
     base = np.array(sizes.by_variant[variant], dtype=np.float64)
     scale_measured = float(measured_h / base[2]) if np.isfinite(measured_h) else float("nan")
     lo, hi = prior.scale_range
@@ -402,7 +436,11 @@ def _draft(  # noqa: PLR0913
     # A mask's lowest pixel is its nearest ground contact (tyres, feet); a detector's box
     # bottom follows the projected 3D box, i.e. the footprint's nearest corner.
     reach = size[:2] if obj.box_only else 2.0 * sizes.contact_half(variant) * scale
-    back = _forward_half_extent(reach, yaw, bearing) / horiz
+    if prior.yaw == "camera" and not obj.box_only:
+        # Turned to face the camera only for want of its real heading: expect any heading.
+        back = sizes.mean_reach(variant) * scale / horiz
+    else:
+        back = _forward_half_extent(reach, yaw, bearing) / horiz
     depth = front + back
     ground = _point_at_depth(camera, u, v, depth)
     yaw, yaw_source = _object_yaw(prior, ground, axis, obj, camera)
@@ -450,6 +488,7 @@ _CONFIDENCE = {
     "cnn": 0.7,
     "height": 0.6,
     "contact_partial": 0.3,
+    "top_row": 0.3,
     "behind": 0.25,
     "height_partial": 0.2,
 }
@@ -480,16 +519,28 @@ def _crop_depth(depth_map: DepthMap, obj: ImageObject) -> DepthMap:
 def _partial_front_depth(
     obj: ImageObject, prior: ClassPrior, camera: PinholeCamera, contact_ok: bool, front_contact: float
 ) -> tuple[float, str, float]:
-    """Front depth when no cue is valid: the cut or hidden bottom, or the cut height.
+    """Front depth when no cue is valid (the bottom is cut or hidden).
 
-    Both over-estimate the depth (the visible bottom is above the true one; the visible
-    height is below the true one), so the smaller of the two is the better bound.
+    The visible bottom's ground point and the depth the cut height gives both
+    over-estimate the depth (the visible bottom is above the true one; the visible
+    height is below the true one), so the smaller of them bounds it from above. When
+    the top is in view and the class's height stands well clear of the camera's (a
+    person's head, a tree's crown), the top row places the object itself
+    (:func:`usdworld.layout.silhouette.depth_from_top_row`, ``top_row``), within that
+    bound; the occluder bounds it from below later (:func:`_move_behind_occluders`).
     """
     bounds = []
     if contact_ok:
         bounds.append((front_contact, "contact_partial"))
     if obj.is_thing and obj.height_px > 0:
         bounds.append((camera.fy * prior.size_m[2] / obj.height_px, "height_partial"))
+    top = None
+    if not obj.top_truncated:
+        x0, y0, x1, _ = (float(b) for b in obj.box_px)
+        v_top = y0 if obj.box_only else y0 - 0.5
+        top = depth_from_top_row(camera, 0.5 * (x0 + x1), v_top, prior.size_m[2], prior.height_std_m)
+    if top is not None and (not bounds or top[0] <= min(bounds)[0]):
+        return top[0], "top_row", _CONFIDENCE["top_row"]
     if bounds:
         depth, method = min(bounds)
         return depth, method, _CONFIDENCE[method]

@@ -142,3 +142,52 @@ def depth_from_silhouette(
     y0, y1, y = 1.0 / h[k], 1.0 / h[k + 1], 1.0 / height_px
     t = (y - y0) / (y1 - y0) if y1 != y0 else 0.0
     return float(x0 + t * (x1 - x0))
+
+
+def depth_from_top_row(
+    camera: PinholeCamera, u: float, v_top: float, height_m: float, height_std_m: float
+) -> tuple[float, float] | None:
+    """Depth of an upright object whose top, ``height_m`` above the ground, is seen at row ``v_top``.
+
+    The cue for an object whose bottom is hidden: its top row alone places it once its
+    height is assumed (``v_top - v_h = f (h - H) / d`` for a level camera). It is only as
+    good as ``|H - h|`` is large against the height's spread: a person's head, ~0.5 m
+    above a car camera, places it to ~20 %; a car's roof, near the camera height, not at
+    all (None then).
+
+    Args:
+        camera: the source camera.
+        u: column of the object's top, pixels.
+        v_top: row of the object's top, pixels.
+        height_m: the object's assumed height, metres.
+        height_std_m: the spread of that height, metres.
+
+    Returns:
+        (depth, sigma) in metres along the optical axis, or None when the height is too
+        close to the camera's for the row to say anything (sigma above half the depth),
+        or no depth in range fits.
+    """
+    clearance = abs(height_m - camera.height_m)
+    if clearance <= 2.0 * height_std_m:
+        return None
+    grid = np.geomspace(*DEPTH_RANGE_M, GRID_POINTS)
+    ray = camera.rays_world(np.array([[u, v_top]], dtype=np.float64))[0]
+    ahead = np.array([ray[0], ray[1]], dtype=np.float64)
+    ahead /= max(float(np.linalg.norm(ahead)), 1e-12)
+    rate = float(ahead @ camera.rotation_world_from_cam[:2, 2])
+    if rate <= 1e-6:
+        return None
+    base = camera.center_world[:2][None, :] + (grid / rate)[:, None] * ahead[None, :]
+    px, depth = camera.project(np.column_stack([base, np.full(len(grid), height_m)]))
+    rows = np.where(depth > 0.05, px[:, 1], np.nan)
+    # Rows approach the horizon from below (top under the camera) or above (over it).
+    gap = rows - v_top
+    signs = np.sign(gap)
+    crossings = np.nonzero(np.isfinite(gap[:-1]) & np.isfinite(gap[1:]) & (signs[:-1] != signs[1:]))[0]
+    if not len(crossings):
+        return None
+    k = int(crossings[0])
+    t = gap[k] / (gap[k] - gap[k + 1])
+    d = float(grid[k] + t * (grid[k + 1] - grid[k]))
+    sigma = d * float(np.hypot(height_std_m / clearance, d / (camera.fy * clearance)))
+    return d, sigma

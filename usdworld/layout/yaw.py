@@ -14,7 +14,7 @@ class RoadAxis:
     Attributes:
         angle: direction of the road axis in radians (world yaw, in (-pi/2, pi/2]).
         center_ground: (2,) float64 a point on the road's centre line.
-        source: how it was found (``road_pca`` or ``camera_forward``).
+        source: how it was found (``vanishing_point``, ``road_pca`` or ``camera_forward``).
     """
 
     angle: float
@@ -22,20 +22,37 @@ class RoadAxis:
     source: str
 
 
-def road_axis(road_points_ground: np.ndarray | None, min_points: int = 50) -> RoadAxis:
-    """Principal axis of the road region projected onto the ground.
+#: A street seen from a car runs away from the camera: an axis further than this from
+#: the camera's heading is a crossing (or a wrong estimate), not the street.
+MAX_AXIS_ANGLE = np.radians(45)
+
+
+def road_axis(
+    road_points_ground: np.ndarray | None, min_points: int = 50, vanishing_angle: float | None = None
+) -> RoadAxis:
+    """The road's direction and a point on its centre line.
+
+    The direction is the street's vanishing direction when one is given (the lines along
+    the street meet there; exact for a straight street whatever part of it is in view),
+    else the principal axis of the road region projected onto the ground (which a
+    visible area lopsided about the road, e.g. more lanes on one side, tilts by a few
+    degrees). The centre is the road points' median.
 
     Args:
         road_points_ground: (N, 2) float64 ground points of road pixels (within range), or None.
         min_points: fewer points than this fall back to the camera's forward axis.
+        vanishing_angle: world yaw of the street's vanishing direction, radians, or None.
 
     Returns:
-        The axis; with too few points, the camera forward axis through the origin.
+        The axis; with nothing to go on, the camera forward axis through the origin.
     """
-    if road_points_ground is None or len(road_points_ground) < min_points:
+    enough = road_points_ground is not None and len(road_points_ground) >= min_points
+    center = np.median(np.asarray(road_points_ground, dtype=np.float64), axis=0) if enough else np.zeros(2)
+    if vanishing_angle is not None and abs(_wrap(vanishing_angle)) <= MAX_AXIS_ANGLE:
+        return RoadAxis(_wrap(vanishing_angle), center, "vanishing_point")
+    if not enough:
         return RoadAxis(0.0, np.zeros(2), "camera_forward")
     pts = np.asarray(road_points_ground, dtype=np.float64)
-    center = np.median(pts, axis=0)
     centred = pts - pts.mean(axis=0)
     _, _, vt = np.linalg.svd(centred, full_matrices=False)
     direction = vt[0]
@@ -44,7 +61,7 @@ def road_axis(road_points_ground: np.ndarray | None, min_points: int = 50) -> Ro
     angle = float(np.arctan2(direction[1], direction[0]))
     # A street seen from a car runs away from the camera; an axis across the view
     # means the road region is a crossing, so keep the camera's heading instead.
-    if abs(angle) > np.radians(45):
+    if abs(angle) > MAX_AXIS_ANGLE:
         return RoadAxis(0.0, center, "camera_forward")
     return RoadAxis(angle, center, "road_pca")
 

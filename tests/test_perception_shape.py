@@ -1,0 +1,62 @@
+"""Top shape of a silhouette (perception.shape) and of the library's variants."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from usdworld.authoring import asset_library
+from usdworld.layout.placement import AssetSizes, _choose_variant
+from usdworld.perception.shape import top_shape_ratio
+
+
+def _cone(rows: int, half_width_per_row: float) -> np.ndarray:
+    r = np.arange(rows)[:, None]
+    c = np.arange(-rows, rows + 1)[None, :]
+    return np.abs(c) <= r * half_width_per_row
+
+
+def _disc(radius: int) -> np.ndarray:
+    y, x = np.mgrid[-radius : radius + 1, -radius : radius + 1]
+    return x * x + y * y <= radius * radius
+
+
+@settings(max_examples=30, deadline=None)
+@given(rows=st.integers(40, 200), slope=st.floats(0.2, 0.6), hidden=st.floats(0.0, 0.6))
+def test_a_cone_keeps_its_ratio_when_its_bottom_is_hidden(rows: int, slope: float, hidden: float):
+    cone = _cone(rows, slope)
+    cut = cone[: max(10, int(rows * (1 - hidden)))]
+    expected = 1.0 / (4 * slope)  # half the width is reached half way down
+    assert top_shape_ratio(cone) == pytest.approx(expected, rel=0.15)
+    assert top_shape_ratio(cut) == pytest.approx(expected, rel=0.2)
+
+
+def test_round_top_is_near_zero_and_empty_is_none():
+    assert top_shape_ratio(_disc(40)) < 0.1
+    assert top_shape_ratio(np.zeros((5, 5), bool)) is None
+
+
+def test_library_variants_are_told_apart():
+    conifer = asset_library.top_shape_ratio("tree", "conifer")
+    deciduous = asset_library.top_shape_ratio("tree", "deciduous")
+    assert conifer > 0.5 > 0.1 > deciduous
+    assert asset_library.top_shape_ratio("pole", "plain") > 1.0 > asset_library.top_shape_ratio("pole", "street_lamp")
+
+
+def test_variant_chosen_by_top_shape_when_height_is_unknown():
+    sizes = AssetSizes(
+        {"conifer": (3.0, 3.0, 8.0), "deciduous": (4.0, 4.0, 7.0)},
+        "deciduous",
+        top_shape_by_variant={"conifer": 1.06, "deciduous": 0.04},
+    )
+    hidden_cone = _cone(120, 0.25)[:70]  # a conifer whose lower half a car hides
+    assert _choose_variant(sizes, float("nan"), float("nan"), 0.0, top_shape_ratio(hidden_cone)) == "conifer"
+    assert _choose_variant(sizes, float("nan"), float("nan"), 0.0, top_shape_ratio(_disc(30))) == "deciduous"
+    assert _choose_variant(sizes, float("nan"), float("nan"), 0.0, None) == "deciduous"
+
+
+def test_mean_contact_reach_of_a_person_is_below_its_largest_half_extent():
+    reach = asset_library.contact_mean_reach("person", "walking")
+    assert 0.0 < reach < max(asset_library.contact_half_extents("person", "walking"))

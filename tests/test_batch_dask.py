@@ -14,7 +14,15 @@ from pathlib import Path
 import pytest
 from test_batch_run import CORRUPT, IDS, make_dataset, output_bytes, stable_records
 
-from usdworld.batch.dask_executor import INSTALL_HINT, ClusterError, DaskExecutor
+from usdworld.batch import LocalPoolExecutor, discover, run_batch
+from usdworld.batch.dask_executor import (
+    INSTALL_HINT,
+    MALLOC_TRIM,
+    MAX_FRAMES_PER_TASK,
+    ClusterError,
+    DaskExecutor,
+    frames_per_task,
+)
 from usdworld.cli.main import main
 
 pytestmark = pytest.mark.dask
@@ -78,3 +86,79 @@ def test_unreachable_scheduler_is_a_one_line_error() -> None:
         match=r"^tcp://127.0.0.1:9: cannot reach the Dask scheduler .*start one with `dask scheduler`",
     ):
         DaskExecutor("tcp://127.0.0.1:9", timeout_s=1).__enter__()
+
+
+def _worker_settings() -> dict[str, object]:
+    import dask
+
+    return {
+        "profile": dask.config.get("distributed.worker.profile.enabled"),
+        "tick": dask.config.get("distributed.admin.tick.interval"),
+        "malloc_trim": os.environ.get(MALLOC_TRIM),
+    }
+
+
+def test_dask_local_cluster_is_tuned_and_this_process_is_not(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    if distributed is None:
+        pytest.fail(f"dask.distributed is not installed; these tests need it: {INSTALL_HINT}")
+    import dask
+
+    monkeypatch.delenv(MALLOC_TRIM, raising=False)  # a nanny started earlier in this process leaves it set
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    before = dask.config.get("distributed.worker.profile.enabled")
+    with DaskExecutor(local_workers=1, out_dir=tmp_path) as executor:
+        settings = list(executor.client.run(_worker_settings).values())
+        omp = list(executor.client.run(os.environ.get, "OMP_NUM_THREADS").values())
+    assert settings == [{"profile": False, "tick": "1s", "malloc_trim": None}]
+    assert omp == ["1"]  # Dask's pre-spawn-environ still reaches the workers
+    assert dask.config.get("distributed.worker.profile.enabled") == before
+    assert MALLOC_TRIM not in os.environ and "OMP_NUM_THREADS" not in os.environ  # nor this process
+
+
+def test_an_existing_cluster_keeps_its_configuration(cluster: object, tmp_path: Path) -> None:
+    address = cluster.scheduler_address  # type: ignore[attr-defined]
+    with DaskExecutor(address, out_dir=tmp_path) as executor:
+        settings = list(executor.client.run(_worker_settings).values())
+    assert settings == 2 * [{"profile": True, "tick": "20ms", "malloc_trim": "65536"}]  # Dask's defaults
+
+
+@pytest.mark.parametrize(
+    ("recent", "task_seconds", "expected"),
+    [
+        ([], 0.5, 1),  # nothing finished yet: one frame per task
+        ([0.1, 0.1, 0.2], 0.5, 5),  # median 0.1 s
+        ([0.12, 0.13, 0.11], 0.5, 4),  # floor(0.5 / 0.12)
+        ([0.3], 0.5, 1),
+        ([2.0, 3.0], 0.5, 1),  # slow frames: one per task
+        ([0.001], 0.5, MAX_FRAMES_PER_TASK),  # e.g. --resume finding unchanged frames
+        ([0.0], 0.5, MAX_FRAMES_PER_TASK),
+        ([0.1], 0.0, 1),  # task_seconds 0: one frame per task
+    ],
+)
+def test_frames_per_task(recent: list[float], task_seconds: float, expected: int) -> None:
+    assert frames_per_task(recent, task_seconds) == expected
+
+
+def test_frames_in_one_dask_task_give_the_same_worlds(
+    cluster: object, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    data = make_dataset(tmp_path / "data")
+    with LocalPoolExecutor(2) as pool:
+        run_batch(discover(data, "cityscapes"), tmp_path / "pool", pool, source="cs", layout="cityscapes")
+    monkeypatch.setattr(DaskExecutor, "_slots", lambda self: 1)  # one frame, then the other four in one task
+    sizes: list[int] = []
+    monkeypatch.setattr(
+        "usdworld.batch.dask_executor.frames_per_task",
+        lambda recent, task_seconds: sizes.append(frames_per_task(recent, task_seconds)) or sizes[-1],
+    )
+    address = cluster.scheduler_address  # type: ignore[attr-defined]
+    with DaskExecutor(address, out_dir=tmp_path, task_seconds=1000.0) as executor:
+        summary = run_batch(discover(data, "cityscapes"), tmp_path / "dask", executor, source="cs", layout="cityscapes")
+    assert sizes[:2] == [1, MAX_FRAMES_PER_TASK]
+    assert [(r.frame_id, r.status) for r in summary.records] == [
+        (i, "failed" if i == CORRUPT else "built") for i in IDS
+    ]
+    assert output_bytes(tmp_path / "dask") == output_bytes(tmp_path / "pool")
+    assert stable_records(tmp_path / "dask") == stable_records(tmp_path / "pool")

@@ -137,3 +137,17 @@ def test_helpers() -> None:
     np.testing.assert_array_equal(np.argwhere(erode(m, 2)), [[3, 3]])
     assert not erode(np.ones((3, 3), bool), 1)[0, 0]  # outside the image is background
     assert interquartile_mean(np.array([1.0, 2.0, 3.0, 4.0, 100.0])) == pytest.approx(3.0)
+
+
+def test_class_mean_uncertainty_widens_only_the_height_cue() -> None:
+    mask, _ = _scene(20.0)
+    h_px = FY * CAR_H / 20.0
+    plain = object_depth_cues(mask, np.zeros_like(mask), 20.0, None, CAR_H, h_px, FY, camera_height_m=CAM_H)
+    widened = object_depth_cues(
+        mask, np.zeros_like(mask), 20.0, None, CAR_H, h_px, FY, camera_height_m=CAM_H, class_mean_rel_sigma=0.1
+    )
+    assert widened[0] == plain[0]  # contact untouched
+    std_rel = 0.1  # HEIGHT_REL_STD default
+    assert plain[2].sigma_m == pytest.approx(20.0 * np.sqrt(std_rel**2 + (1 / h_px) ** 2))
+    assert widened[2].sigma_m == pytest.approx(20.0 * np.sqrt(std_rel**2 + 0.1**2 + (1 / h_px) ** 2))
+    assert widened[2].depth_m == plain[2].depth_m

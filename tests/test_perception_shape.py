@@ -41,7 +41,7 @@ def test_round_top_is_near_zero_and_empty_is_none():
 def test_library_variants_are_told_apart():
     conifer = asset_library.top_shape_ratio("tree", "conifer")
     deciduous = asset_library.top_shape_ratio("tree", "deciduous")
-    assert conifer > 0.5 > 0.1 > deciduous
+    assert conifer > 0.5 and deciduous < 0.1
     assert asset_library.top_shape_ratio("pole", "plain") > 1.0 > asset_library.top_shape_ratio("pole", "street_lamp")
 
 

@@ -29,21 +29,42 @@ the worker machines (e.g. ``~/.config/dask/usdworld.yaml``)::
 
 On Kubernetes use dask-kubernetes, on HPC schedulers (SLURM, PBS, SGE, LSF) use
 dask-jobqueue; both give a scheduler address to pass as ``--scheduler``.
+
 ``--dask-local N`` starts ``LocalCluster(n_workers=N, threads_per_worker=1,
-processes=True)`` for the run, which is mainly useful to try the cluster path on one machine.
+processes=True)`` for the run, with :data:`LOCAL_CLUSTER_CONFIG`: no ``MALLOC_TRIM_THRESHOLD_``,
+no profiler sampling the running frame 100 times a second, and the event-loop, host and
+memory monitors polled less often. The scheduler and the nannies live in this process, so
+on a machine with one worker per core every CPU cycle Dask spends there or in a worker's
+event loop is taken from the frames; with the defaults, 2 workers on 2 cores built about
+11 % fewer frames per minute than the local pool (BENCHMARKS.md, batch section). These
+settings only touch the cluster this executor starts; an existing cluster given with
+``--scheduler`` keeps its own configuration (set the same keys in a Dask config file on
+its machines if it runs many short frames).
+
+Frames go to the cluster in tasks of one or more frames (:func:`frames_per_task`): Dask
+spends a few milliseconds of CPU per task on its scheduler, client and worker, which is a
+few per cent of a 0.1 s frame. The first tasks hold one frame each; then each task holds
+as many frames as take about :data:`TASK_SECONDS` (at most :data:`MAX_FRAMES_PER_TASK`),
+judged from the frames finished so far. Frames of a second or more go one per task.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Iterable, Iterator
+import math
+import os
+import statistics
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import replace
+from itertools import islice
 from pathlib import Path
 from typing import Any, Self
 
 from usdworld.batch.executors import cancelled_record, failed_record
 from usdworld.batch.records import FrameRecord
-from usdworld.batch.worker import FrameTask, run_frame, worker_info
+from usdworld.batch.worker import FrameTask, run_frames, worker_info
 from usdworld.errors import ClusterError, InputError
 
 INSTALL_HINT = 'pip install "dask[distributed]>=2026.8"'
@@ -51,8 +72,32 @@ INSTALL_HINT = 'pip install "dask[distributed]>=2026.8"'
 #: glibc's adaptive mmap threshold, so each large numpy array is a fresh mmap and a frame
 #: takes about 40 % longer; the LocalCluster leaves it unset.
 MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
+#: Dask settings of the LocalCluster that ``--dask-local`` starts; they reach its scheduler,
+#: nannies and (through the nannies) its worker processes, never an existing cluster. Measured
+#: idle on 2 cores, a 2-worker LocalCluster used about 10 % of a core with Dask's defaults
+#: and under 1 % with these; while building, the profiler added about 5 % to each frame.
+LOCAL_CLUSTER_CONFIG: dict[str, object] = {
+    # See MALLOC_TRIM: unset, glibc's adaptive threshold keeps large arrays off fresh mmaps.
+    f"distributed.nanny.pre-spawn-environ.{MALLOC_TRIM}": None,
+    # The worker samples the stack of the running task every 10 ms (default) for the
+    # dashboard's profile page; each sample takes the GIL from the frame being built.
+    "distributed.worker.profile.enabled": False,
+    # Event-loop health check of every scheduler, nanny and worker (default every 20 ms);
+    # it only warns about loops blocked longer than distributed.admin.tick.limit (3 s).
+    "distributed.admin.tick.interval": "1s",
+    # Host CPU, memory and network sampling for the dashboard (default every 500 ms).
+    "distributed.admin.system-monitor.interval": "5s",
+    # Spill, pause and terminate checks of each worker's memory (default every 100 ms).
+    "distributed.worker.memory.monitor-interval": "500ms",
+}
 #: Seconds to wait for a scheduler to answer.
 CONNECT_TIMEOUT_S = 20
+#: Aim for Dask tasks of about this many seconds of frames (:func:`frames_per_task`).
+TASK_SECONDS = 0.5
+#: At most this many frames in one Dask task.
+MAX_FRAMES_PER_TASK = 8
+#: Frames whose seconds :func:`frames_per_task` judges from (the most recent ones).
+RECENT_FRAMES = 16
 
 
 def import_distributed() -> Any:
@@ -68,6 +113,80 @@ def _sees_folder(path: str) -> bool:
     return Path(path).is_dir()
 
 
+def frames_per_task(recent_seconds: Sequence[float], task_seconds: float = TASK_SECONDS) -> int:
+    """How many frames the next Dask task should build.
+
+    Args:
+        recent_seconds: wall seconds of recently finished frames (any order; may be empty).
+        task_seconds: the aim for one task's seconds; 0 gives one frame per task.
+
+    Returns:
+        ``floor(task_seconds / median(recent_seconds))`` clamped to 1..MAX_FRAMES_PER_TASK;
+        1 while no frame has finished.
+
+    Example:
+        >>> frames_per_task([0.12, 0.13, 0.11], 0.5)
+        4
+        >>> frames_per_task([], 0.5), frames_per_task([2.0], 0.5)
+        (1, 1)
+    """
+    if not recent_seconds or task_seconds <= 0:
+        return 1
+    median = statistics.median(recent_seconds)
+    if median <= 0:
+        return MAX_FRAMES_PER_TASK
+    return max(1, min(MAX_FRAMES_PER_TASK, math.floor(task_seconds / median)))
+
+
+@contextmanager
+def _environ_kept(names: Iterable[str]) -> Iterator[None]:
+    """Put the environment variables ``names`` back as they were on leaving.
+
+    A Dask nanny writes its ``pre-spawn-environ`` (``OMP_NUM_THREADS=1`` ...) into this
+    process's ``os.environ`` before it spawns a worker, and leaves it there; without this,
+    a local pool started later by the same process would run single-threaded libraries too.
+    """
+    saved = {name: os.environ.get(name) for name in names}
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
+def start_local_cluster(workers: int) -> Any:
+    """A ``LocalCluster`` of ``workers`` single-threaded processes with :data:`LOCAL_CLUSTER_CONFIG`.
+
+    This process's Dask configuration and environment are the same afterwards.
+    """
+    import dask
+
+    distributed = import_distributed()
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):
+        with _environ_kept(dask.config.get("distributed.nanny.pre-spawn-environ")):
+            return distributed.LocalCluster(
+                n_workers=workers,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",
+                silence_logs=logging.ERROR,
+            )
+
+
+def _chunk_records(future: Any, chunk: tuple[FrameTask, ...]) -> tuple[FrameRecord, ...]:
+    """The records of a finished, cancelled or failed Dask task of :func:`run_frames`."""
+    if future.status == "finished":
+        records: tuple[FrameRecord, ...] = future.result()
+        return records
+    if future.status == "cancelled":
+        return tuple(cancelled_record(task) for task in chunk)
+    exc = future.exception()
+    return tuple(failed_record(task, f"Dask {type(exc).__name__}: {exc}") for task in chunk)
+
+
 class DaskExecutor:
     """Run frames on a Dask cluster (see the module docstring)."""
 
@@ -77,13 +196,17 @@ class DaskExecutor:
         local_workers: int | None = None,
         out_dir: Path | None = None,
         timeout_s: float = CONNECT_TIMEOUT_S,
+        task_seconds: float = TASK_SECONDS,
     ) -> None:
         """
         Args:
             address: scheduler address, e.g. ``tcp://10.0.0.5:8786``.
-            local_workers: start a LocalCluster of this many single-threaded worker processes instead.
+            local_workers: start a LocalCluster of this many single-threaded worker processes
+                instead (with :data:`LOCAL_CLUSTER_CONFIG`).
             out_dir: the batch output folder; every worker must see it (checked on start).
             timeout_s: seconds to wait for the scheduler.
+            task_seconds: aim for Dask tasks of about this many seconds of frames
+                (:func:`frames_per_task`); 0 sends one frame per task.
 
         Raises:
             InputError: neither or both of ``address`` and ``local_workers``, ``local_workers`` < 1,
@@ -98,6 +221,7 @@ class DaskExecutor:
         self.local_workers = local_workers
         self.out_dir = out_dir
         self.timeout_s = timeout_s
+        self.task_seconds = task_seconds
         self.description = (
             f"Dask scheduler {address}"
             if address
@@ -112,16 +236,7 @@ class DaskExecutor:
             if self.address is not None:
                 self.client = distributed.Client(self.address, timeout=self.timeout_s)
             else:
-                import dask
-
-                with dask.config.set({f"distributed.nanny.pre-spawn-environ.{MALLOC_TRIM}": None}):
-                    self._cluster = distributed.LocalCluster(
-                        n_workers=self.local_workers,
-                        threads_per_worker=1,
-                        processes=True,
-                        dashboard_address=":0",
-                        silence_logs=logging.ERROR,
-                    )
+                self._cluster = start_local_cluster(self.local_workers or 1)
                 self.client = distributed.Client(self._cluster)
         except (OSError, TimeoutError) as exc:
             self.__exit__()
@@ -179,22 +294,26 @@ class DaskExecutor:
     def run(self, tasks: Iterable[FrameTask], stop: Callable[[], bool]) -> Iterator[FrameRecord]:
         """Build the tasks on the cluster (see :mod:`usdworld.batch.executors` for the contract).
 
-        With ``stop()``, every unfinished frame is cancelled; a frame already running on a
-        worker still finishes there (its world is written atomically) but is recorded as cancelled.
+        Frames go in Dask tasks of :func:`frames_per_task` frames, at most ``2 x threads``
+        tasks in flight. With ``stop()``, every unfinished task is cancelled; a task already
+        running on a worker still finishes there (its worlds are written atomically) but its
+        frames are recorded as cancelled.
         """
         if self.client is None:
             raise RuntimeError("DaskExecutor.run outside its with-block")
         distributed = import_distributed()
         it = iter(tasks)
-        pending: dict[str, FrameTask] = {}
+        pending: dict[str, tuple[FrameTask, ...]] = {}
+        recent: deque[float] = deque(maxlen=RECENT_FRAMES)
         futures = distributed.as_completed(loop=self.client.loop)
 
         def submit_next() -> bool:
-            task = next(it, None)
-            if task is None:
+            chunk = tuple(islice(it, frames_per_task(recent, self.task_seconds)))
+            if not chunk:
                 return False
-            future = self.client.submit(run_frame, replace(task, isolated=True), pure=False, retries=0)
-            pending[future.key] = task
+            isolated = tuple(replace(task, isolated=True) for task in chunk)
+            future = self.client.submit(run_frames, isolated, pure=False, retries=0)
+            pending[future.key] = chunk
             futures.add(future)
             return True
 
@@ -203,15 +322,10 @@ class DaskExecutor:
                 break
         stopping = False
         for future in futures:
-            task = pending.pop(future.key)
-            if future.status == "finished":
-                yield future.result()
-            elif future.status == "cancelled":
-                yield cancelled_record(task)
-            else:
-                exc = future.exception()
-                yield failed_record(task, f"Dask {type(exc).__name__}: {exc}")
+            records = _chunk_records(future, pending.pop(future.key))
             future.release()
+            recent.extend(r.seconds for r in records if r.status != "cancelled")
+            yield from records
             if not stopping and stop():
                 stopping = True
                 with futures.lock:

@@ -139,6 +139,18 @@ def run_frame(task: FrameTask) -> FrameRecord:
     )
 
 
+def run_frames(tasks: tuple[FrameTask, ...]) -> tuple[FrameRecord, ...]:
+    """Build several frames one after another: one Dask task (see :mod:`usdworld.batch.dask_executor`).
+
+    Args:
+        tasks: the frames, in order.
+
+    Returns:
+        One record per task, in the same order (:func:`run_frame` never raises for a frame).
+    """
+    return tuple(run_frame(task) for task in tasks)
+
+
 def worker_info() -> dict[str, str]:
     """usdworld version and process of a worker (the Dask runner checks every worker with it)."""
     return {"usdworld": usdworld.__version__, "worker": f"{socket.gethostname()}:{os.getpid()}"}

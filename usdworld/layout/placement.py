@@ -11,8 +11,11 @@ follow the ground lines the rules assume, and applying the rules to them was mea
 make them worse (tools/eval_depth_fusion.py).
 
 Position (step 2): the object is placed on the viewing ray of its contact pixel, moved
-back by the footprint's half extent along that ray, so that the object's centre, not
-its front face, is placed. Every cue in the provenance is given at the centre too.
+back by the footprint's extent beyond its nearest contact along the camera's heading (a
+ground point's image row depends only on how far ahead it is), so that the object's
+centre, not its front face, is placed; things are then shifted sideways until their
+projected box spans the image box's columns. Every cue in the provenance is given at
+the centre too.
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from usdworld.layout.ordering import apply_ordering_rules
 from usdworld.layout.priors import ClassPrior, prior_for
 from usdworld.layout.silhouette import depth_from_silhouette, depth_from_top_row, top_offsets
 from usdworld.layout.yaw import RoadAxis, choose_yaw, yaw_from_view_angle
-from usdworld.perception.depth.fusion import DepthCue, fuse, object_depth_cues
+from usdworld.perception.depth.fusion import HEIGHT_MEAN_REL_SIGMA, DepthCue, fuse, object_depth_cues
 from usdworld.perception.objects import ImageObject
 from usdworld.perception.shape import top_shape_ratio
 
@@ -137,9 +140,9 @@ class Placement:
     confidence: float = 0.0
 
 
-def _forward_half_extent(size_lw: np.ndarray, yaw: float, bearing: float) -> float:
-    """Distance from a footprint's centre to its nearest edge point along a ray direction."""
-    rel = yaw - bearing
+def _forward_half_extent(size_lw: np.ndarray, yaw: float, direction: float) -> float:
+    """Distance from a footprint's centre to its nearest corner, measured along a direction (yaw, radians)."""
+    rel = yaw - direction
     return float(0.5 * (size_lw[0] * abs(np.cos(rel)) + size_lw[1] * abs(np.sin(rel))))
 
 
@@ -396,6 +399,9 @@ def _draft(  # noqa: PLR0913
         camera_height_m=camera.height_m,
         class_height_std_m=prior.height_std_m,
         height_depth_m=height_depth,
+        # A given camera height is independent of the class heights; an estimated one
+        # was fitted to them, so the contact cue already carries their mean's error.
+        class_mean_rel_sigma=HEIGHT_MEAN_REL_SIGMA if camera_sigma[0] == 0.0 else 0.0,
     )
     cues = [_with_camera_uncertainty(c, camera, camera_sigma) for c in cues]
     if forced is not None:
@@ -430,17 +436,19 @@ def _draft(  # noqa: PLR0913
     scale = float(np.clip(scale_measured, lo, hi)) if np.isfinite(scale_measured) else 1.0
     size = base * scale
 
-    # Move back along the ray by the footprint's half extent.
-    ray = camera.rays_world(np.array([[u, v]]))[0]
-    horiz = max(float(np.hypot(ray[0], ray[1])), 1e-9)  # ground metres per metre of depth
-    # A mask's lowest pixel is its nearest ground contact (tyres, feet); a detector's box
-    # bottom follows the projected 3D box, i.e. the footprint's nearest corner.
+    # Move back by the footprint's extent. A mask's lowest pixel is its nearest ground
+    # contact (tyres, feet); a detector's box bottom follows the projected 3D box, i.e. the
+    # footprint's nearest corner. "Nearest" is along the camera's heading, not the viewing
+    # ray: a ground point's image row depends only on how far ahead of the camera it is.
+    # The centre is that much further ahead (optical depth grows by cos(pitch) per metre
+    # ahead); its sideways offset from the contact's ray is the box alignment's job.
     reach = size[:2] if obj.box_only else 2.0 * sizes.contact_half(variant) * scale
     if prior.yaw == "camera" and not obj.box_only:
         # Turned to face the camera only for want of its real heading: expect any heading.
-        back = sizes.mean_reach(variant) * scale / horiz
+        ahead = sizes.mean_reach(variant) * scale
     else:
-        back = _forward_half_extent(reach, yaw, bearing) / horiz
+        ahead = _forward_half_extent(reach, yaw, camera.yaw)
+    back = ahead * float(np.cos(camera.pitch))
     depth = front + back
     ground = _point_at_depth(camera, u, v, depth)
     yaw, yaw_source = _object_yaw(prior, ground, axis, obj, camera)

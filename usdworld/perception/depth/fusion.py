@@ -21,8 +21,9 @@ Cues (each a :class:`DepthCue`; an unavailable cue keeps its name with ``depth_m
     Class height prior: ``d = f H / h_px`` for an object of height ``H`` metres seen
     ``h_px`` pixels tall (None when its top or bottom is cut), or the caller's depth
     from a silhouette model that includes the object's depth extent. The spread of real
-    heights ``std_H`` and one pixel of height error give
-    ``sigma = d sqrt((std_H / H)^2 + (1 / h_px)^2)``.
+    heights ``std_H``, the uncertainty of the class mean ``r_m`` (when the camera height
+    is known independently of the objects) and one pixel of height error give
+    ``sigma = d sqrt((std_H / H)^2 + r_m^2 + (1 / h_px)^2)``.
 
 All three sigmas grow with distance (the contact one quadratically), so near objects
 are placed by their contact point and truncated or occluded ones by the others.
@@ -52,6 +53,10 @@ CONTACT_REL_SIGMA = 0.01
 CNN_REL_SIGMA = 0.10
 #: Default spread of class heights, as a fraction of the height, when none is given.
 HEIGHT_REL_STD = 0.10
+#: Uncertainty of a class's mean height itself, as a fraction (fleets and populations
+#: differ): added to the height cue when the camera height was given. When it was
+#: estimated from the same class heights, the contact cue shares that error already.
+HEIGHT_MEAN_REL_SIGMA = 0.10
 #: Erosion of the mask before averaging the depth map, pixels.
 EROSION_PX = 2
 #: Fewest depth pixels for the CNN cue.
@@ -182,6 +187,7 @@ def object_depth_cues(
     camera_height_m: float,
     class_height_std_m: float | None = None,
     height_depth_m: float | None = None,
+    class_mean_rel_sigma: float = 0.0,
 ) -> list[DepthCue]:
     """Every depth cue of one object (module docstring for the models and sigmas).
 
@@ -201,6 +207,9 @@ def object_depth_cues(
         height_depth_m: the depth the caller found for ``height_px`` with a model of the
             object's silhouette (:mod:`usdworld.layout.silhouette`), replacing the flat
             ``f H / h``; its sigma is the same.
+        class_mean_rel_sigma: relative uncertainty of the class's mean height, added to
+            the height cue's sigma (:data:`HEIGHT_MEAN_REL_SIGMA` when the camera height
+            is known independently of the objects, else 0).
 
     Returns:
         ``[contact, cnn, height]`` cues; unavailable ones have ``depth_m`` None and a
@@ -249,7 +258,7 @@ def object_depth_cues(
         else:
             d = fy * class_height_m / height_px
             how = f"f*H/h = {fy:.1f}*{class_height_m:g}/{height_px:.1f}"
-        sigma = d * float(np.hypot(std_h / class_height_m, 1.0 / height_px))
+        sigma = d * float(np.sqrt((std_h / class_height_m) ** 2 + class_mean_rel_sigma**2 + (1.0 / height_px) ** 2))
         height = DepthCue("height", d, sigma, how)
 
     return [contact, _cnn_cue(mask, occluders, depth_map), height]

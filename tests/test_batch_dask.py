@@ -95,6 +95,7 @@ def _worker_settings() -> dict[str, object]:
         "profile": dask.config.get("distributed.worker.profile.enabled"),
         "tick": dask.config.get("distributed.admin.tick.interval"),
         "malloc_trim": os.environ.get(MALLOC_TRIM),
+        "omp_threads": os.environ.get("OMP_NUM_THREADS"),
     }
 
 
@@ -110,18 +111,26 @@ def test_dask_local_cluster_is_tuned_and_this_process_is_not(
     before = dask.config.get("distributed.worker.profile.enabled")
     with DaskExecutor(local_workers=1, out_dir=tmp_path) as executor:
         settings = list(executor.client.run(_worker_settings).values())
-        omp = list(executor.client.run(os.environ.get, "OMP_NUM_THREADS").values())
-    assert settings == [{"profile": False, "tick": "1s", "malloc_trim": None}]
-    assert omp == ["1"]  # Dask's pre-spawn-environ still reaches the workers
+    # Dask's other pre-spawn-environ (OMP_NUM_THREADS=1 ...) still reaches the workers
+    assert settings == [{"profile": False, "tick": "1s", "malloc_trim": None, "omp_threads": "1"}]
     assert dask.config.get("distributed.worker.profile.enabled") == before
     assert MALLOC_TRIM not in os.environ and "OMP_NUM_THREADS" not in os.environ  # nor this process
 
 
 def test_an_existing_cluster_keeps_its_configuration(cluster: object, tmp_path: Path) -> None:
+    import dask
+
+    spawn_env = dask.config.get("distributed.nanny.pre-spawn-environ")  # the cluster was started with these
+    expected = {
+        "profile": dask.config.get("distributed.worker.profile.enabled"),  # True by default
+        "tick": dask.config.get("distributed.admin.tick.interval"),  # 20ms by default
+        "malloc_trim": str(spawn_env[MALLOC_TRIM]),  # 65536 by default
+        "omp_threads": str(spawn_env["OMP_NUM_THREADS"]),
+    }
     address = cluster.scheduler_address  # type: ignore[attr-defined]
     with DaskExecutor(address, out_dir=tmp_path) as executor:
         settings = list(executor.client.run(_worker_settings).values())
-    assert settings == 2 * [{"profile": True, "tick": "20ms", "malloc_trim": "65536"}]  # Dask's defaults
+    assert settings == 2 * [expected]
 
 
 @pytest.mark.parametrize(

@@ -14,7 +14,9 @@ K = np.array([[721.5, 0.0, 609.6], [0.0, 721.5, 172.9], [0.0, 0.0, 1.0]])
 CAM = PinholeCamera(1242, 375, K, 1.65, pitch=np.radians(0.5))
 
 
-def _projected_box(centre_xy: np.ndarray, yaw: float, lwh: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+def _projected_box(
+    centre_xy: np.ndarray, yaw: float, lwh: tuple[float, float, float]
+) -> tuple[np.ndarray, np.ndarray]:
     """Image box of a 3D box standing on the ground, and its nearest-corner pixel."""
     l, w, h = lwh
     c, s = np.cos(yaw), np.sin(yaw)
@@ -55,7 +57,9 @@ def test_flat_model_puts_a_car_too_close_and_the_box_model_does_not():
     box, (u, v, near_depth) = _projected_box(np.array([22.0, 0.0]), 0.0, lwh)
     h_px = box[3] - box[1]
     flat = depth_from_silhouette(CAM, (u, v), h_px, lwh[2], (0.0, 0.0))
-    boxed = depth_from_silhouette(CAM, (u, v), h_px, lwh[2], top_offsets(np.zeros(2), np.zeros(2), np.array(lwh[:2]), 0.0, True))
+    boxed = depth_from_silhouette(
+        CAM, (u, v), h_px, lwh[2], top_offsets(np.zeros(2), np.zeros(2), np.array(lwh[:2]), 0.0, True)
+    )
     assert flat < 0.985 * near_depth  # about 2 % short at 20 m
     assert boxed == pytest.approx(near_depth, rel=0.005)
 
@@ -65,7 +69,9 @@ def test_top_offsets_known_answers():
     near, far = top_offsets(np.array([1.4, 0.9]), np.array([1.0, 0.6]), np.array([4.2, 1.8]), 0.0, False)
     assert (near, far) == pytest.approx((0.4, 2.4))
     # Seen from the side the widths count.
-    near, far = top_offsets(np.array([1.4, 0.9]), np.array([1.0, 0.6]), np.array([4.2, 1.8]), np.pi / 2, False)
+    near, far = top_offsets(
+        np.array([1.4, 0.9]), np.array([1.0, 0.6]), np.array([4.2, 1.8]), np.pi / 2, False
+    )
     assert (near, far) == pytest.approx((0.3, 1.5))
     assert top_offsets(np.zeros(2), np.zeros(2), np.array([4.0, 2.0]), 0.0, True) == pytest.approx((0.0, 4.0))
 

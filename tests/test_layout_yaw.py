@@ -19,10 +19,14 @@ CAR = (4.2, 1.8, 1.5)
 
 
 #: A long lens, so that whole-pixel boxes barely round the aspect.
-TELE = PinholeCamera(6000, 1500, np.array([[6000.0, 0.0, 3000.0], [0.0, 6000.0, 700.0], [0.0, 0.0, 1.0]]), 1.65)
+TELE = PinholeCamera(
+    6000, 1500, np.array([[6000.0, 0.0, 3000.0], [0.0, 6000.0, 700.0], [0.0, 0.0, 1.0]]), 1.65
+)
 
 
-def _box(centre_xy: np.ndarray, yaw: float, lwh: tuple[float, float, float], cam: PinholeCamera = CAM) -> np.ndarray:
+def _box(
+    centre_xy: np.ndarray, yaw: float, lwh: tuple[float, float, float], cam: PinholeCamera = CAM
+) -> np.ndarray:
     px, _ = cam.project(box_corners(centre_xy, yaw, np.array(lwh)))
     return np.array([px[:, 0].min(), px[:, 1].min(), px[:, 0].max(), px[:, 1].max()])
 
@@ -43,7 +47,9 @@ def test_turn_recovered_from_a_projected_box(depth: float, lateral: float, turn_
     dets = Detections((Detection("Car", box, amodal=True),), InputFile("detections", "d.txt", "0" * 64))
     (obj,) = objects_from_detections(dets, TELE.width, TELE.height)
     hidden = np.degrees(CAR[1] / depth)
-    assert np.degrees(fit_view_angle(TELE, centre, np.array(CAR), obj)) == pytest.approx(turn_deg, abs=1.0 + hidden)
+    assert np.degrees(fit_view_angle(TELE, centre, np.array(CAR), obj)) == pytest.approx(
+        turn_deg, abs=1.0 + hidden
+    )
 
 
 def test_camera_free_turn_is_close_far_away_and_short_near():

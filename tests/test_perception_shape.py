@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from usdworld.authoring import asset_library
+from usdworld.authoring.asset_measures import variant_measures
 from usdworld.layout.placement import AssetSizes, _choose_variant
 from usdworld.perception.shape import top_shape_ratio
 
@@ -39,10 +39,12 @@ def test_round_top_is_near_zero_and_empty_is_none():
 
 
 def test_library_variants_are_told_apart():
-    conifer = asset_library.top_shape_ratio("tree", "conifer")
-    deciduous = asset_library.top_shape_ratio("tree", "deciduous")
+    conifer = variant_measures("tree", "conifer").top_shape
+    deciduous = variant_measures("tree", "deciduous").top_shape
     assert conifer > 0.5 and deciduous < 0.1
-    assert asset_library.top_shape_ratio("pole", "plain") > 1.0 > asset_library.top_shape_ratio("pole", "street_lamp")
+    assert (
+        variant_measures("pole", "plain").top_shape > 1.0 > variant_measures("pole", "street_lamp").top_shape
+    )
 
 
 def test_variant_chosen_by_top_shape_when_height_is_unknown():
@@ -58,5 +60,11 @@ def test_variant_chosen_by_top_shape_when_height_is_unknown():
 
 
 def test_mean_contact_reach_of_a_person_is_below_its_largest_half_extent():
-    reach = asset_library.contact_mean_reach("person", "walking")
-    assert 0.0 < reach < max(asset_library.contact_half_extents("person", "walking"))
+    m = variant_measures("person", "walking")
+    assert 0.0 < m.contact_mean_reach < max(m.contact_half)
+
+
+def test_car_contact_is_the_tyre_bottoms_not_their_curve():
+    m = variant_measures("car", "hatchback")
+    assert m.contact_half == pytest.approx((1.291, 0.88), abs=0.01)  # axles at +-1.25..1.29 m
+    assert m.top_half[0] < m.contact_half[0] + 0.5

@@ -20,6 +20,7 @@ import numpy as np
 
 from usdworld.atomic import ensure_output_dir
 from usdworld.authoring import asset_library
+from usdworld.authoring.asset_measures import variant_measures
 from usdworld.authoring.world import EDITS_LAYER, ROOT_LAYER, write_world
 from usdworld.depth_stage import DepthOutcome, estimate_depth
 from usdworld.errors import InputError, OutputError
@@ -220,11 +221,15 @@ def _asset_sizes(objects: list[ImageObject], libraries: tuple[Path, ...]) -> dic
     sizes = {}
     for name in sorted({o.class_name for o in objects}):
         info = asset_library.asset_info(name, libraries)
-        contact = {v: asset_library.contact_half_extents(name, v, libraries) for v in info.variants}
-        top = {v: asset_library.top_half_extents(name, v, libraries) for v in info.variants}
-        reach = {v: asset_library.contact_mean_reach(name, v, libraries) for v in info.variants}
-        shapes = {v: asset_library.top_shape_ratio(name, v, libraries) for v in info.variants}
-        sizes[name] = AssetSizes(dict(info.size_by_variant), info.default_variant, contact, top, reach, shapes)
+        m = {v: variant_measures(name, v, libraries) for v in info.variants}
+        sizes[name] = AssetSizes(
+            dict(info.size_by_variant),
+            info.default_variant,
+            contact_half_by_variant={v: x.contact_half for v, x in m.items()},
+            top_half_by_variant={v: x.top_half for v, x in m.items()},
+            contact_mean_reach_by_variant={v: x.contact_mean_reach for v, x in m.items()},
+            top_shape_by_variant={v: x.top_shape for v, x in m.items()},
+        )
     return sizes
 
 

@@ -24,13 +24,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 from pxr import Kind, Usd, UsdGeom, UsdSemantics
 
 from usdworld.authoring.stages import open_stage
 from usdworld.errors import InputError
-from usdworld.perception import shape
 from usdworld.resources import asset_library_dir
 
 if TYPE_CHECKING:  # trimesh takes ~0.5 s to import; it is loaded only when meshes are needed
@@ -301,89 +299,6 @@ def load_mesh(
         info = asset_info(class_name, libraries)
         variant = info.default_variant or None
     return _mesh_cached(*_stamp(path), variant).copy()
-
-
-#: Vertices this close to an asset's lowest point count as its ground contact (metres):
-#: the bottom facets of a car's tyres (a wider band reaches up the tyres' curve and puts
-#: the contact ~0.1 m too far out), a person's soles.
-CONTACT_HEIGHT_M = 0.01
-
-
-def _contact_points(class_name: str, variant: str | None, libraries: tuple[Path, ...] | None) -> np.ndarray:
-    verts = load_mesh(class_name, variant, libraries).vertices
-    return verts[verts[:, 2] <= verts[:, 2].min() + CONTACT_HEIGHT_M][:, :2]
-
-
-def contact_half_extents(
-    class_name: str, variant: str | None = None, libraries: tuple[Path, ...] | None = None
-) -> tuple[float, float]:
-    """Half extents (along the asset's X and Y) of where a variant touches the ground.
-
-    A car touches the ground at its tyres, a person at the feet: the lowest image point
-    of such an object is its nearest contact point, not its bumper.
-
-    Returns:
-        (half length, half width) in metres at unit scale.
-    """
-    low = _contact_points(class_name, variant, libraries)
-    return float(np.abs(low[:, 0]).max()), float(np.abs(low[:, 1]).max())
-
-
-def contact_mean_reach(class_name: str, variant: str | None = None, libraries: tuple[Path, ...] | None = None) -> float:
-    """How far, on average over every heading, a variant's nearest contact lies from its origin.
-
-    For an object whose heading is not known (a pedestrian), the distance from the
-    lowest image point (its nearest contact) back to its centre is best guessed as the
-    mean of the contact points' support function over all directions.
-
-    Returns:
-        Metres at unit scale.
-    """
-    low = _contact_points(class_name, variant, libraries)
-    angles = np.linspace(0.0, 2.0 * np.pi, 360, endpoint=False)
-    directions = np.column_stack([np.cos(angles), np.sin(angles)])
-    return float(np.mean(np.max(low @ directions.T, axis=0)))
-
-
-#: Vertices within this fraction of the height below an asset's top count as its top.
-TOP_BAND_FRACTION = 0.05
-
-
-def top_half_extents(
-    class_name: str, variant: str | None = None, libraries: tuple[Path, ...] | None = None
-) -> tuple[float, float]:
-    """Half extents (along the asset's X and Y) of a variant's top: a car's roof, a head.
-
-    The top row of an object's silhouette is the near or far edge of its top (the far
-    one when the top is below the camera), which :mod:`usdworld.layout.silhouette` uses.
-
-    Returns:
-        (half length, half width) in metres at unit scale.
-    """
-    verts = load_mesh(class_name, variant, libraries).vertices
-    z0, z1 = float(verts[:, 2].min()), float(verts[:, 2].max())
-    top = verts[verts[:, 2] >= z1 - TOP_BAND_FRACTION * (z1 - z0)]
-    return float(np.abs(top[:, 0]).max()), float(np.abs(top[:, 1]).max())
-
-
-#: Rows of the side view an asset's top shape is measured on.
-SIDE_VIEW_ROWS = 256
-
-
-def top_shape_ratio(class_name: str, variant: str | None = None, libraries: tuple[Path, ...] | None = None) -> float:
-    """:func:`usdworld.perception.shape.top_shape_ratio` of a variant seen from the side
-    (its X-Z silhouette, rasterised :data:`SIDE_VIEW_ROWS` rows tall)."""
-    mesh = load_mesh(class_name, variant, libraries)
-    verts = np.asarray(mesh.vertices, dtype=np.float64)
-    z0, z1 = float(verts[:, 2].min()), float(verts[:, 2].max())
-    px_per_m = (SIDE_VIEW_ROWS - 1) / max(z1 - z0, 1e-9)
-    x = (verts[:, 0] - verts[:, 0].min()) * px_per_m
-    y = (z1 - verts[:, 2]) * px_per_m
-    image = np.zeros((SIDE_VIEW_ROWS + 1, int(np.ceil(x.max())) + 2), dtype=np.uint8)
-    triangles = np.round(np.stack([x, y], axis=1)[np.asarray(mesh.faces)] * 4).astype(np.int32)
-    cv2.fillPoly(image, list(triangles), 1, shift=2)
-    ratio = shape.top_shape_ratio(image.astype(bool))
-    return 0.0 if ratio is None else ratio
 
 
 def define_asset_root(stage: Usd.Stage, class_name: str) -> Usd.Prim:

@@ -83,7 +83,11 @@ def _slanted(segments: np.ndarray, width: int) -> np.ndarray:
     d = segments[:, 2:] - segments[:, :2]
     length = np.hypot(d[:, 0], d[:, 1])
     angle = np.degrees(np.arctan2(np.abs(d[:, 1]), np.abs(d[:, 0])))
-    keep = (length >= max(15.0, MIN_LENGTH_FRACTION * width)) & (angle >= MIN_SLANT_DEG) & (angle <= 90 - MIN_SLANT_DEG)
+    keep = (
+        (length >= max(15.0, MIN_LENGTH_FRACTION * width))
+        & (angle >= MIN_SLANT_DEG)
+        & (angle <= 90 - MIN_SLANT_DEG)
+    )
     return segments[keep]
 
 

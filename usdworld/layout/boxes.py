@@ -34,7 +34,13 @@ def box_corners(centre_xy: np.ndarray, yaw: float, size_lwh: np.ndarray) -> np.n
 
 def box_aspect_usable(obj: ImageObject, prior: ClassPrior, image_width: int) -> bool:
     """True for a box-only road object (a vehicle) whose whole box is in view and unhidden."""
-    if not obj.box_only or prior.yaw != "road" or obj.bottom_occluded or obj.bottom_truncated or obj.top_truncated:
+    if (
+        not obj.box_only
+        or prior.yaw != "road"
+        or obj.bottom_occluded
+        or obj.bottom_truncated
+        or obj.top_truncated
+    ):
         return False
     x0, y0, x1, y1 = (float(b) for b in obj.box_px)
     return x0 > 0.5 and x1 < image_width - 0.5 and x1 > x0 and y1 > y0
@@ -49,7 +55,9 @@ def box_view_angle(obj: ImageObject, prior: ClassPrior, image_width: int) -> flo
     return view_angle_from_box(x1 - x0, y1 - y0, prior.size_m)
 
 
-def fit_view_angle(camera: PinholeCamera, ground: np.ndarray, size_lwh: np.ndarray, obj: ImageObject) -> float:
+def fit_view_angle(
+    camera: PinholeCamera, ground: np.ndarray, size_lwh: np.ndarray, obj: ImageObject
+) -> float:
     """The turn from the line of sight whose projected box has the image box's aspect.
 
     Unlike the camera-free :func:`box_view_angle`, perspective is included: a near car's

@@ -1,0 +1,107 @@
+"""What placement needs to know about each asset variant's shape, measured once per file.
+
+* contact half extents: where the variant touches the ground (a car's tyre bottoms, a
+  person's soles): the lowest image point of an object is its nearest contact;
+* mean contact reach: that distance averaged over every heading, for objects whose
+  heading is unknown (people);
+* top half extents: its top (a roof, a head), whose near or far edge is the silhouette's
+  top row (:mod:`usdworld.layout.silhouette`);
+* top shape: :func:`usdworld.perception.shape.top_shape_ratio` of its side view (a
+  conifer's against a broad tree's).
+
+Measures are cached by asset file and modification time, so a batch of builds pays for
+them once per process. Frames: the asset's (metres, Z up, origin at the footprint centre).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from usdworld.authoring import asset_library
+from usdworld.perception.shape import top_shape_ratio
+
+#: Vertices this close to an asset's lowest point count as its ground contact (metres):
+#: the bottom facets of a car's tyres (a wider band reaches up the tyres' curve and puts
+#: the contact ~0.1 m too far out), a person's soles.
+CONTACT_HEIGHT_M = 0.01
+#: Vertices within this fraction of the height below an asset's top count as its top.
+TOP_BAND_FRACTION = 0.05
+#: Rows of the side view an asset's top shape is measured on.
+SIDE_VIEW_ROWS = 256
+
+
+@dataclass(frozen=True)
+class VariantMeasures:
+    """Shape measures of one asset variant at unit scale.
+
+    Attributes:
+        contact_half: (half length, half width) of its ground contact, metres.
+        contact_mean_reach: mean over headings of how far its nearest contact lies from
+            the origin, metres.
+        top_half: (half length, half width) of its top, metres.
+        top_shape: its side view's top-shape ratio.
+    """
+
+    contact_half: tuple[float, float]
+    contact_mean_reach: float
+    top_half: tuple[float, float]
+    top_shape: float
+
+
+def measure_mesh(vertices: np.ndarray, faces: np.ndarray) -> VariantMeasures:
+    """The measures of one triangle mesh (module docstring).
+
+    Args:
+        vertices: (V, 3) float64 asset-frame vertices, metres.
+        faces: (F, 3) int vertex indices.
+    """
+    verts = np.asarray(vertices, dtype=np.float64)
+    z0, z1 = float(verts[:, 2].min()), float(verts[:, 2].max())
+    low = verts[verts[:, 2] <= z0 + CONTACT_HEIGHT_M][:, :2]
+    top = verts[verts[:, 2] >= z1 - TOP_BAND_FRACTION * (z1 - z0)][:, :2]
+    angles = np.linspace(0.0, 2.0 * np.pi, 360, endpoint=False)
+    directions = np.column_stack([np.cos(angles), np.sin(angles)])
+    return VariantMeasures(
+        contact_half=(float(np.abs(low[:, 0]).max()), float(np.abs(low[:, 1]).max())),
+        contact_mean_reach=float(np.mean(np.max(low @ directions.T, axis=0))),
+        top_half=(float(np.abs(top[:, 0]).max()), float(np.abs(top[:, 1]).max())),
+        top_shape=_side_view_top_shape(verts, np.asarray(faces)),
+    )
+
+
+def _side_view_top_shape(verts: np.ndarray, faces: np.ndarray) -> float:
+    """Top-shape ratio of the X-Z silhouette rasterised :data:`SIDE_VIEW_ROWS` rows tall."""
+    z0, z1 = float(verts[:, 2].min()), float(verts[:, 2].max())
+    px_per_m = (SIDE_VIEW_ROWS - 1) / max(z1 - z0, 1e-9)
+    x = (verts[:, 0] - verts[:, 0].min()) * px_per_m
+    y = (z1 - verts[:, 2]) * px_per_m
+    image = np.zeros((SIDE_VIEW_ROWS + 1, int(np.ceil(x.max())) + 2), dtype=np.uint8)
+    triangles = np.round(np.stack([x, y], axis=1)[faces] * 4).astype(np.int32)
+    cv2.fillPoly(image, list(triangles), 1, shift=2)
+    ratio = top_shape_ratio(image.astype(bool))
+    return 0.0 if ratio is None else ratio
+
+
+@functools.lru_cache(maxsize=256)
+def _cached(
+    class_name: str, variant: str | None, path_str: str, mtime_ns: int, libraries: tuple[Path, ...] | None
+) -> VariantMeasures:
+    mesh = asset_library.load_mesh(class_name, variant, libraries)
+    return measure_mesh(mesh.vertices, mesh.faces)
+
+
+def variant_measures(
+    class_name: str, variant: str | None = None, libraries: tuple[Path, ...] | None = None
+) -> VariantMeasures:
+    """The measures of a class asset's variant (default variant when None), cached per file.
+
+    Raises:
+        InputError: no asset for the class, or no such variant.
+    """
+    path = asset_library.asset_path(class_name, libraries).resolve()
+    return _cached(class_name, variant, str(path), path.stat().st_mtime_ns, libraries)

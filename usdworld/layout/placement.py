@@ -176,7 +176,9 @@ def _choose_variant(
             err += abs(np.log(aspect / (across / h)))
         if shape_usable:
             # Offset so that near-zero ratios (round tops) compare on a sane scale.
-            err += abs(np.log((top_shape + TOP_SHAPE_OFFSET) / (sizes.top_shape_by_variant[n] + TOP_SHAPE_OFFSET)))
+            err += abs(
+                np.log((top_shape + TOP_SHAPE_OFFSET) / (sizes.top_shape_by_variant[n] + TOP_SHAPE_OFFSET))
+            )
         errs.append(err)
     return names[int(np.argmin(errs))]
 
@@ -230,7 +232,15 @@ def place_objects(
     for obj in objects:
         counters[obj.class_name] = counters.get(obj.class_name, 0) + 1
         name = f"{obj.class_name}_{counters[obj.class_name]:04d}"
-        args = (obj, name, prior_for(obj.class_name), asset_sizes[obj.class_name], camera, ground_from_px, axis)
+        args = (
+            obj,
+            name,
+            prior_for(obj.class_name),
+            asset_sizes[obj.class_name],
+            camera,
+            ground_from_px,
+            axis,
+        )
         draft = _draft(*args, depth_map, camera_sigma, sidewalk_lift=sidewalk_lift)
         if draft is None:
             unplaced.append((obj, name))
@@ -239,8 +249,14 @@ def place_objects(
 
     _move_behind_occluders(drafts, camera)
     # A depth known only as an upper bound (a cut or hidden bottom) that lies beyond the
-    # world's range says nothing useful: the object is not placed.
-    far = [d for d in drafts if d["depth_method"] in PARTIAL_METHODS and d["depth_m"] > max_partial_depth_m]
+    # world's range says nothing useful, nor does "just behind" a near occluder for a
+    # sliver of stuff too small to be the whole object there: neither is placed.
+    far = [
+        d
+        for d in drafts
+        if (d["depth_method"] in PARTIAL_METHODS and d["depth_m"] > max_partial_depth_m)
+        or _sliver_behind(d, camera)
+    ]
     drafts = [d for d in drafts if not any(d is f for f in far)]
     unplaced.extend((d["obj"], d["name"]) for d in far)
     # Objects with no cue at all but a placed occluder go right behind it.
@@ -251,11 +267,27 @@ def place_objects(
         if occ is None:
             skipped.append(name)
             continue
-        args = (obj, name, prior_for(obj.class_name), asset_sizes[obj.class_name], camera, ground_from_px, axis)
-        behind = occ["depth_m"] + occ["back_m"] + BEHIND_GAP_M
-        drafts.append(
-            _draft(*args, depth_map, camera_sigma, forced=(behind, f"behind_{occ['name']}"), sidewalk_lift=sidewalk_lift)
+        args = (
+            obj,
+            name,
+            prior_for(obj.class_name),
+            asset_sizes[obj.class_name],
+            camera,
+            ground_from_px,
+            axis,
         )
+        behind = occ["depth_m"] + occ["back_m"] + BEHIND_GAP_M
+        forced = _draft(
+            *args,
+            depth_map,
+            camera_sigma,
+            forced=(behind, f"behind_{occ['name']}"),
+            sidewalk_lift=sidewalk_lift,
+        )
+        if forced is None or _sliver_behind(forced, camera):
+            skipped.append(name)
+        else:
+            drafts.append(forced)
 
     if depth_map is not None and drafts:
         result = apply_ordering_rules(
@@ -275,11 +307,16 @@ def place_objects(
     if not drafts:
         return placements, skipped
     centers = np.array([d["ground"] for d in drafts])
-    half = footprint_half_extents(np.array([d["size"][:2] for d in drafts]), np.array([d["yaw"] for d in drafts]))
+    half = footprint_half_extents(
+        np.array([d["size"][:2] for d in drafts]), np.array([d["yaw"] for d in drafts])
+    )
     # Things (vehicles, people) settle first: they are the photo's sharpest evidence, and a
     # stuff region (a hedge, a facade chunk) should make way for them, not push them.
     priority = np.array(
-        [d["depth_m"] / max(d["confidence"], 1e-3) + (0.0 if d["obj"].is_thing else STUFF_PRIORITY_OFFSET) for d in drafts]
+        [
+            d["depth_m"] / max(d["confidence"], 1e-3) + (0.0 if d["obj"].is_thing else STUFF_PRIORITY_OFFSET)
+            for d in drafts
+        ]
     )
     resolved = resolve_collisions(centers, half, priority)
     for d, disp, center in zip(drafts, resolved.displacement, resolved.centers):
@@ -322,6 +359,19 @@ def _occluder(by_ref: dict[int, dict], obj: ImageObject) -> dict | None:
     if occ is None or occ["obj"].class_name in NOT_BOUNDING_OCCLUDERS:
         return None
     return occ
+
+
+def _sliver_behind(draft: dict, camera: PinholeCamera) -> bool:
+    """True for stuff placed just behind its occluder whose visible part, at that depth, is
+    smaller in both width and height than the smallest allowed scale of its class: a
+    piece of a far tree or pole seen past a near car, which the occluder does not bound."""
+    obj = draft["obj"]
+    if obj.is_thing or not draft["depth_method"].startswith("behind_"):
+        return False
+    base = draft["size"] / draft["scale"]
+    metres_per_px = draft["front_depth_m"] / camera.fy
+    seen = max(obj.width_px * metres_per_px / base[1], obj.height_px * metres_per_px / base[2])
+    return seen < prior_for(obj.class_name).scale_range[0]
 
 
 def _move_behind_occluders(drafts: list[dict], camera: PinholeCamera) -> None:
@@ -369,7 +419,9 @@ def _draft(  # noqa: PLR0913
     """
     u, v = (float(x) for x in obj.contact_px)
     contact_ground = apply_homography(ground_from_px, np.array([[u, v]]))[0]
-    contact_ok = bool(np.all(np.isfinite(contact_ground))) and _depth_of_ground_point(camera, contact_ground) > 0
+    contact_ok = (
+        bool(np.all(np.isfinite(contact_ground))) and _depth_of_ground_point(camera, contact_ground) > 0
+    )
     front_contact = _depth_of_ground_point(camera, contact_ground) if contact_ok else float("nan")
     if contact_ok and sidewalk_lift and obj.standing_on == "sidewalk":
         # The homography maps to the road plane z = 0; the contact lies on the kerb top,
@@ -429,7 +481,9 @@ def _draft(  # noqa: PLR0913
     # Objects that look the same from every side (trees, poles) show their variant in the
     # shape of their top, even when their bottom is hidden.
     shape_seen = prior.yaw == "none" and not obj.box_only and not obj.top_truncated and not sides_cut
-    variant = _choose_variant(sizes, measured_h, aspect, yaw - bearing, top_shape_ratio(obj.mask) if shape_seen else None)
+    variant = _choose_variant(
+        sizes, measured_h, aspect, yaw - bearing, top_shape_ratio(obj.mask) if shape_seen else None
+    )
     base = np.array(sizes.by_variant[variant], dtype=np.float64)
     scale_measured = float(measured_h / base[2]) if np.isfinite(measured_h) else float("nan")
     lo, hi = prior.scale_range
@@ -502,7 +556,9 @@ _CONFIDENCE = {
 }
 
 
-def _with_camera_uncertainty(cue: DepthCue, camera: PinholeCamera, camera_sigma: tuple[float, float]) -> DepthCue:
+def _with_camera_uncertainty(
+    cue: DepthCue, camera: PinholeCamera, camera_sigma: tuple[float, float]
+) -> DepthCue:
     """Widen the contact cue by the camera's own height and pitch uncertainty.
 
     A height error scales every contact depth (``d * s_h / h``); a pitch error shifts the
@@ -515,7 +571,9 @@ def _with_camera_uncertainty(cue: DepthCue, camera: PinholeCamera, camera_sigma:
     extra = np.hypot(d * s_h / camera.height_m, d * d * s_p / camera.height_m)
     if extra == 0:
         return cue
-    return DepthCue(cue.name, d, float(np.hypot(cue.sigma_m, extra)), cue.note + "; camera uncertainty included")
+    return DepthCue(
+        cue.name, d, float(np.hypot(cue.sigma_m, extra)), cue.note + "; camera uncertainty included"
+    )
 
 
 def _crop_depth(depth_map: DepthMap, obj: ImageObject) -> DepthMap:

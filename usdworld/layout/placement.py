@@ -226,22 +226,30 @@ def place_objects(
         could not be placed (stuff with no visible ground contact and no usable height).
         Names are given before skipping, so they stay stable.
     """
+
+    def draft_of(obj: ImageObject, name: str, forced: tuple[float, str] | None = None) -> dict | None:
+        prior, sizes = prior_for(obj.class_name), asset_sizes[obj.class_name]
+        return _draft(
+            obj,
+            name,
+            prior,
+            sizes,
+            camera,
+            ground_from_px,
+            axis,
+            depth_map,
+            camera_sigma,
+            forced,
+            sidewalk_lift,
+        )
+
     counters: dict[str, int] = {}
     drafts = []
     unplaced: list[tuple[ImageObject, str]] = []
     for obj in objects:
         counters[obj.class_name] = counters.get(obj.class_name, 0) + 1
         name = f"{obj.class_name}_{counters[obj.class_name]:04d}"
-        args = (
-            obj,
-            name,
-            prior_for(obj.class_name),
-            asset_sizes[obj.class_name],
-            camera,
-            ground_from_px,
-            axis,
-        )
-        draft = _draft(*args, depth_map, camera_sigma, sidewalk_lift=sidewalk_lift)
+        draft = draft_of(obj, name)
         if draft is None:
             unplaced.append((obj, name))
         else:
@@ -267,23 +275,8 @@ def place_objects(
         if occ is None:
             skipped.append(name)
             continue
-        args = (
-            obj,
-            name,
-            prior_for(obj.class_name),
-            asset_sizes[obj.class_name],
-            camera,
-            ground_from_px,
-            axis,
-        )
         behind = occ["depth_m"] + occ["back_m"] + BEHIND_GAP_M
-        forced = _draft(
-            *args,
-            depth_map,
-            camera_sigma,
-            forced=(behind, f"behind_{occ['name']}"),
-            sidewalk_lift=sidewalk_lift,
-        )
+        forced = draft_of(obj, name, (behind, f"behind_{occ['name']}"))
         if forced is None or _sliver_behind(forced, camera):
             skipped.append(name)
         else:

@@ -9,6 +9,10 @@ from pxr import Gf, Vt
 
 #: Faces meeting at a larger angle than this keep a hard edge (degrees).
 CREASE_DEG = 40.0
+#: Normals are rounded to this many decimals. A component that is zero in exact arithmetic
+#: comes out as about 1e-17 of either sign, and which one depends on the CPU and numpy build
+#: (fused multiply-add or not); rounded, the asset library is byte-identical on every machine.
+NORMAL_DECIMALS = 6
 
 
 def crease_normals(points: np.ndarray, faces: np.ndarray, crease_deg: float = CREASE_DEG) -> np.ndarray:
@@ -20,7 +24,8 @@ def crease_normals(points: np.ndarray, faces: np.ndarray, crease_deg: float = CR
         crease_deg: faces meeting at a larger angle keep a hard edge.
 
     Returns:
-        (3M, 3) float32 unit normals in face-corner order (USD faceVarying).
+        (3M, 3) float32 unit normals (to :data:`NORMAL_DECIMALS` decimals) in face-corner order
+        (USD faceVarying).
     """
     tri = points[faces]
     face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
@@ -45,7 +50,7 @@ def crease_normals(points: np.ndarray, faces: np.ndarray, crease_deg: float = CR
     np.add.at(acc, ca[ok], face_n[fb[ok]] * angle[cb[ok], None])
     norm = np.linalg.norm(acc, axis=1, keepdims=True)
     out = np.where(norm > 1e-12, acc / np.where(norm > 1e-12, norm, 1.0), face_n[corner_f])
-    return out.astype(np.float32)
+    return (np.round(out, NORMAL_DECIMALS) + 0.0).astype(np.float32)  # + 0.0: no negative zeros
 
 
 def extent(points: np.ndarray) -> Vt.Vec3fArray:

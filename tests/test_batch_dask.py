@@ -47,6 +47,61 @@ def cluster() -> object:
         yield local
 
 
+def _worker_settings() -> dict[str, object]:
+    import dask
+
+    return {
+        "profile": dask.config.get("distributed.worker.profile.enabled"),
+        "tick": dask.config.get("distributed.admin.tick.interval"),
+        "malloc_trim": os.environ.get(MALLOC_TRIM),
+        "omp_threads": os.environ.get("OMP_NUM_THREADS"),
+    }
+
+
+def test_an_existing_cluster_keeps_its_configuration(cluster: object, tmp_path: Path) -> None:
+    import dask
+
+    spawn_env = dask.config.get("distributed.nanny.pre-spawn-environ")  # the cluster was started with these
+    expected = {
+        "profile": dask.config.get("distributed.worker.profile.enabled"),  # True by default
+        "tick": dask.config.get("distributed.admin.tick.interval"),  # 20ms by default
+        "malloc_trim": str(spawn_env[MALLOC_TRIM]),  # 65536 by default
+        "omp_threads": str(spawn_env["OMP_NUM_THREADS"]),
+    }
+    address = cluster.scheduler_address  # type: ignore[attr-defined]
+    with DaskExecutor(address, out_dir=tmp_path) as executor:
+        settings = list(executor.client.run(_worker_settings).values())
+    assert settings == 2 * [expected]
+
+
+def test_frames_in_one_dask_task_give_the_same_worlds(
+    cluster: object, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    data = make_dataset(tmp_path / "data")
+    with LocalPoolExecutor(2) as pool:
+        run_batch(discover(data, "cityscapes"), tmp_path / "pool", pool, source="cs", layout="cityscapes")
+    monkeypatch.setattr(DaskExecutor, "_slots", lambda self: 1)  # one frame, then the other four in one task
+    sizes: list[int] = []
+
+    def recorded_frames_per_task(recent: list[float], task_seconds: float) -> int:
+        sizes.append(frames_per_task(recent, task_seconds))
+        return sizes[-1]
+
+    monkeypatch.setattr("usdworld.batch.dask_executor.frames_per_task", recorded_frames_per_task)
+    address = cluster.scheduler_address  # type: ignore[attr-defined]
+    with DaskExecutor(address, out_dir=tmp_path, task_seconds=1000.0) as executor:
+        summary = run_batch(
+            discover(data, "cityscapes"), tmp_path / "dask", executor, source="cs", layout="cityscapes"
+        )
+    assert sizes[:2] == [1, MAX_FRAMES_PER_TASK]
+    assert len({r.worker for r in summary.records[1:]}) == 1  # the last four frames: one task, one worker
+    assert [(r.frame_id, r.status) for r in summary.records] == [
+        (i, "failed" if i == CORRUPT else "built") for i in IDS
+    ]
+    assert output_bytes(tmp_path / "dask") == output_bytes(tmp_path / "pool")
+    assert stable_records(tmp_path / "dask") == stable_records(tmp_path / "pool")
+
+
 def test_dask_cluster_and_local_pool_give_identical_worlds(
     cluster: object, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -88,17 +143,6 @@ def test_unreachable_scheduler_is_a_one_line_error() -> None:
         DaskExecutor("tcp://127.0.0.1:9", timeout_s=1).__enter__()
 
 
-def _worker_settings() -> dict[str, object]:
-    import dask
-
-    return {
-        "profile": dask.config.get("distributed.worker.profile.enabled"),
-        "tick": dask.config.get("distributed.admin.tick.interval"),
-        "malloc_trim": os.environ.get(MALLOC_TRIM),
-        "omp_threads": os.environ.get("OMP_NUM_THREADS"),
-    }
-
-
 def test_dask_local_cluster_is_tuned_and_this_process_is_not(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -117,22 +161,6 @@ def test_dask_local_cluster_is_tuned_and_this_process_is_not(
     assert MALLOC_TRIM not in os.environ and "OMP_NUM_THREADS" not in os.environ  # nor this process
 
 
-def test_an_existing_cluster_keeps_its_configuration(cluster: object, tmp_path: Path) -> None:
-    import dask
-
-    spawn_env = dask.config.get("distributed.nanny.pre-spawn-environ")  # the cluster was started with these
-    expected = {
-        "profile": dask.config.get("distributed.worker.profile.enabled"),  # True by default
-        "tick": dask.config.get("distributed.admin.tick.interval"),  # 20ms by default
-        "malloc_trim": str(spawn_env[MALLOC_TRIM]),  # 65536 by default
-        "omp_threads": str(spawn_env["OMP_NUM_THREADS"]),
-    }
-    address = cluster.scheduler_address  # type: ignore[attr-defined]
-    with DaskExecutor(address, out_dir=tmp_path) as executor:
-        settings = list(executor.client.run(_worker_settings).values())
-    assert settings == 2 * [expected]
-
-
 @pytest.mark.parametrize(
     ("recent", "task_seconds", "expected"),
     [
@@ -148,26 +176,3 @@ def test_an_existing_cluster_keeps_its_configuration(cluster: object, tmp_path: 
 )
 def test_frames_per_task(recent: list[float], task_seconds: float, expected: int) -> None:
     assert frames_per_task(recent, task_seconds) == expected
-
-
-def test_frames_in_one_dask_task_give_the_same_worlds(
-    cluster: object, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    data = make_dataset(tmp_path / "data")
-    with LocalPoolExecutor(2) as pool:
-        run_batch(discover(data, "cityscapes"), tmp_path / "pool", pool, source="cs", layout="cityscapes")
-    monkeypatch.setattr(DaskExecutor, "_slots", lambda self: 1)  # one frame, then the other four in one task
-    sizes: list[int] = []
-    monkeypatch.setattr(
-        "usdworld.batch.dask_executor.frames_per_task",
-        lambda recent, task_seconds: sizes.append(frames_per_task(recent, task_seconds)) or sizes[-1],
-    )
-    address = cluster.scheduler_address  # type: ignore[attr-defined]
-    with DaskExecutor(address, out_dir=tmp_path, task_seconds=1000.0) as executor:
-        summary = run_batch(discover(data, "cityscapes"), tmp_path / "dask", executor, source="cs", layout="cityscapes")
-    assert sizes[:2] == [1, MAX_FRAMES_PER_TASK]
-    assert [(r.frame_id, r.status) for r in summary.records] == [
-        (i, "failed" if i == CORRUPT else "built") for i in IDS
-    ]
-    assert output_bytes(tmp_path / "dask") == output_bytes(tmp_path / "pool")
-    assert stable_records(tmp_path / "dask") == stable_records(tmp_path / "pool")

@@ -1,9 +1,9 @@
 """Run frames on a Dask cluster: an existing one (``--scheduler``) or a local one (``--dask-local N``).
 
-Needs ``dask[distributed]`` (``pip install "dask[distributed]>=2026.8"``). Dask ships the
-task (a :class:`~usdworld.batch.worker.FrameTask` of paths) to a worker, which imports
-:mod:`usdworld.batch.worker` and runs :func:`~usdworld.batch.worker.run_frame` there; only
-the small record comes back. So every worker needs:
+Needs ``dask[distributed]`` (``pip install "dask[distributed]>=2026.8"``). Dask ships a
+task (one or more :class:`~usdworld.batch.worker.FrameTask` of paths) to a worker, which
+imports :mod:`usdworld.batch.worker` and runs :func:`~usdworld.batch.worker.run_frames`
+there; only the small records come back. So every worker needs:
 
 * the same usdworld version installed (checked when the batch starts), and
 * the same paths: the dataset and the output folder at the same location on every
@@ -19,33 +19,45 @@ An existing cluster, by hand::
 One thread per worker process suits usdworld (the build is mostly single-threaded Python
 and numpy). ``dask worker`` sets ``MALLOC_TRIM_THRESHOLD_=65536`` in its worker processes,
 which makes each frame about 40 % slower (every large array becomes a fresh mmap);
-``--dask-local`` leaves it unset, and for ``dask worker`` put this in a Dask config file on
-the worker machines (e.g. ``~/.config/dask/usdworld.yaml``)::
+``--dask-local`` leaves it unset. usdworld never changes the configuration of an existing
+cluster; for ``dask worker`` put this in a Dask config file on the worker machines (e.g.
+``~/.config/dask/usdworld.yaml``), the first part always, the rest when frames are short
+(well under a second) and the workers fill every core::
 
     distributed:
       nanny:
         pre-spawn-environ:
           MALLOC_TRIM_THRESHOLD_: null
+      worker:
+        profile:
+          enabled: false
+        memory:
+          monitor-interval: 500ms
+      admin:
+        tick:
+          interval: 1s
+        system-monitor:
+          interval: 5s
 
 On Kubernetes use dask-kubernetes, on HPC schedulers (SLURM, PBS, SGE, LSF) use
 dask-jobqueue; both give a scheduler address to pass as ``--scheduler``.
 
 ``--dask-local N`` starts ``LocalCluster(n_workers=N, threads_per_worker=1,
-processes=True)`` for the run, with :data:`LOCAL_CLUSTER_CONFIG`: no ``MALLOC_TRIM_THRESHOLD_``,
-no profiler sampling the running frame 100 times a second, and the event-loop, host and
-memory monitors polled less often. The scheduler and the nannies live in this process, so
-on a machine with one worker per core every CPU cycle Dask spends there or in a worker's
-event loop is taken from the frames; with the defaults, 2 workers on 2 cores built about
-11 % fewer frames per minute than the local pool (BENCHMARKS.md, batch section). These
-settings only touch the cluster this executor starts; an existing cluster given with
-``--scheduler`` keeps its own configuration (set the same keys in a Dask config file on
-its machines if it runs many short frames).
+processes=True)`` for the run, with :data:`LOCAL_CLUSTER_CONFIG` (the settings above): no
+profiler sampling the running frame 100 times a second, and the event-loop, host and
+memory monitors polled less often. Its dashboard therefore shows no profile. The scheduler
+and the nannies live in this process, so with one worker per core every CPU cycle Dask
+spends there or in a worker's event loop is taken from the frames: with Dask's defaults,
+2 workers on 2 cores built about 13 % fewer frames per minute than the local pool
+(BENCHMARKS.md, batch section). This process's own Dask configuration and environment are
+left as they were.
 
-Frames go to the cluster in tasks of one or more frames (:func:`frames_per_task`): Dask
-spends a few milliseconds of CPU per task on its scheduler, client and worker, which is a
-few per cent of a 0.1 s frame. The first tasks hold one frame each; then each task holds
-as many frames as take about :data:`TASK_SECONDS` (at most :data:`MAX_FRAMES_PER_TASK`),
-judged from the frames finished so far. Frames of a second or more go one per task.
+Frames go to the cluster in tasks of one or more frames (:func:`frames_per_task`), on any
+cluster: Dask spends a few milliseconds of CPU per task on its scheduler, client and
+worker, a few per cent of a 0.15 s frame. The first tasks hold one frame each; then each
+task holds as many frames as take about :data:`TASK_SECONDS` (at most
+:data:`MAX_FRAMES_PER_TASK`), judged from the frames finished so far. Frames of half a
+second or more go one per task.
 """
 
 from __future__ import annotations
@@ -75,7 +87,8 @@ MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
 #: Dask settings of the LocalCluster that ``--dask-local`` starts; they reach its scheduler,
 #: nannies and (through the nannies) its worker processes, never an existing cluster. Measured
 #: idle on 2 cores, a 2-worker LocalCluster used about 10 % of a core with Dask's defaults
-#: and under 1 % with these; while building, the profiler added about 5 % to each frame.
+#: and under 1 % with these; while a 0.15 s frame was built, a worker's event loop used
+#: about 4 ms of CPU with the defaults and about 1 ms with these.
 LOCAL_CLUSTER_CONFIG: dict[str, object] = {
     # See MALLOC_TRIM: unset, glibc's adaptive threshold keeps large arrays off fresh mmaps.
     f"distributed.nanny.pre-spawn-environ.{MALLOC_TRIM}": None,
@@ -165,15 +178,18 @@ def start_local_cluster(workers: int) -> Any:
     import dask
 
     distributed = import_distributed()
-    with dask.config.set(LOCAL_CLUSTER_CONFIG):
-        with _environ_kept(dask.config.get("distributed.nanny.pre-spawn-environ")):
-            return distributed.LocalCluster(
-                n_workers=workers,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=":0",
-                silence_logs=logging.ERROR,
-            )
+    # the second context manager reads the configuration the first one set
+    with (
+        dask.config.set(LOCAL_CLUSTER_CONFIG),
+        _environ_kept(dask.config.get("distributed.nanny.pre-spawn-environ")),
+    ):
+        return distributed.LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.ERROR,
+        )
 
 
 def _chunk_records(future: Any, chunk: tuple[FrameTask, ...]) -> tuple[FrameRecord, ...]:

@@ -48,3 +48,22 @@ def test_a_sliver_of_stuff_past_a_near_car_is_not_put_behind_it():
     assert 2 not in placed and "tree_0001" in skipped
     assert placed[3].depth_method == "top_row"
     assert placed[3].depth_m > placed[1].depth_m
+
+
+def test_a_person_under_a_crown_does_not_push_the_tree():
+    person = _obj("person", (560, 230, 580, 300), 1)
+    tree = _obj("tree", (480, 120, 660, 300), 2)  # its crown overhangs the person
+    # a trunk: only the middle columns reach the bottom
+    mask = np.pad(np.ones((140, 180), bool), ((0, 40), (0, 0)))
+    mask[140:, 45:55] = True  # 35-45 px (about 1.2 m) left of the person
+    tree = ImageObject(**{**tree.__dict__, "mask": mask, "contact_px": np.array([530.0, 299.5])})
+    objects = [person, tree]
+    sizes = _asset_sizes(objects, library_dirs(None))
+    ground_from_px = np.linalg.inv(CAM.px_from_ground())
+    placements, _ = place_objects(objects, CAM, ground_from_px, RoadAxis(0.0, np.zeros(2), "camera_forward"), sizes)
+    placed = {p.obj.ref: p for p in placements}
+    assert set(placed) == {1, 2}
+    crown = placed[2].size_m[:2].max() / 2
+    gap = np.linalg.norm(placed[2].position_world[:2] - placed[1].position_world[:2])
+    assert gap < crown  # the person stands under the crown ...
+    assert np.all(placed[2].collision_displacement == 0.0)  # ... and nothing was moved

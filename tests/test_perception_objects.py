@@ -93,3 +93,32 @@ def test_amodal_box_bottom_is_its_contact_even_behind_another_box():
     assert [o.bottom_occluded for o in sorted(modal, key=lambda o: o.instance_id)] == [False, True]
     assert not any(o.bottom_occluded for o in amodal)
     assert all(o.occluded_by == -1 for o in amodal)
+
+
+VEGETATION, SIDEWALK_ID = 21, SIDEWALK
+
+
+def _tree_over_sidewalk(trunk_hidden: bool) -> Segmentation:
+    """A crown (rows 40-120, columns 120-200) over the sidewalk, on a trunk (columns 155-165)
+    down to row 150; a car may hide the trunk's foot."""
+    labels = np.full((200, 400), 23, dtype=np.uint8)  # sky
+    labels[100:, :] = SIDEWALK_ID
+    labels[40:120, 120:200] = VEGETATION
+    labels[120:150, 155:165] = VEGETATION
+    inst = labels.astype(np.int32)
+    if trunk_hidden:
+        labels[135:170, 130:190] = CAR
+        inst[135:170, 130:190] = 26000
+    return Segmentation(labels, inst, (FILE,))
+
+
+def test_a_tree_stands_on_its_trunk_not_on_its_crown():
+    (tree,) = [o for o in objects_from_segmentation(_tree_over_sidewalk(False)) if o.class_name == "tree"]
+    # the crown's lower edge (row 119) hangs over sidewalk too; the trunk's foot is the contact
+    np.testing.assert_allclose(tree.contact_px, [160.0, 149.5])
+    assert not tree.bottom_occluded and tree.standing_on == "sidewalk"
+
+
+def test_a_tree_whose_trunk_a_car_hides_has_no_contact():
+    (tree,) = [o for o in objects_from_segmentation(_tree_over_sidewalk(True)) if o.class_name == "tree"]
+    assert tree.bottom_occluded  # the crown over the sidewalk does not count as standing there

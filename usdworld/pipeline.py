@@ -24,8 +24,14 @@ from usdworld.authoring.asset_measures import variant_measures
 from usdworld.authoring.world import EDITS_LAYER, ROOT_LAYER, write_world
 from usdworld.depth_stage import DepthOutcome, estimate_depth
 from usdworld.errors import InputError, OutputError
-from usdworld.geometry.camera import PinholeCamera, ground_correspondences
-from usdworld.geometry.estimate import CameraEstimate, HeightObservations, estimate_camera
+from usdworld.geometry.camera import PinholeCamera, ground_correspondences, intrinsics_from_fov
+from usdworld.geometry.estimate import (
+    CAMERA_HEIGHT_PRIOR_M,
+    DEFAULT_HFOV_DEG,
+    CameraEstimate,
+    HeightObservations,
+    estimate_camera,
+)
 from usdworld.geometry.homography import HomographyFit, apply_homography, estimate_homography
 from usdworld.geometry.vanishing import VanishingPoint, street_vanishing_point
 from usdworld.io.camera_files import read_camera
@@ -42,6 +48,7 @@ from usdworld.layout.priors import prior_for
 from usdworld.layout.surfaces import MAX_RANGE_M, build_surfaces, fill_behind_occluders, occluded_ground_mask
 from usdworld.layout.yaw import road_axis
 from usdworld.perception.classes import label_lookups
+from usdworld.perception.facades import StreetView
 from usdworld.perception.objects import (
     ImageObject,
     objects_from_detections,
@@ -137,15 +144,35 @@ def _read_segmentation(request: BuildRequest, image: SourceImage) -> Segmentatio
     return None
 
 
-def _objects(request: BuildRequest, image: SourceImage, seg: Segmentation | None) -> list[ImageObject]:
+def _street_view(
+    spec: CameraSpec | None, image: SourceImage, vanishing: VanishingPoint | None
+) -> StreetView | None:
+    """The photo's perspective (for cutting facades), when its vanishing point is known.
+
+    The camera is not estimated yet: a missing focal length is the default field of view's
+    and a missing height the typical one (facade pieces scale with it).
+    """
+    if vanishing is None:
+        return None
+    if spec is not None and spec.K is not None:
+        K = spec.K
+    else:
+        K = intrinsics_from_fov(image.width, image.height, DEFAULT_HFOV_DEG)
+    height = spec.height_m if spec is not None and spec.height_m is not None else CAMERA_HEIGHT_PRIOR_M[0]
+    return StreetView(vanishing.v, float(K[0, 0]), float(K[0, 2]), float(height))
+
+
+def _objects(
+    request: BuildRequest, image: SourceImage, seg: Segmentation | None, view: StreetView | None
+) -> list[ImageObject]:
     if request.detections is None:
-        return objects_from_segmentation(seg) if seg is not None else []
+        return objects_from_segmentation(seg, view) if seg is not None else []
     if request.detections.suffix.lower() == ".json":
         dets = read_detections_json(request.detections, image)
     else:
         dets = read_kitti_labels(request.detections, image)
     things = objects_from_detections(dets, image.width, image.height, seg)
-    stuff = [o for o in objects_from_segmentation(seg) if not o.is_thing] if seg is not None else []
+    stuff = [o for o in objects_from_segmentation(seg, view) if not o.is_thing] if seg is not None else []
     return sort_objects(things + stuff)
 
 
@@ -263,9 +290,10 @@ def depth_for_image(request: BuildRequest) -> tuple[DepthOutcome, PinholeCamera]
     image = read_image(request.image)
     seg = _read_segmentation(request, image)
     spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
-    objects = _objects(request, image, seg)
+    vanishing = street_vanishing_point(image.rgb)
+    objects = _objects(request, image, seg, _street_view(spec, image, vanishing))
     sizes = _asset_sizes(objects, asset_library.library_dirs(request.library))
-    camera = _camera(spec, image, objects, seg, sizes, street_vanishing_point(image.rgb))
+    camera = _camera(spec, image, objects, seg, sizes, vanishing)
     outcome = estimate_depth(request.depth, request.depth_weights, request.depth_map, image, camera.camera, seg, objects)
     return outcome, camera.camera
 
@@ -283,9 +311,9 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     image = read_image(request.image)
     seg = _read_segmentation(request, image)
     spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
-    objects = _objects(request, image, seg)
-    sizes = _asset_sizes(objects, libraries)
     vanishing = street_vanishing_point(image.rgb)
+    objects = _objects(request, image, seg, _street_view(spec, image, vanishing))
+    sizes = _asset_sizes(objects, libraries)
     camera = _camera(spec, image, objects, seg, sizes, vanishing)
     dense = estimate_depth(
         request.depth, request.depth_weights, request.depth_map, image, camera.camera, seg, objects

@@ -879,11 +879,11 @@ class WorldEditor:
         how = prior_for(class_name).yaw
         if how == "camera":
             return _wrap_deg(math.degrees(math.atan2(-xy[1], -xy[0])))
-        if how == "road":
+        if how in ("road", "face_road"):
             road = [
                 s
                 for s in states
-                if s.active and s.class_name in class_priors() and prior_for(s.class_name).yaw == "road"
+                if s.active and s.class_name in class_priors() and prior_for(s.class_name).yaw == how
             ]
             same = [s for s in road if s.class_name == class_name] or road
             if same:

@@ -35,7 +35,7 @@ from usdworld.layout.priors import ClassPrior, prior_for
 from usdworld.layout.silhouette import depth_from_silhouette, depth_from_top_row, top_offsets
 from usdworld.layout.yaw import RoadAxis, choose_yaw, yaw_from_view_angle
 from usdworld.perception.depth.fusion import HEIGHT_MEAN_REL_SIGMA, DepthCue, fuse, object_depth_cues
-from usdworld.perception.objects import ImageObject
+from usdworld.perception.objects import TRUNK_CLASSES, ImageObject
 from usdworld.perception.shape import top_shape_ratio
 
 #: Depth methods the paper's ordering rules may change (those decided by the dense map).
@@ -144,6 +144,28 @@ def _forward_half_extent(size_lw: np.ndarray, yaw: float, direction: float) -> f
     """Distance from a footprint's centre to its nearest corner, measured along a direction (yaw, radians)."""
     rel = yaw - direction
     return float(0.5 * (size_lw[0] * abs(np.cos(rel)) + size_lw[1] * abs(np.sin(rel))))
+
+
+def _facade_frontage(camera: PinholeCamera, obj: ImageObject, front_ground: np.ndarray, yaw: float) -> float:
+    """Metres of facade between an object's first and last columns (NaN when not measurable).
+
+    The facade is the vertical wall through ``front_ground`` whose front faces ``yaw``; each
+    image column sees the ground along a line (its vertical plane's trace), and the wall
+    spans the two columns' traces.
+    """
+    along = np.array([-np.sin(yaw), np.cos(yaw)])
+    v = float(obj.contact_px[1])
+    ends = []
+    for u in (float(obj.box_px[0]), float(obj.box_px[2])):
+        trace, _ = camera.ground_points(np.array([[u, v], [u, v + 20.0]]))
+        d = trace[1] - trace[0]
+        # front_ground + t * along = trace[0] + r * d
+        m = np.column_stack([along, -d])
+        if not np.all(np.isfinite(m)) or abs(np.linalg.det(m)) < 1e-9:
+            return float("nan")
+        t, _ = np.linalg.solve(m, trace[0] - front_ground)
+        ends.append(t)
+    return float(abs(ends[1] - ends[0]))
 
 
 def _depth_of_ground_point(camera: PinholeCamera, p_ground: np.ndarray) -> float:
@@ -301,7 +323,7 @@ def place_objects(
         return placements, skipped
     centers = np.array([d["ground"] for d in drafts])
     half = footprint_half_extents(
-        np.array([d["size"][:2] for d in drafts]), np.array([d["yaw"] for d in drafts])
+        np.array([d["footprint"] for d in drafts]), np.array([d["yaw"] for d in drafts])
     )
     # Things (vehicles, people) settle first: they are the photo's sharpest evidence, and a
     # stuff region (a hedge, a facade chunk) should make way for them, not push them.
@@ -479,6 +501,13 @@ def _draft(  # noqa: PLR0913
     )
     base = np.array(sizes.by_variant[variant], dtype=np.float64)
     scale_measured = float(measured_h / base[2]) if np.isfinite(measured_h) else float("nan")
+    if not np.isfinite(scale_measured) and prior.yaw == "face_road" and bottom_seen:
+        # A facade cut by the image's top: its frontage in view sizes it, never below the
+        # height in view (a lower bound on its height).
+        frontage = _facade_frontage(camera, obj, front_ground, yaw)
+        if np.isfinite(frontage):
+            seen_h = float(obj.height_px * front / camera.fy) / base[2] if obj.height_px > 0 else 0.0
+            scale_measured = max(frontage / base[1], seen_h)
     lo, hi = prior.scale_range
     scale = float(np.clip(scale_measured, lo, hi)) if np.isfinite(scale_measured) else 1.0
     size = base * scale
@@ -495,9 +524,16 @@ def _draft(  # noqa: PLR0913
         ahead = sizes.mean_reach(variant) * scale
     else:
         ahead = _forward_half_extent(reach, yaw, camera.yaw)
-    back = ahead * float(np.cos(camera.pitch))
-    depth = front + back
-    ground = _point_at_depth(camera, u, v, depth)
+    if prior.yaw == "face_road":
+        # A facade's contact lies on its front wall, which faces the road: the centre is
+        # half the depth behind it, away from the road (not further along the ray).
+        ground = front_ground - 0.5 * size[0] * np.array([np.cos(yaw), np.sin(yaw)])
+        depth = _depth_of_ground_point(camera, ground)
+        back = depth - front
+    else:
+        back = ahead * float(np.cos(camera.pitch))
+        depth = front + back
+        ground = _point_at_depth(camera, u, v, depth)
     yaw, yaw_source = _object_yaw(prior, ground, axis, obj, camera)
     if obj.is_thing:
         ground = align_box_columns(camera, ground, yaw, size, obj)
@@ -514,6 +550,8 @@ def _draft(  # noqa: PLR0913
         "scale": scale,
         "scale_measured": scale_measured,
         "size": size,
+        # Trees and poles collide by their trunk: people stand under crowns and lamp arms.
+        "footprint": 2.0 * sizes.contact_half(variant) * scale if obj.class_name in TRUNK_CLASSES else size[:2],
         "depth_m": depth,
         "depth_method": method,
         "cues": centre_cues,

@@ -9,6 +9,9 @@ from functools import lru_cache
 from usdworld.errors import InputError
 from usdworld.resources import data_dir
 
+#: How a class may be oriented (:func:`usdworld.layout.yaw.choose_yaw`).
+YAW_MODES = ("road", "face_road", "camera", "none")
+
 
 @dataclass(frozen=True)
 class ClassPrior:
@@ -19,7 +22,8 @@ class ClassPrior:
         size_m: (length along the object's forward axis, width, height) in metres.
         height_std_m: spread of real heights, metres.
         scale_range: (min, max) uniform scale allowed relative to ``size_m``.
-        yaw: ``road``, ``camera`` or ``none``: how the object is oriented.
+        yaw: ``road``, ``face_road``, ``camera`` or ``none``: how the object is oriented
+            (:func:`usdworld.layout.yaw.choose_yaw`).
         kind: ``thing`` or ``stuff``.
         rigid_height: True when the height is reliable enough to calibrate the camera.
     """
@@ -35,8 +39,8 @@ class ClassPrior:
     def __post_init__(self) -> None:
         if any(s <= 0 for s in self.size_m) or not 0 < self.scale_range[0] <= 1 <= self.scale_range[1]:
             raise InputError(f"class_priors.json -> {self.name}: sizes must be > 0 and scale_range contain 1")
-        if self.yaw not in ("road", "camera", "none"):
-            raise InputError(f"class_priors.json -> {self.name} -> yaw: must be road, camera or none")
+        if self.yaw not in YAW_MODES:
+            raise InputError(f"class_priors.json -> {self.name} -> yaw: must be one of {', '.join(YAW_MODES)}")
 
 
 @lru_cache(maxsize=1)

@@ -72,7 +72,9 @@ def choose_yaw(mode: str, position_ground: np.ndarray, axis: RoadAxis) -> tuple[
     Args:
         mode: the class prior's yaw mode: ``road`` (align with the road; right-hand
             traffic, so objects left of the road centre line face the camera),
-            ``camera`` (face the camera) or ``none`` (keep the asset axes).
+            ``face_road`` (the asset's forward axis across the road, towards its centre
+            line: a building's front), ``camera`` (face the camera) or ``none`` (keep the
+            asset axes).
         position_ground: (2,) float64 object position on the ground.
         axis: the road axis.
 
@@ -82,10 +84,12 @@ def choose_yaw(mode: str, position_ground: np.ndarray, axis: RoadAxis) -> tuple[
     if mode == "camera":
         bearing = float(np.arctan2(position_ground[1], position_ground[0]))
         return _wrap(bearing + np.pi), "facing_camera"
-    if mode == "road":
+    if mode in ("road", "face_road"):
         d = np.array([np.cos(axis.angle), np.sin(axis.angle)])
         rel = np.asarray(position_ground, dtype=np.float64) - axis.center_ground
         left = d[0] * rel[1] - d[1] * rel[0] > 0
+        if mode == "face_road":
+            return _wrap(axis.angle + (-np.pi / 2 if left else np.pi / 2)), f"{axis.source}_facing_road"
         if left:
             return _wrap(axis.angle + np.pi), f"{axis.source}_left_oncoming"
         return _wrap(axis.angle), f"{axis.source}_right_with_traffic"

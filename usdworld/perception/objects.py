@@ -14,12 +14,21 @@ import numpy as np
 
 from usdworld.io.types import Detections, Segmentation
 from usdworld.perception.classes import label_lookups, placed_class_for_label
+from usdworld.perception.facades import StreetView, facade_ranges
 
 #: Stuff classes split into chunks of this width/height aspect (metres of the class
-#: prior); classes not listed are never split.
+#: prior); classes not listed are never split. With the photo's perspective known, facades
+#: are cut by :func:`usdworld.perception.facades.facade_ranges` instead.
 SPLIT_ASPECT: dict[str, float] = {"building": 1.0, "tree": 0.8, "fence": 2.5}
+#: Stuff standing on a trunk or a post: its crown or arm may hang over ground far behind it.
+TRUNK_CLASSES = frozenset({"tree", "pole"})
+#: Classes cut like facades when the perspective is known.
+FACADE_CLASSES = frozenset({"building"})
 #: Smallest stuff region kept, as a fraction of the image area (and never below 30 px).
 MIN_STUFF_AREA_FRACTION = 4e-4
+#: The same for thin street furniture, whose whole area is small (a pole 40 m away is a
+#: few pixels wide).
+MIN_THIN_AREA_FRACTION: dict[str, float] = {"pole": 1e-4, "traffic_sign": 1e-4, "traffic_light": 1e-4}
 #: Smallest thing instance kept, in pixels.
 MIN_THING_AREA_PX = 10
 #: A detection box counts as occluded when a lower box covers this fraction of its bottom edge.
@@ -133,12 +142,15 @@ def _contact_from_mask(
     owner: np.ndarray | None,
     own_value: int,
     thing: bool,
+    trunk: bool = False,
 ) -> _Contact:
     """Ground contact of a mask crop placed at (x0, y0) in an image.
 
     A column touches the ground when the pixel just below its lowest pixel is a
     ground class; it is hidden when that pixel belongs to another placed object
     (``owner`` differs and is not 0); it is cut when the column reaches the border.
+    Things and stuff on a ``trunk`` (trees, poles) are judged by their lowest columns
+    only; a trunk's contact is where those columns stand.
     """
     H = label_ids.shape[0] if label_ids is not None else (owner.shape[0] if owner is not None else 0)
     cols, bottoms = _column_bottoms(mask)
@@ -161,9 +173,10 @@ def _contact_from_mask(
         on_ground &= ~hidden
     else:
         hidden = np.zeros_like(on_ground)
-    if thing:
-        # Judge a thing by its lowest columns (feet, tyres), not by arms or bumpers,
-        # whose pixels below may be ground far behind the object.
+    if thing or trunk:
+        # Judge a thing by its lowest columns (feet, tyres), not by arms or bumpers, and a
+        # tree by its trunk, not by its crown: the pixels below those may be ground far
+        # behind the object.
         band = rows_abs >= lowest - max(2.0, BOTTOM_BAND_FRACTION * mask.shape[0])
         occluded = (not truncated) and on_ground[band].mean() < CONTACT_FRACTION
         support = on_ground & band
@@ -174,6 +187,10 @@ def _contact_from_mask(
     if thing:
         v = float(rows_abs[use].max()) + 0.5
         u = float(x0 + mask.shape[1] / 2.0)
+    elif trunk:
+        foot = use & band if (use & band).any() else use
+        u = float(np.median(cols_abs[foot])) + 0.5
+        v = float(rows_abs[foot].max()) + 0.5
     else:
         order = np.argsort(cols_abs[use])
         mid = order[len(order) // 2]
@@ -214,6 +231,16 @@ def _split_columns(mask: np.ndarray, aspect: float) -> list[tuple[int, int]]:
     return ranges
 
 
+def _ground_below(crop: np.ndarray, x0: int, y0: int, labels: np.ndarray) -> np.ndarray:
+    """(w,) bool: the pixel below each column's lowest pixel of the crop is a ground class."""
+    cols, bottoms = _column_bottoms(crop)
+    rows = y0 + bottoms + 1
+    inside = rows < labels.shape[0]
+    out = np.zeros(crop.shape[1], dtype=bool)
+    out[cols[inside]] = label_lookups().is_ground[labels[rows[inside], x0 + cols[inside]]]
+    return out
+
+
 def _instance_groups(instance_ids: np.ndarray) -> list[tuple[int, np.ndarray]]:
     """Instance ids >= 1000 and their boxes ``(xmin, ymin, xmax, ymax)``, sorted by id."""
     ys, xs = np.nonzero(instance_ids >= 1000)
@@ -235,11 +262,14 @@ def _instance_groups(instance_ids: np.ndarray) -> list[tuple[int, np.ndarray]]:
     return [(int(v), b) for v, b in zip(vals[starts], boxes)]
 
 
-def objects_from_segmentation(seg: Segmentation) -> list[ImageObject]:
+def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None) -> list[ImageObject]:
     """Things from the instance map (or class components) and stuff from class masks.
 
     Args:
         seg: label ids (and instance ids) of one image.
+        view: the photo's perspective; with it, runs of facades are cut into buildings
+            (:mod:`usdworld.perception.facades`), else (or when a facade's base is not in
+            view) into chunks of a fixed pixel aspect.
 
     Returns:
         Objects sorted by (class, instance id, contact u).
@@ -269,7 +299,6 @@ def objects_from_segmentation(seg: Segmentation) -> list[ImageObject]:
     else:
         group_mask = None
 
-    min_area = max(30, int(MIN_STUFF_AREA_FRACTION * H * W))
     placed_ids = [i for i in range(256) if lookups.placed[i]]
     by_class: dict[str, list[int]] = {}
     for i in placed_ids:
@@ -289,6 +318,7 @@ def objects_from_segmentation(seg: Segmentation) -> list[ImageObject]:
                 class_map[(class_map == k) & ~group_mask] = 0
     present = np.bincount(class_map.ravel(), minlength=len(class_names) + 1)
     for k, class_name in enumerate(class_names, start=1):
+        min_area = max(30, int(MIN_THIN_AREA_FRACTION.get(class_name, MIN_STUFF_AREA_FRACTION) * H * W))
         if present[k] < min_area:
             continue
         class_mask = class_map == k
@@ -305,7 +335,11 @@ def objects_from_segmentation(seg: Segmentation) -> list[ImageObject]:
             crop = comp[y : y + h, x : x + w] == k_comp
             x, y = x + ox, y + oy
             source = str(lookups.names[int(np.bincount(labels[y : y + h, x : x + w][crop]).argmax())])
-            ranges = _split_columns(crop, SPLIT_ASPECT[class_name]) if class_name in SPLIT_ASPECT else [(0, w)]
+            ranges = None
+            if view is not None and class_name in FACADE_CLASSES:
+                ranges = facade_ranges(crop, x, y, _ground_below(crop, x, y, labels), view, min_area)
+            if ranges is None:
+                ranges = _split_columns(crop, SPLIT_ASPECT[class_name]) if class_name in SPLIT_ASPECT else [(0, w)]
             for c0, c1 in ranges:
                 sub = crop[:, c0:c1]
                 rows = np.nonzero(sub.any(axis=1))[0]
@@ -320,7 +354,7 @@ def objects_from_segmentation(seg: Segmentation) -> list[ImageObject]:
         owner[y0:y1, x0:x1][crop] = idx
     for idx, (class_name, source, iid, box, crop, thing) in enumerate(pending, start=1):
         x0, y0, x1, y1 = (int(b) for b in box)
-        contact = _contact_from_mask(crop, x0, y0, labels, owner, idx, thing)
+        contact = _contact_from_mask(crop, x0, y0, labels, owner, idx, thing, class_name in TRUNK_CLASSES)
         objects.append(
             ImageObject(
                 class_name=class_name,

@@ -1,0 +1,139 @@
+"""Facade runs cut into buildings (perception.facades) and placed facing the road (layout)."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from usdworld.authoring.asset_library import library_dirs
+from usdworld.geometry.camera import PinholeCamera
+from usdworld.io.types import Segmentation
+from usdworld.layout.placement import CURB_HEIGHT_M, place_objects
+from usdworld.layout.yaw import RoadAxis, choose_yaw
+from usdworld.perception.classes import label_lookups
+from usdworld.perception.facades import FRONTAGE_M, StreetView, base_frontage_m, facade_ranges
+from usdworld.perception.objects import objects_from_segmentation
+from usdworld.pipeline import _asset_sizes
+
+W, H = 1024, 512
+K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
+CAM = PinholeCamera(W, H, K, 1.5)
+VIEW = StreetView(horizon_v=256.0, focal_px=800.0, principal_u=512.0, camera_height_m=1.5)
+LEFT_Y = 8.0  # the left building line, metres left of the camera
+
+
+def _px(x: float, y: float, z: float) -> tuple[float, float]:
+    px, _ = CAM.project(np.array([[x, y, z]]))
+    return float(px[0, 0]), float(px[0, 1])
+
+
+def _facade_labels(walls: list[tuple[float, float, float]]) -> np.ndarray:
+    """Cityscapes label ids: sidewalk below the horizon, and building walls along the left
+    building line, each ``(x_near, x_far, height_m)`` metres ahead of the camera."""
+    lk = label_lookups()
+    labels = np.full((H, W), lk.id_of("sky"), dtype=np.uint8)
+    labels[257:] = lk.id_of("sidewalk")
+    for x_near, x_far, height in walls:
+        u_near, u_far = _px(x_near, LEFT_Y, CURB_HEIGHT_M)[0], _px(x_far, LEFT_Y, CURB_HEIGHT_M)[0]
+        for u in range(max(0, int(np.ceil(u_near))), int(np.floor(u_far)) + 1):
+            # the wall's point seen in this column: where its ray meets the building line
+            x = LEFT_Y * 800.0 / (512.0 - (u + 0.5))
+            _, v_base = _px(x, LEFT_Y, CURB_HEIGHT_M)  # on the raised sidewalk
+            _, v_top = _px(x, LEFT_Y, CURB_HEIGHT_M + height)
+            labels[max(0, round(v_top)) : round(v_base), u] = lk.id_of("building")
+    return labels
+
+
+def _ranges(labels: np.ndarray) -> list[tuple[int, int]]:
+    mask = labels == label_lookups().id_of("building")
+    cols = np.nonzero(mask.any(axis=0))[0]
+    rows = np.nonzero(mask.any(axis=1))[0]
+    x0, y0 = int(cols[0]), int(rows[0])
+    crop = mask[y0 : rows[-1] + 1, x0 : cols[-1] + 1]
+    below = np.ones(crop.shape[1], dtype=bool)
+    out = facade_ranges(crop, x0, y0, below, VIEW, min_area_px=50)
+    assert out is not None
+    return [(a + x0, b + x0) for a, b in out]
+
+
+def _ahead_of_column(u: float) -> float:
+    """Metres ahead of the camera where column u meets the left building line."""
+    return LEFT_Y * 800.0 / (512.0 - u)
+
+
+def test_base_frontage_sums_to_the_wall_length():
+    xs = np.linspace(12.0, 48.0, 400)
+    px = np.array([_px(x, LEFT_Y, 0.0) for x in xs])
+    steps = base_frontage_m(px[:, 0], px[:, 1], VIEW)
+    assert steps[:-1].sum() == pytest.approx(36.0, rel=1e-6)
+
+
+def test_a_long_wall_of_one_height_is_cut_into_equal_frontages():
+    ranges = _ranges(_facade_labels([(14.0, 14.0 + 3 * FRONTAGE_M, 14.0)]))
+    assert len(ranges) == 3
+    # each piece is about FRONTAGE_M long on the ground, though the far one is far narrower in pixels
+    lengths = [_ahead_of_column(b) - _ahead_of_column(a) for a, b in ranges]
+    assert lengths == pytest.approx([FRONTAGE_M] * 3, rel=0.08)
+    widths = [b - a for a, b in ranges]
+    assert widths[0] > 3 * widths[2]
+
+
+def test_a_roofline_step_starts_a_new_building():
+    # two town houses of 8 m frontage, 7 m and 11 m tall: cut where they meet, not in the middle
+    ranges = _ranges(_facade_labels([(30.0, 38.0, 7.0), (38.0, 46.0, 11.0)]))
+    assert len(ranges) == 2
+    assert _ahead_of_column(ranges[0][1]) == pytest.approx(38.0, abs=0.5)
+
+
+def test_no_ground_below_the_facade_falls_back():
+    mask = np.ones((40, 30), dtype=bool)
+    assert facade_ranges(mask, 100, 100, np.zeros(30, dtype=bool), VIEW, 50) is None
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.lists(st.tuples(st.integers(2, 30), st.integers(2, 40), st.integers(0, 10)), min_size=1, max_size=6),
+    st.integers(0, 600),
+)
+def test_ranges_cover_every_column_once(columns: list[tuple[int, int, int]], x0: int):
+    """Whatever the facade's shape, its pieces tile the crop's columns left to right."""
+    heights = [h for w, h, _ in columns for _ in range(w)]
+    tops = [t for w, _, t in columns for _ in range(w)]
+    mask = np.zeros((60, len(heights)), dtype=bool)
+    for c, (h, t) in enumerate(zip(heights, tops)):
+        mask[t : t + h, c] = True
+    ranges = facade_ranges(mask, x0, 300, np.ones(mask.shape[1], dtype=bool), VIEW, 20)
+    assert ranges is not None
+    assert ranges[0][0] == 0 and ranges[-1][1] == mask.shape[1]
+    assert all(a < b for a, b in ranges)
+    assert all(prev[1] == nxt[0] for prev, nxt in itertools.pairwise(ranges))
+
+
+def test_buildings_face_the_road_from_either_side():
+    axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
+    left, _ = choose_yaw("face_road", np.array([20.0, 8.0]), axis)
+    right, _ = choose_yaw("face_road", np.array([20.0, -8.0]), axis)
+    assert np.degrees(left) == pytest.approx(-90.0)  # forward axis towards -y, the road
+    assert np.degrees(right) == pytest.approx(90.0)
+
+
+def test_a_facade_run_becomes_buildings_behind_their_fronts():
+    labels = _facade_labels([(14.0, 14.0 + 3 * FRONTAGE_M, 14.0)])
+    seg = Segmentation(labels, None, ())
+    buildings = [o for o in objects_from_segmentation(seg, VIEW) if o.class_name == "building"]
+    unsplit = [o for o in objects_from_segmentation(seg) if o.class_name == "building"]
+    assert len(buildings) == 3 and len(unsplit) < 3
+    sizes = _asset_sizes(buildings, library_dirs(None))
+    ground_from_px = np.linalg.inv(CAM.px_from_ground())
+    axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
+    placements, _ = place_objects(buildings, CAM, ground_from_px, axis, sizes)
+    assert len(placements) == 3
+    for p in sorted(placements, key=lambda p: p.position_world[0]):
+        assert np.degrees(p.yaw) == pytest.approx(-90.0)
+        # the centre is half the building's depth behind the wall, away from the road
+        assert p.position_world[1] == pytest.approx(LEFT_Y + p.size_m[0] / 2, abs=0.3)
+        assert np.all(p.collision_displacement == 0.0)

@@ -1,0 +1,168 @@
+"""Cut a run of touching facades into building-sized pieces, allowing for perspective.
+
+Cityscapes labels give buildings no instances: a street's facades arrive as one region.
+It is cut where the roofline steps (neighbouring buildings rarely share a height) and
+then into pieces of about :data:`FRONTAGE_M` of frontage each.
+
+Frontage is foreshortened: a facade running along the street towards its vanishing point
+is squeezed more the nearer it gets to that point, so a fixed pixel width would hold one
+building near the camera and ten far down the street. The facade's base line tells how
+much ground each column spans: a ground point seen at row ``v`` below the horizon row
+``v_h`` lies ``Z = f * h_cam / (v - v_h)`` ahead and ``X = (u - c_x) * Z / f`` aside (a
+level camera of height ``h_cam``; a pitch of a few degrees changes this little), and the
+frontage is the length of the base line on the ground. Where parked cars or people hide
+the base, it is interpolated between the columns that stand on the ground (a wall's base
+is a straight line in the image). A facade's height does not enter, so a facade cut by
+the top of the image is measured as well as one seen whole.
+
+Everything here is in pixels plus the camera height; :class:`StreetView` carries what the
+photo's perspective needs (no camera pose).
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+
+#: A piece holds about this much frontage, metres (a town house; long facades of one
+#: height are cut into equal pieces about this long).
+FRONTAGE_M = 12.0
+#: The roofline steps between neighbouring columns by more than this fraction of the
+#: lower column's height (and at least :data:`ROOF_STEP_MIN_PX`): a new building.
+ROOF_STEP_FRACTION = 0.12
+ROOF_STEP_MIN_PX = 3
+#: A roofline piece with less frontage than this (metres) joins its left neighbour.
+MIN_PIECE_M = 3.0
+#: Base points closer to the horizon than this (pixels) are too far to measure.
+MIN_BELOW_HORIZON_PX = 1.0
+
+
+@dataclass(frozen=True)
+class StreetView:
+    """What perspective a street photo has, in pixels, and the camera height.
+
+    Attributes:
+        horizon_v: row of the horizon (the street's vanishing point's row; roll taken as level).
+        focal_px: focal length, pixels.
+        principal_u: column of the principal point.
+        camera_height_m: the camera's height above the ground (given, or a typical one).
+    """
+
+    horizon_v: float
+    focal_px: float
+    principal_u: float
+    camera_height_m: float
+
+
+def _roofline_cuts(tops: np.ndarray, heights: np.ndarray) -> list[int]:
+    """Indices ``i`` (into the occupied columns) where a new building starts: the roofline steps."""
+    step = np.abs(np.diff(tops))
+    lower = np.minimum(heights[:-1], heights[1:])
+    return [
+        int(i) + 1 for i in np.nonzero(step > np.maximum(ROOF_STEP_MIN_PX, ROOF_STEP_FRACTION * lower))[0]
+    ]
+
+
+def _base_line(u: np.ndarray, v: np.ndarray) -> tuple[float, float] | None:
+    """Least-squares line ``v = slope * u + intercept`` through base points spanning >= 3 columns."""
+    if len(u) < 2 or np.ptp(u) < 3:
+        return None
+    slope, intercept = np.polyfit(u, v, 1)
+    return float(slope), float(intercept)
+
+
+def base_frontage_m(u: np.ndarray, v_base: np.ndarray, view: StreetView) -> np.ndarray:
+    """Ground length of the base line between neighbouring columns, metres.
+
+    Args:
+        u: (k,) float64 column centres, increasing.
+        v_base: (k,) float64 row of the base (ground contact edge) in each column.
+        view: the photo's perspective.
+
+    Returns:
+        (k,) float64: the length from each column to the next (the last column repeats
+        its neighbour's); inf where a base point is at or above the horizon.
+    """
+    below = v_base - view.horizon_v
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(below >= MIN_BELOW_HORIZON_PX, view.focal_px * view.camera_height_m / below, np.inf)
+        x = (u - view.principal_u) * z / view.focal_px
+        step = np.hypot(np.diff(x), np.diff(z))
+    step = np.where(np.isfinite(step), step, np.inf)
+    return np.concatenate([step, step[-1:]]) if len(step) else np.zeros(len(u))
+
+
+def facade_ranges(
+    mask: np.ndarray,
+    x0: int,
+    y0: int,
+    on_ground: np.ndarray,
+    view: StreetView,
+    min_area_px: float,
+) -> list[tuple[int, int]] | None:
+    """Column ranges ``[c0, c1)`` of a facade crop, one per building-sized piece.
+
+    Args:
+        mask: (h, w) bool crop of the facade region.
+        x0, y0: the crop's top-left pixel in the image.
+        on_ground: (w,) bool, the pixel below the column's lowest facade pixel is ground.
+        view: the photo's perspective.
+        min_area_px: pieces are no smaller than this many pixels on average.
+
+    Returns:
+        Ranges covering every column of the crop, left to right; None when the base is
+        not measurable (fewer than two columns on the ground below the horizon).
+    """
+    cols = np.nonzero(mask.any(axis=0))[0]
+    if len(cols) == 0:
+        return []
+    h = mask.shape[0]
+    tops = np.argmax(mask[:, cols], axis=0)
+    bottoms = h - 1 - np.argmax(mask[::-1, cols], axis=0)
+    heights = (bottoms - tops + 1).astype(np.float64)
+    u = x0 + cols + 0.5
+    v_edge = y0 + bottoms + 1.0
+    ground = np.asarray(on_ground, dtype=bool)[cols] & (v_edge - view.horizon_v >= MIN_BELOW_HORIZON_PX)
+    if ground.sum() < 2:
+        return None
+    # Each building's base is a straight line in the image: fitted to its columns on the
+    # ground (pixel rows are too coarse to measure depth column by column), or to the
+    # whole run's when too few of its own are on the ground (parked cars hide them).
+    starts = [0, *_roofline_cuts(tops, heights), len(cols)]
+    run_line = _base_line(u[ground], v_edge[ground])
+    v_base = np.empty_like(u)
+    for a, b in itertools.pairwise(starts):
+        line = _base_line(u[a:b][ground[a:b]], v_edge[a:b][ground[a:b]]) or run_line
+        if line is None:
+            v_base[a:b] = np.interp(u[a:b], u[ground], v_edge[ground])
+        else:
+            v_base[a:b] = line[0] * u[a:b] + line[1]
+    length = base_frontage_m(u, v_base, view)
+    # Beyond the measurable range the pieces' lengths are not known: one piece there.
+    length = np.where(np.isfinite(length), length, 0.0)
+
+    buildings: list[tuple[int, int]] = []
+    for a, b in itertools.pairwise(starts):
+        if buildings and (
+            length[a:b].sum() < MIN_PIECE_M or length[buildings[-1][0] : a].sum() < MIN_PIECE_M
+        ):
+            buildings[-1] = (buildings[-1][0], b)
+        else:
+            buildings.append((a, b))
+
+    ranges: list[tuple[int, int]] = []
+    for a, b in buildings:
+        w = length[a:b]
+        total = float(w.sum())
+        n = max(1, round(total / FRONTAGE_M))
+        n = max(1, min(n, int(heights[a:b].sum() // max(min_area_px, 1.0))))
+        edges = np.searchsorted(np.cumsum(w), total * np.arange(1, n) / n)
+        bounds = sorted({a, *(a + int(e) + 1 for e in edges), b})
+        ranges.extend((int(cols[s]), int(cols[e - 1]) + 1) for s, e in itertools.pairwise(bounds) if e > s)
+    # Cover the crop's columns without gaps (empty columns go to the piece on their left).
+    return [
+        (0 if k == 0 else ranges[k][0], mask.shape[1] if k == len(ranges) - 1 else ranges[k + 1][0])
+        for k in range(len(ranges))
+    ]

@@ -137,3 +137,19 @@ def test_a_facade_run_becomes_buildings_behind_their_fronts():
         # the centre is half the building's depth behind the wall, away from the road
         assert p.position_world[1] == pytest.approx(LEFT_Y + p.size_m[0] / 2, abs=0.3)
         assert np.all(p.collision_displacement == 0.0)
+
+
+def test_the_street_view_comes_from_the_vanishing_point_or_a_given_pitch():
+    from usdworld.geometry.vanishing import VanishingPoint
+    from usdworld.io.types import CameraSpec, InputFile, SourceImage
+    from usdworld.pipeline import _street_view
+
+    file = InputFile("camera", "cam.json", "0" * 64)
+    image = SourceImage(np.zeros((H, W, 3), dtype=np.uint8), InputFile("image", "x.png", "0" * 64))
+    spec = CameraSpec(K, 1.2, np.radians(2.0), 0.0, 0.0, "cityscapes", file)
+    seen = _street_view(spec, image, VanishingPoint(500.0, 240.0, 1.0, 30, 40))
+    assert (seen.horizon_v, seen.focal_px, seen.camera_height_m) == (240.0, 800.0, 1.2)
+    # no vanishing point: the given pitch (2 deg down) puts the horizon 800 tan(2 deg) above row 256
+    pitched = _street_view(spec, image, None)
+    assert pitched.horizon_v == pytest.approx(256.0 - 800.0 * np.tan(np.radians(2.0)), abs=0.01)
+    assert _street_view(None, image, None) is None

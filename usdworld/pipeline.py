@@ -147,19 +147,24 @@ def _read_segmentation(request: BuildRequest, image: SourceImage) -> Segmentatio
 def _street_view(
     spec: CameraSpec | None, image: SourceImage, vanishing: VanishingPoint | None
 ) -> StreetView | None:
-    """The photo's perspective (for cutting facades), when its vanishing point is known.
+    """The photo's perspective (for cutting facades), when its horizon is known: from the
+    street's vanishing point, else from a given camera pitch (None otherwise).
 
     The camera is not estimated yet: a missing focal length is the default field of view's
     and a missing height the typical one (facade pieces scale with it).
     """
-    if vanishing is None:
-        return None
     if spec is not None and spec.K is not None:
         K = spec.K
     else:
         K = intrinsics_from_fov(image.width, image.height, DEFAULT_HFOV_DEG)
     height = spec.height_m if spec is not None and spec.height_m is not None else CAMERA_HEIGHT_PRIOR_M[0]
-    return StreetView(vanishing.v, float(K[0, 0]), float(K[0, 2]), float(height))
+    if vanishing is not None:
+        horizon = vanishing.v
+    elif spec is not None and spec.pitch is not None:
+        horizon = PinholeCamera(image.width, image.height, K, height, spec.pitch, spec.roll or 0.0).horizon_v()
+    else:
+        return None
+    return StreetView(float(horizon), float(K[0, 0]), float(K[0, 2]), float(height))
 
 
 def _objects(

@@ -105,6 +105,13 @@ def test_extent_falls_back_to_given_bounds_and_needs_something():
         pm.make_ground({})
 
 
+def test_extent_covers_the_objects_the_build_placed_beyond_the_meshes():
+    tris = _square_ground().triangles
+    # buildings stand behind the sidewalk (y 10..22), beyond the ground meshes
+    ground = pm.make_ground(tris, None, np.array([[20.0, 10.0], [60.0, 22.0]]))
+    np.testing.assert_allclose(ground.extent, [[0, -5], [100, 22]])
+
+
 def test_surface_rule_refuses_car_on_sidewalk_with_message():
     rules = pm.load_surface_rules()
     (v,) = pm.surface_violations("car", "sidewalk", rules)

@@ -354,3 +354,14 @@ def test_check_reports_restyle_opinions_orphaned_by_a_new_base_variant(world):
         ]
         editor.restyle("car_0001", "#c03030")  # restyling again re-targets the new variant's paint
         assert editor.check() == []
+
+
+def test_trees_are_checked_by_their_trunk_as_the_build_places_them(world, editor):
+    person = next(o for o in editor.objects() if o.name == "person_0001")
+    x, y = person.position_world[:2]
+    editor.add("tree", (x + 1.2, y), variant="deciduous")  # its crown spreads over the person
+    tree = next(o for o in editor.objects() if o.class_name == "tree")
+    assert tree.size_lw[1] > 2 * 1.2 > tree.footprint_lw[1]
+    editor.move("person_0001", to=(x + 0.3, y))  # still under the crown, clear of the trunk
+    with pytest.raises(LayoutError, match="tree_0001"):
+        editor.move("person_0001", to=(x + 1.2, y))  # into the trunk

@@ -77,12 +77,14 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
 
 from usdworld.atomic import write_text_atomic
 from usdworld.authoring import asset_library
+from usdworld.authoring.asset_measures import variant_measures
 from usdworld.authoring.provenance import PROVENANCE_API, apply_with_values
 from usdworld.authoring.stages import open_stage
 from usdworld.authoring.world import ASSETS_DIR, GROUND_PATH, OBJECTS_PATH, ROOT_LAYER, copy_asset
 from usdworld.errors import AuthoringError, InputError, LayoutError, OutputError
 from usdworld.layout import permissible as rules
 from usdworld.layout.priors import class_priors, prior_for
+from usdworld.perception.objects import TRUNK_CLASSES
 
 #: customLayerData key of usdworld's data in an edits layer, and the two arrays below it:
 #: ``history`` (one JSON object per step: op, args, time, forced, violations, paths) and
@@ -189,6 +191,9 @@ class ObjectState:
         yaw_deg: rotation about Z, degrees.
         scale: uniform scale.
         size_lw: scaled footprint (length, width), metres.
+        footprint_lw: scaled footprint the permissibility rules use: ``size_lw``, but the
+            trunk's for trees and poles (people stand under crowns and lamp arms, as the
+            build lets them).
         active: False once deleted.
         status: ``base`` (untouched), ``edited``, ``added`` or ``deleted``.
         color: restyle colour ``#rrggbb`` or ''.
@@ -202,6 +207,7 @@ class ObjectState:
     yaw_deg: float
     scale: float
     size_lw: tuple[float, float]
+    footprint_lw: tuple[float, float]
     active: bool
     status: str
     color: str = ""
@@ -334,7 +340,7 @@ class WorldEditor:
         self._lock_path = self.edits_path.with_name(self.edits_path.name + ".lock")
         self._synced: bytes | None = None
         self._base_stamp = self._stamp()
-        self._sizes: dict[tuple[str, str], tuple[float, float]] = {}
+        self._sizes: dict[tuple[str, ...], tuple[float, float]] = {}
         self._ground: rules.Ground | None = None
         self._states: dict[str, ObjectState] | None = None
         self._stale: set[str] = set()
@@ -595,6 +601,19 @@ class WorldEditor:
             self._sizes[key] = (float(size[0]), float(size[1]))
         return self._sizes[key]
 
+    def _footprint_size(self, class_name: str, variant: str) -> tuple[float, float]:
+        """Unscaled footprint for the rules: the trunk's for trees and poles (as the build's collisions)."""
+        if class_name not in TRUNK_CLASSES:
+            return self._size(class_name, variant)
+        key = ("trunk", class_name, variant)
+        if key not in self._sizes:
+            try:
+                half = variant_measures(class_name, variant or None, self._libraries).contact_half
+                self._sizes[key] = (2.0 * half[0], 2.0 * half[1])
+            except InputError:
+                self._sizes[key] = self._size(class_name, variant)
+        return self._sizes[key]
+
     def _read(self, prim: Usd.Prim) -> ObjectState:
         name = prim.GetName()
         labels = (
@@ -618,6 +637,7 @@ class WorldEditor:
             yaw = math.degrees(math.atan2(m[0][1], m[0][0]))
             scale = float(Gf.Vec3d(m[0][0], m[0][1], m[0][2]).GetLength())
         length, width = self._size(class_name, variant)
+        foot_l, foot_w = self._footprint_size(class_name, variant)
         spec = self._edits.GetPrimAtPath(prim.GetPath())
         active = prim.IsActive()
         status = (
@@ -635,6 +655,7 @@ class WorldEditor:
             yaw,
             scale,
             (length * scale, width * scale),
+            (foot_l * scale, foot_w * scale),
             active,
             status,
             color,
@@ -686,7 +707,7 @@ class WorldEditor:
             tuple(s.name for s in live),
             tuple(s.class_name for s in live),
             np.array([s.position_world[:2] for s in live], dtype=np.float64).reshape(-1, 2),
-            np.array([s.size_lw for s in live], dtype=np.float64).reshape(-1, 2),
+            np.array([s.footprint_lw for s in live], dtype=np.float64).reshape(-1, 2),
             np.radians([s.yaw_deg for s in live]),
             np.array([s.scale for s in live], dtype=np.float64),
         )
@@ -709,13 +730,16 @@ class WorldEditor:
                 m = np.asarray(cache.GetLocalToWorldTransform(prim), dtype=np.float64)
                 pts = pts @ m[:3, :3] + m[3, :3]
                 tris[name] = rules.top_faces(pts, _fan(counts, idx))
-            fallback = None
-            if not tris:
-                fp = self._footprints(self._all())
-                if len(fp):
-                    h = 0.5 * fp.size_lw.max(axis=1, keepdims=True) + rules.NO_MESH_MARGIN_M
-                    fallback = np.array([(fp.centers - h).min(axis=0), (fp.centers + h).max(axis=0)])
-            self._ground = rules.make_ground(tris, fallback)
+            # The objects the build placed stand on the scene's ground too (buildings behind
+            # the sidewalks, beyond the ground meshes); without meshes they make the extent.
+            built = self._footprints([st for st in self._all() if st.status != "added"])
+            fallback = placed = None
+            if len(built):
+                h = 0.5 * built.size_lw.max(axis=1, keepdims=True)
+                placed = np.array([(built.centers - h).min(axis=0), (built.centers + h).max(axis=0)])
+                if not tris:
+                    fallback = placed + np.array([[-1.0], [1.0]]) * rules.NO_MESH_MARGIN_M
+            self._ground = rules.make_ground(tris, fallback, placed)
         return self._ground
 
     def _path(self, name: str) -> Sdf.Path:
@@ -786,7 +810,7 @@ class WorldEditor:
             obj, states = self._object(name)
             xy = np.array(given if key == "to" else np.add(obj.position_world[:2], given), dtype=np.float64)
             surface, z = self._where(xy)
-            cand = rules.Candidate(obj.class_name, xy, np.array(obj.size_lw), math.radians(obj.yaw_deg))
+            cand = rules.Candidate(obj.class_name, xy, np.array(obj.footprint_lw), math.radians(obj.yaw_deg))
             others = self._footprints(states).without(obj.name)
             v = self._gate(
                 "move",
@@ -824,7 +848,7 @@ class WorldEditor:
             obj, states = self._object(name)
             yaw = _wrap_deg(yaw_deg)
             cand = rules.Candidate(
-                obj.class_name, np.array(obj.position_world[:2]), np.array(obj.size_lw), math.radians(yaw)
+                obj.class_name, np.array(obj.position_world[:2]), np.array(obj.footprint_lw), math.radians(yaw)
             )
             others = self._footprints(states).without(obj.name)
             v = self._gate(
@@ -924,7 +948,7 @@ class WorldEditor:
             xy = np.array(at, dtype=np.float64)
             yaw = _wrap_deg(yaw_deg) if yaw_deg is not None else self._default_yaw(class_name, xy, states)
             scale = rules.neighbour_scale(class_name, xy, others, prior.scale_range)
-            length, width = self._size(class_name, variant)
+            length, width = self._footprint_size(class_name, variant)
             cand = rules.Candidate(
                 class_name, xy, np.array([length * scale, width * scale]), math.radians(yaw)
             )
@@ -987,7 +1011,7 @@ class WorldEditor:
             else:
                 fallback = float(np.clip(obj.scale, *prior.scale_range))
                 scale = rules.neighbour_scale(with_class, xy, others, prior.scale_range, fallback)
-            length, width = self._size(with_class, variant)
+            length, width = self._footprint_size(with_class, variant)
             cand = rules.Candidate(
                 with_class, xy, np.array([length * scale, width * scale]), math.radians(obj.yaw_deg)
             )
@@ -1088,7 +1112,7 @@ class WorldEditor:
                 cand = rules.Candidate(
                     obj.class_name,
                     np.array(obj.position_world[:2]),
-                    np.array(obj.size_lw),
+                    np.array(obj.footprint_lw),
                     math.radians(obj.yaw_deg),
                 )
                 found = rules.fit_violations(cand, self._footprints(states).without(obj.name))

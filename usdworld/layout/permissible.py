@@ -304,13 +304,20 @@ def top_faces(points_world: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return tris[keep]
 
 
-def make_ground(triangles: Mapping[str, np.ndarray], fallback_bounds: np.ndarray | None = None) -> Ground:
-    """A :class:`Ground` whose extent is the union of the surfaces' bounds.
+def make_ground(
+    triangles: Mapping[str, np.ndarray],
+    fallback_bounds: np.ndarray | None = None,
+    placed_bounds: np.ndarray | None = None,
+) -> Ground:
+    """A :class:`Ground` whose extent is the union of the surfaces' bounds (and of the
+    footprints the build placed).
 
     Args:
         triangles: surface name -> (T, 3, 3) float64 top faces.
         fallback_bounds: (2, 2) float64 extent to use when there is no ground mesh (e.g.
             the bounds of the objects' footprints, padded by :data:`NO_MESH_MARGIN_M`).
+        placed_bounds: (2, 2) float64 bounds of the footprints of the objects the build
+            placed, added to the meshes' extent (buildings stand beyond the sidewalks).
 
     Raises:
         InputError: no triangles and no fallback.
@@ -319,6 +326,9 @@ def make_ground(triangles: Mapping[str, np.ndarray], fallback_bounds: np.ndarray
     if pts:
         allp = np.concatenate(pts)
         extent = np.array([allp.min(axis=0), allp.max(axis=0)])
+        if placed_bounds is not None:
+            b = np.asarray(placed_bounds, dtype=np.float64).reshape(2, 2)
+            extent = np.array([np.minimum(extent[0], b[0]), np.maximum(extent[1], b[1])])
     elif fallback_bounds is not None:
         extent = np.asarray(fallback_bounds, dtype=np.float64).reshape(2, 2)
     else:

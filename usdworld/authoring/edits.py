@@ -340,7 +340,8 @@ class WorldEditor:
         self._lock_path = self.edits_path.with_name(self.edits_path.name + ".lock")
         self._synced: bytes | None = None
         self._base_stamp = self._stamp()
-        self._sizes: dict[tuple[str, ...], tuple[float, float]] = {}
+        self._sizes: dict[tuple[str, str], tuple[float, float]] = {}
+        self._trunk_sizes: dict[tuple[str, str], tuple[float, float]] = {}
         self._ground: rules.Ground | None = None
         self._states: dict[str, ObjectState] | None = None
         self._stale: set[str] = set()
@@ -397,7 +398,8 @@ class WorldEditor:
                 layer = Sdf.Layer.Find(str(p))
                 if layer is not None:
                     layer.Reload(force=True)
-            self._base_stamp, self._ground, self._sizes, self._states = stamp, None, {}, None
+            self._base_stamp, self._ground, self._states = stamp, None, None
+            self._sizes, self._trunk_sizes = {}, {}
         for stale in self.edits_path.parent.glob(f".{self.edits_path.name}.*.tmp"):
             with contextlib.suppress(OSError):
                 stale.unlink()  # a writer that died mid-save (we hold the lock)
@@ -605,14 +607,14 @@ class WorldEditor:
         """Unscaled footprint for the rules: the trunk's for trees and poles (as the build's collisions)."""
         if class_name not in TRUNK_CLASSES:
             return self._size(class_name, variant)
-        key = ("trunk", class_name, variant)
-        if key not in self._sizes:
+        key = (class_name, variant)
+        if key not in self._trunk_sizes:
             try:
                 half = variant_measures(class_name, variant or None, self._libraries).contact_half
-                self._sizes[key] = (2.0 * half[0], 2.0 * half[1])
+                self._trunk_sizes[key] = (2.0 * half[0], 2.0 * half[1])
             except InputError:
-                self._sizes[key] = self._size(class_name, variant)
-        return self._sizes[key]
+                self._trunk_sizes[key] = self._size(class_name, variant)
+        return self._trunk_sizes[key]
 
     def _read(self, prim: Usd.Prim) -> ObjectState:
         name = prim.GetName()

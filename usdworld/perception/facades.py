@@ -44,7 +44,8 @@ class StreetView:
     """What perspective a street photo has, in pixels, and the camera height.
 
     Attributes:
-        horizon_v: row of the horizon (the street's vanishing point's row; roll taken as level).
+        horizon_v: row of the horizon (the street's vanishing point's row, or where a given
+            camera pitch puts it; roll taken as level).
         focal_px: focal length, pixels.
         principal_u: column of the principal point.
         camera_height_m: the camera's height above the ground (given, or a typical one).

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from usdworld.io.types import Detection, Detections, InputFile, Segmentation
+from usdworld.perception.crowns import crown_ranges
+from usdworld.perception.facades import fill_through_occluders
 from usdworld.perception.objects import objects_from_detections, objects_from_segmentation
 
 ROAD, SIDEWALK, BUILDING, PERSON, CAR = 7, 8, 11, 24, 26
@@ -122,3 +126,80 @@ def test_a_tree_stands_on_its_trunk_not_on_its_crown():
 def test_a_tree_whose_trunk_a_car_hides_has_no_contact():
     (tree,) = [o for o in objects_from_segmentation(_tree_over_sidewalk(True)) if o.class_name == "tree"]
     assert tree.bottom_occluded  # the crown over the sidewalk does not count as standing there
+
+
+POLE = 17
+
+
+def test_fill_through_joins_what_stands_in_front_and_nothing_else():
+    wall = np.array([[1, 0, 0, 1, 0, 0, 1, 0, 0]], dtype=bool)
+    front = np.array([[0, 1, 1, 0, 0, 1, 0, 1, 1]], dtype=bool)  # column 4 is sky: a gap
+    np.testing.assert_array_equal(
+        fill_through_occluders(wall, front), [[1, 1, 1, 1, 0, 0, 1, 0, 0]]
+    )
+    # runs reaching the image border stay open, and so does a run bounded by sky
+    assert not fill_through_occluders(np.zeros((1, 3), bool), np.ones((1, 3), bool)).any()
+
+
+def test_a_facade_split_by_a_pole_in_front_is_one_building():
+    labels = np.full((200, 400), 23, dtype=np.uint8)
+    labels[100:, :] = SIDEWALK
+    labels[60:100, 100:140] = BUILDING
+    labels[30:110, 119:122] = POLE  # the pole stands in front, from above the roof to the sidewalk
+    seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
+    objects = objects_from_segmentation(seg)
+    buildings = [o for o in objects if o.class_name == "building"]
+    assert len(buildings) == 1
+    assert buildings[0].mask_area == 40 * 40 - 3 * 40  # only the facade's own pixels
+    assert [o.class_name for o in objects].count("pole") == 1
+
+
+def _crowns(tops: list[int], trunks: list[int]) -> Segmentation:
+    """Vegetation whose upper outline follows ``tops`` (one row per column from column
+    100) down to row 120, with 4-px trunks down to the sidewalk (row 150) at ``trunks``."""
+    labels = np.full((200, 400), 23, dtype=np.uint8)
+    labels[100:, :] = SIDEWALK
+    for c, top in enumerate(tops):
+        labels[top:120, 100 + c] = VEGETATION
+    for t in trunks:
+        labels[120:150, t : t + 4] = VEGETATION
+    return Segmentation(labels, labels.astype(np.int32), (FILE,))
+
+
+def _cone(width: int, tip: int, base: int) -> list[int]:
+    half = (width - 1) / 2
+    return [round(tip + (base - tip) * abs(c - half) / half) for c in range(width)]
+
+
+def test_merged_crowns_are_cut_at_the_dip_between_their_tops():
+    tops = _cone(60, 30, 100) + _cone(50, 50, 100)  # a conifer and a lower one behind it
+    trees = [o for o in objects_from_segmentation(_crowns(tops, [128, 183])) if o.class_name == "tree"]
+    assert len(trees) == 2
+    assert trees[0].box_px[2] in (159, 160, 161) and trees[1].box_px[0] == trees[0].box_px[2]
+    np.testing.assert_allclose([t.contact_px[0] for t in trees], [130.0, 185.0])  # the trunks' middles
+
+
+def test_one_crown_with_a_bumpy_outline_is_one_tree():
+    tops = [40 + (3 if c % 7 < 3 else 0) + abs(c - 40) // 2 for c in range(80)]
+    trees = [o for o in objects_from_segmentation(_crowns(tops, [138])) if o.class_name == "tree"]
+    assert len(trees) == 1
+
+
+def test_a_crown_split_by_a_pole_in_front_is_one_tree():
+    seg = _crowns(_cone(70, 40, 110), [133])
+    labels = np.asarray(seg.label_ids).copy()
+    labels[20:150, 150:153] = POLE
+    seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
+    assert [o.class_name for o in objects_from_segmentation(seg)].count("tree") == 1
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.integers(0, 30), min_size=1, max_size=60))
+def test_crown_ranges_cover_every_column_once(tops: list[int]):
+    mask = np.zeros((40, len(tops)), dtype=bool)
+    for c, top in enumerate(tops):
+        mask[top:, c] = True
+    ranges = crown_ranges(mask)
+    assert ranges[0][0] == 0 and ranges[-1][1] == len(tops)
+    assert all(a < b for a, b in ranges)
+    assert all(ranges[i][1] == ranges[i + 1][0] for i in range(len(ranges) - 1))

@@ -20,7 +20,7 @@ the centre too.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -33,6 +33,7 @@ from usdworld.layout.collision import footprint_half_extents, resolve_collisions
 from usdworld.layout.ordering import apply_ordering_rules
 from usdworld.layout.priors import ClassPrior, prior_for
 from usdworld.layout.silhouette import depth_from_silhouette, depth_from_top_row, top_offsets
+from usdworld.layout.street_lines import LINE_CLASSES, StreetLine, fit_street_lines, line_for
 from usdworld.layout.yaw import RoadAxis, choose_yaw, yaw_from_view_angle
 from usdworld.perception.depth.fusion import HEIGHT_MEAN_REL_SIGMA, DepthCue, fuse, object_depth_cues
 from usdworld.perception.objects import TRUNK_CLASSES, ImageObject
@@ -278,6 +279,24 @@ def place_objects(
             drafts.append(draft)
 
     _move_behind_occluders(drafts, camera)
+    # Rows along the street (building lines, tree and lamp rows) place the members whose
+    # own contact is hidden or cut where their ray meets the row.
+    lines = _street_lines(drafts, camera, axis)
+    if lines:
+        by_ref = {d["obj"].ref: d for d in drafts if d["obj"].ref >= 0}
+        for k, d in enumerate(drafts):
+            if d["depth_method"] in PARTIAL_METHODS or d["depth_method"].startswith("behind_"):
+                moved = _onto_street_line(d["obj"], d["name"], d, by_ref, lines, camera, axis, draft_of)
+                if moved is not None:
+                    drafts[k] = moved
+        remaining = []
+        for obj, name in unplaced:
+            moved = _onto_street_line(obj, name, None, by_ref, lines, camera, axis, draft_of)
+            if moved is None:
+                remaining.append((obj, name))
+            else:
+                drafts.append(moved)
+        unplaced = remaining
     # A depth known only as an upper bound (a cut or hidden bottom) that lies beyond the
     # world's range says nothing useful, nor does "just behind" a near occluder for a
     # sliver of stuff too small to be the whole object there: neither is placed.
@@ -360,6 +379,85 @@ def place_objects(
 
 #: Gap left between an occluded object and the object hiding it, metres.
 BEHIND_GAP_M = 0.3
+#: Depth methods of a seen ground contact: the objects that measure a street line.
+SEEN_CONTACT_METHODS = ("contact", "fused")
+#: A street line's depth may exceed an object's own upper bound (its visible bottom's
+#: ground point) by this fraction plus :data:`LINE_BOUND_SLACK_M`, and fall short of its
+#: occluder's front by the slack, before the two are taken to disagree.
+LINE_BOUND_SLACK = 0.1
+LINE_BOUND_SLACK_M = 1.0
+
+
+def _street_lines(drafts: list[dict], camera: PinholeCamera, axis: RoadAxis) -> list[StreetLine]:
+    """Rows formed by the objects whose ground contact was seen (front points on the ground)."""
+    seen = [
+        d
+        for d in drafts
+        if d["obj"].class_name in LINE_CLASSES
+        and d["depth_method"] in SEEN_CONTACT_METHODS
+        and not (d["obj"].bottom_truncated or d["obj"].bottom_occluded)
+    ]
+    if not seen:
+        return []
+    fronts = np.array([_point_at_depth(camera, *d["obj"].contact_px, d["front_depth_m"]) for d in seen])
+    return fit_street_lines([d["obj"].class_name for d in seen], fronts, axis)
+
+
+def _line_pixel(obj: ImageObject, width: int) -> np.ndarray:
+    """Pixel whose ray finds an object on its row: a trunk or post stands below the middle
+    of its crown or sign when its own foot is hidden (unless the image's side cuts it)."""
+    u, v = (float(x) for x in obj.contact_px)
+    if obj.class_name != "building" and obj.box_px[0] > 0 and obj.box_px[2] < width:
+        u = 0.5 * float(obj.box_px[0] + obj.box_px[2])
+    return np.array([u, v])
+
+
+def _onto_street_line(  # noqa: PLR0913
+    obj: ImageObject,
+    name: str,
+    draft: dict | None,
+    by_ref: dict[int, dict],
+    lines: list[StreetLine],
+    camera: PinholeCamera,
+    axis: RoadAxis,
+    draft_of,
+) -> dict | None:
+    """The draft of an object whose contact is hidden or cut, placed on its class's row.
+
+    The row's depth must agree with what the object's own evidence bounds: no nearer than
+    the front of the object hiding its bottom, no farther than its visible bottom's ground
+    point (:data:`LINE_BOUND_SLACK`). None when there is no such row or they disagree.
+    """
+    if obj.class_name not in LINE_CLASSES:
+        return None
+    pixel = _line_pixel(obj, camera.width)
+    hit = line_for(lines, obj.class_name, camera, (float(pixel[0]), float(pixel[1])), axis)
+    if hit is None:
+        return None
+    line, front = hit
+    if draft is not None and np.isfinite(draft["upper_m"]):
+        if front > draft["upper_m"] * (1.0 + LINE_BOUND_SLACK) + LINE_BOUND_SLACK_M:
+            return None
+    occ = _occluder(by_ref, obj)
+    if occ is not None and front < occ["depth_m"] - occ["back_m"] - LINE_BOUND_SLACK_M:
+        return None
+    moved = draft_of(replace(obj, contact_px=pixel), name, (front, "street_line"))
+    if moved is None:
+        return None
+    # How far off the row's depth may be: its spread across the street, seen at the
+    # ray's angle to the row (a ray nearly along the row magnifies it).
+    lateral = abs(float(line.offset_m)) + 1.0
+    sigma = max(line.spread_m, 0.25) * max(front / lateral, 1.0)
+    side = "left" if line.side > 0 else "right"
+    cue = DepthCue(
+        "street_line",
+        front + moved["back_m"],
+        sigma,
+        f"row of {line.support} {obj.class_name}s {abs(line.offset_m):.2f} m {side} of the road axis "
+        f"(spread {line.spread_m:.2f} m)",
+    )
+    moved["cues"] = (*moved["cues"], cue)
+    return moved
 
 
 #: Classes never used as an occluder's lower bound (a facade's bottom edge hides ground
@@ -473,7 +571,7 @@ def _draft(  # noqa: PLR0913
     cues = [_with_camera_uncertainty(c, camera, camera_sigma) for c in cues]
     if forced is not None:
         front, method = forced
-        confidence = _CONFIDENCE["behind"]
+        confidence = _CONFIDENCE["street_line" if method == "street_line" else "behind"]
     else:
         try:
             fused = fuse(cues)
@@ -558,6 +656,8 @@ def _draft(  # noqa: PLR0913
         "confidence": confidence * float(obj.score),
         "front_depth_m": front,
         "back_m": back,
+        # The visible bottom's ground point bounds a hidden or cut bottom's depth from above.
+        "upper_m": front if method == "contact_partial" else float("inf"),
     }
 
 
@@ -581,6 +681,7 @@ _CONFIDENCE = {
     "cnn": 0.7,
     "height": 0.6,
     "contact_partial": 0.3,
+    "street_line": 0.5,
     "top_row": 0.3,
     "behind": 0.25,
     "height_partial": 0.2,

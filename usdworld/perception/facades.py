@@ -57,6 +57,41 @@ class StreetView:
     camera_height_m: float
 
 
+def fill_through_occluders(mask: np.ndarray, occluders: np.ndarray) -> np.ndarray:
+    """A facade region with what stands in front of it filled in, row by row.
+
+    A tree, a pole or a car in front of a facade splits its label region into pieces that
+    are one wall: each row's run of occluder pixels with facade pixels right on both its
+    sides is taken to hide facade. Runs that reach the sky, the road or the image border
+    on either side stay open, so facades on the two sides of a street never join.
+
+    Args:
+        mask: (H, W) bool facade pixels.
+        occluders: (H, W) bool pixels of objects that may stand in front of a facade.
+
+    Returns:
+        (H, W) bool: ``mask`` plus the occluder runs it encloses.
+
+    Example:
+        >>> m = np.array([[1, 0, 0, 1, 0, 0]], dtype=bool)
+        >>> o = np.array([[0, 1, 1, 0, 1, 1]], dtype=bool)
+        >>> fill_through_occluders(m, o).astype(int).tolist()
+        [[1, 1, 1, 1, 0, 0]]
+    """
+    mask = np.asarray(mask, dtype=bool)
+    occ = np.asarray(occluders, dtype=bool) & ~mask
+    h, w = mask.shape
+    cols = np.arange(w)
+    # Per pixel: column of the nearest pixel to its left (right) that is not an occluder.
+    stop = ~occ
+    left = np.maximum.accumulate(np.where(stop, cols, -1), axis=1)
+    right = np.minimum.accumulate(np.where(stop, cols, w)[:, ::-1], axis=1)[:, ::-1]
+    rows = np.arange(h)[:, None]
+    left_is_wall = (left >= 0) & mask[rows, np.clip(left, 0, w - 1)]
+    right_is_wall = (right < w) & mask[rows, np.clip(right, 0, w - 1)]
+    return mask | (occ & left_is_wall & right_is_wall)
+
+
 def _roofline_cuts(tops: np.ndarray, heights: np.ndarray) -> list[int]:
     """Indices ``i`` (into the occupied columns) where a new building starts: the roofline steps."""
     step = np.abs(np.diff(tops))
@@ -102,6 +137,7 @@ def facade_ranges(
     on_ground: np.ndarray,
     view: StreetView,
     min_area_px: float,
+    roof_mask: np.ndarray | None = None,
 ) -> list[tuple[int, int]] | None:
     """Column ranges ``[c0, c1)`` of a facade crop, one per building-sized piece.
 
@@ -111,6 +147,8 @@ def facade_ranges(
         on_ground: (w,) bool, the pixel below the column's lowest facade pixel is ground.
         view: the photo's perspective.
         min_area_px: pieces are no smaller than this many pixels on average.
+        roof_mask: (h, w) bool crop of the region with what stands in front of it filled
+            in (:func:`fill_through_occluders`), whose top is the roofline; default ``mask``.
 
     Returns:
         Ranges covering every column of the crop, left to right; None when the base is
@@ -120,7 +158,8 @@ def facade_ranges(
     if len(cols) == 0:
         return []
     h = mask.shape[0]
-    tops = np.argmax(mask[:, cols], axis=0)
+    roof = mask if roof_mask is None else np.asarray(roof_mask, dtype=bool) | mask
+    tops = np.argmax(roof[:, cols], axis=0)
     bottoms = h - 1 - np.argmax(mask[::-1, cols], axis=0)
     heights = (bottoms - tops + 1).astype(np.float64)
     u = x0 + cols + 0.5

@@ -14,12 +14,15 @@ import numpy as np
 
 from usdworld.io.types import Detections, Segmentation
 from usdworld.perception.classes import label_lookups, placed_class_for_label
-from usdworld.perception.facades import StreetView, facade_ranges
+from usdworld.perception.crowns import crown_ranges
+from usdworld.perception.facades import StreetView, facade_ranges, fill_through_occluders
 
 #: Stuff classes split into chunks of this width/height aspect (metres of the class
-#: prior); classes not listed are never split. With the photo's perspective known, facades
+#: prior); classes not listed are never split (trees are cut by crown, below). With the photo's perspective known, facades
 #: are cut by :func:`usdworld.perception.facades.facade_ranges` instead.
-SPLIT_ASPECT: dict[str, float] = {"building": 1.0, "tree": 0.8, "fence": 2.5}
+SPLIT_ASPECT: dict[str, float] = {"building": 1.0, "fence": 2.5}
+#: Stuff cut into one object per crown top (:func:`usdworld.perception.crowns.crown_ranges`).
+CROWN_CLASSES = frozenset({"tree"})
 #: Stuff standing on a trunk or a post: its crown or arm may hang over ground far behind it.
 TRUNK_CLASSES = frozenset({"tree", "pole"})
 #: Classes cut like facades when the perspective is known.
@@ -322,22 +325,35 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
         if present[k] < min_area:
             continue
         class_mask = class_map == k
+        # A facade or a crown split by a pole or a tree in front of it is one object: its
+        # pieces are joined through what stands in front before components are labelled
+        # (and cut again by roofline, frontage or crown tops below).
+        joined = (
+            fill_through_occluders(class_mask, (lookups.placed != "")[labels])
+            if class_name in FACADE_CLASSES | CROWN_CLASSES
+            else class_mask
+        )
         # Label components only inside the rows and columns the class occupies.
-        rows_any = np.nonzero(class_mask.any(axis=1))[0]
-        cols_any = np.nonzero(class_mask.any(axis=0))[0]
+        rows_any = np.nonzero(joined.any(axis=1))[0]
+        cols_any = np.nonzero(joined.any(axis=0))[0]
         oy, ox = int(rows_any[0]), int(cols_any[0])
-        window = class_mask[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
+        window = joined[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
         n, comp, stats, _ = cv2.connectedComponentsWithStats(window.astype(np.uint8), connectivity=8)
         for k_comp in range(1, n):
-            x, y, w, h, area = (int(v) for v in stats[k_comp])
-            if area < min_area:
-                continue
-            crop = comp[y : y + h, x : x + w] == k_comp
+            x, y, w, h, _ = (int(v) for v in stats[k_comp])
+            region = comp[y : y + h, x : x + w] == k_comp
             x, y = x + ox, y + oy
+            crop = region & class_mask[y : y + h, x : x + w]
+            if crop.sum() < min_area:
+                continue
             source = str(lookups.names[int(np.bincount(labels[y : y + h, x : x + w][crop]).argmax())])
             ranges = None
             if view is not None and class_name in FACADE_CLASSES:
-                ranges = facade_ranges(crop, x, y, _ground_below(crop, x, y, labels), view, min_area)
+                ranges = facade_ranges(
+                    crop, x, y, _ground_below(crop, x, y, labels), view, min_area, roof_mask=region
+                )
+            if ranges is None and class_name in CROWN_CLASSES:
+                ranges = crown_ranges(crop)
             if ranges is None:
                 ranges = _split_columns(crop, SPLIT_ASPECT[class_name]) if class_name in SPLIT_ASPECT else [(0, w)]
             for c0, c1 in ranges:

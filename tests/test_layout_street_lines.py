@@ -1,0 +1,155 @@
+"""Rows of objects along the street (layout.street_lines) and their use in placement."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from usdworld.authoring.asset_library import library_dirs
+from usdworld.geometry.camera import PinholeCamera
+from usdworld.layout.placement import place_objects
+from usdworld.layout.street_lines import (
+    MAX_SPREAD_M,
+    StreetLine,
+    depth_on_line,
+    fit_street_lines,
+    lateral_offsets,
+    line_for,
+)
+from usdworld.layout.yaw import RoadAxis
+from usdworld.perception.objects import ImageObject
+from usdworld.pipeline import _asset_sizes
+
+K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
+LEVEL = PinholeCamera(1024, 512, K, 1.5)
+FORWARD = RoadAxis(0.0, np.zeros(2), "camera_forward")
+
+
+def test_lateral_offsets_are_signed_distances_from_a_turned_axis():
+    axis = RoadAxis(math.pi / 4, np.array([1.0, 1.0]), "vanishing_point")
+    pts = np.array([[1.0, 1.0], [5.0, 5.0], [1.0, 3.0], [3.0, 1.0]])
+    np.testing.assert_allclose(lateral_offsets(pts, axis), [0.0, 0.0, math.sqrt(2), -math.sqrt(2)], atol=1e-12)
+
+
+def test_one_line_per_class_and_side_at_the_median_offset():
+    names = ["tree", "tree", "tree", "building", "building", "car"]
+    pts = np.array([[10, -4.0], [20, -4.2], [30, 5.0], [15, 12.0], [40, 12.4], [12, -1.0]])
+    lines = fit_street_lines(names, pts, FORWARD)
+    got = {(ln.class_name, ln.side): (ln.offset_m, ln.support) for ln in lines}
+    assert got == {
+        ("building", 1): (pytest.approx(12.2), 2),
+        ("tree", -1): (pytest.approx(-4.1), 2),
+        ("tree", 1): (pytest.approx(5.0), 1),
+    }
+
+
+def test_objects_scattered_across_a_side_make_no_row():
+    pts = np.array([[10, -2.0], [20, -5.0], [30, -9.0]])
+    assert 2 * MAX_SPREAD_M["tree"] < 3.0
+    assert fit_street_lines(["tree"] * 3, pts, FORWARD) == []
+
+
+def test_a_ray_meets_the_row_at_the_depth_of_the_point_it_came_from():
+    point = np.array([[25.0, -4.0, 0.0]])
+    px, _ = LEVEL.project(point)
+    line = StreetLine("tree", -1, -4.0, 3, 0.1)
+    assert depth_on_line(LEVEL, tuple(px[0]), line, FORWARD) == pytest.approx(25.0, rel=1e-9)
+
+
+def test_a_ray_away_from_the_row_never_meets_it():
+    left = StreetLine("tree", 1, 5.0, 2, 0.1)
+    right_pixel = (900.0, 300.0)
+    assert depth_on_line(LEVEL, right_pixel, left, FORWARD) is None
+    assert line_for([left], "tree", LEVEL, right_pixel, FORWARD) is None
+    assert line_for([left], "pole", LEVEL, (100.0, 300.0), FORWARD) is None
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    x=st.floats(3.0, 120.0),
+    offset=st.floats(2.0, 20.0).flatmap(lambda o: st.sampled_from([o, -o])),
+    z=st.floats(0.0, 8.0),
+    pitch_deg=st.floats(-3.0, 5.0),
+    yaw_deg=st.floats(-10.0, 10.0),
+    axis_deg=st.floats(-10.0, 10.0),
+)
+def test_depth_on_line_recovers_any_point_above_the_row(x, offset, z, pitch_deg, yaw_deg, axis_deg):
+    cam = PinholeCamera(1024, 512, K, 1.4, math.radians(pitch_deg), 0.0, math.radians(yaw_deg))
+    a = math.radians(axis_deg)
+    axis = RoadAxis(a, np.array([0.5, -0.3]), "vanishing_point")
+    along, across = np.array([math.cos(a), math.sin(a)]), np.array([-math.sin(a), math.cos(a)])
+    ground = axis.center_ground + x * along + offset * across
+    p = np.array([[ground[0], ground[1], z]])
+    depth_true = float(cam.cam_from_world_points(p)[0, 2])
+    if depth_true < 1.0:
+        return
+    px, _ = cam.project(p)
+    line = StreetLine("building", 1 if offset > 0 else -1, offset, 2, 0.2)
+    assert depth_on_line(cam, tuple(px[0]), line, axis) == pytest.approx(depth_true, rel=1e-6)
+
+
+def _tree(box: tuple[int, int, int, int], ref: int, hidden: bool = False, by: int = -1) -> ImageObject:
+    x0, y0, x1, y1 = box
+    return ImageObject(
+        class_name="tree" if ref != 9 else "car",
+        source_label="vegetation" if ref != 9 else "car",
+        instance_id=-1 if ref != 9 else 26001,
+        box_px=np.array(box, dtype=np.int64),
+        mask=np.ones((y1 - y0, x1 - x0), bool),
+        contact_px=np.array([(x0 + x1) / 2.0, y1 - 0.5]),
+        bottom_truncated=False,
+        bottom_occluded=hidden,
+        top_truncated=False,
+        occluded_by=by,
+        ref=ref,
+    )
+
+
+def _box_at(x: float, y: float, half_w: float, height: float) -> tuple[int, int, int, int]:
+    """Image box of an upright object of that half width and height standing at (x, y)."""
+    corners = np.array([[x, y - half_w, 0.0], [x, y + half_w, 0.0], [x, y, height]])
+    px, _ = LEVEL.project(corners)
+    return (int(round(px[:, 0].min())), int(round(px[2, 1])), int(round(px[:, 0].max())), int(round(px[0, 1])))
+
+
+def test_a_tree_behind_a_parked_car_stands_in_the_row_of_the_trees_seen():
+    # Trees at 4 m right of the camera, every 10 m; the one at 20 m has its trunk behind
+    # a car parked at 17 m, so only its crown shows, down to the car's roof.
+    seen = [_tree(_box_at(x, -4.0, 1.5, 6.0), ref) for ref, x in ((1, 10.0), (2, 30.0), (3, 40.0))]
+    car_box = _box_at(17.0, -3.0, 2.0, 1.5)
+    car = _tree(car_box, 9)
+    x0, y0, x1, _ = _box_at(20.0, -4.0, 1.5, 6.0)
+    hidden = _tree((x0, y0, x1, car_box[1]), 4, hidden=True, by=9)
+    objects = [*seen, car, hidden]
+    sizes = _asset_sizes(objects, library_dirs(None))
+    ground_from_px = np.linalg.inv(LEVEL.px_from_ground())
+    placements, skipped = place_objects(objects, LEVEL, ground_from_px, FORWARD, sizes)
+    placed = {p.obj.ref: p for p in placements}
+    assert not skipped and set(placed) == {1, 2, 3, 4, 9}
+    tree = placed[4]
+    assert tree.depth_method == "street_line"
+    assert abs(tree.position_world[1] - (-4.0)) < 0.3
+    assert abs(tree.position_world[0] - 20.0) < 1.0
+    cue = {c.name: c for c in tree.cues}["street_line"]
+    assert "row of 3 trees" in cue.note and "right" in cue.note
+
+
+def test_a_row_that_puts_the_object_in_front_of_its_occluder_is_not_used():
+    # Trees stand 4 m right; a crown 8 m right at 40 m, hidden below by a car at 30 m,
+    # is not in that row: its ray meets the row at 20 m, in front of the car hiding it.
+    seen = [_tree(_box_at(x, -4.0, 1.5, 6.0), ref) for ref, x in ((1, 10.0), (2, 15.0))]
+    car_box = _box_at(30.0, -6.5, 2.0, 1.5)
+    car = _tree(car_box, 9)
+    x0, y0, x1, _ = _box_at(40.0, -8.0, 1.5, 6.0)
+    hidden = _tree((x0, y0, x1, car_box[1]), 4, hidden=True, by=9)
+    objects = [*seen, car, hidden]
+    sizes = _asset_sizes(objects, library_dirs(None))
+    ground_from_px = np.linalg.inv(LEVEL.px_from_ground())
+    placements, _ = place_objects(objects, LEVEL, ground_from_px, FORWARD, sizes)
+    placed = {p.obj.ref: p for p in placements}
+    assert placed[4].depth_method != "street_line"
+    assert placed[4].depth_m > placed[9].depth_m

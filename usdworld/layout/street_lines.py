@@ -1,0 +1,146 @@
+"""Street lines: objects of one class on one side of a straight street stand in a row.
+
+Facades keep to a building line; trees, lamp posts and signs are set a fixed distance
+from the kerb. Where several objects of a class on one side of the street have a seen
+ground contact, the row they form is a line parallel to the road axis at a lateral
+offset that they measure. An object of that class whose own contact is hidden (a tree
+trunk behind a parked car, a facade behind a row of cars) or cut by the image border
+is then placed where its viewing ray meets that line, instead of at the loose bounds
+its visible bottom and its occluder give.
+
+Everything here works on the ground plane of the world frame (``_ground``: x forward,
+y left, metres) and the road axis of :mod:`usdworld.layout.yaw`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from usdworld.geometry.camera import PinholeCamera
+from usdworld.layout.yaw import RoadAxis
+
+#: Classes that stand in rows along a street.
+LINE_CLASSES = frozenset({"building", "tree", "pole", "traffic_sign"})
+#: A line needs this many objects with a seen contact on its side of the street (one
+#: tree with its trunk in view sets the row for the others behind parked cars).
+MIN_SUPPORT = 1
+#: A row whose supporting offsets spread more than this (median absolute deviation,
+#: metres) is no row: the class stands anywhere on that side.
+MAX_SPREAD_M = {"building": 1.5, "tree": 0.75, "pole": 0.75, "traffic_sign": 0.75}
+
+
+@dataclass(frozen=True)
+class StreetLine:
+    """A row of objects of one class along one side of the street.
+
+    Attributes:
+        class_name: placed class of the row.
+        side: +1 left of the road axis, -1 right of it.
+        offset_m: signed lateral offset of the row from the axis's centre line (left positive).
+        support: number of objects with a seen contact that measured it.
+        spread_m: median absolute deviation of their offsets, metres.
+    """
+
+    class_name: str
+    side: int
+    offset_m: float
+    support: int
+    spread_m: float
+
+    def __post_init__(self) -> None:
+        if self.side not in (-1, 1):
+            raise ValueError(f"StreetLine.side must be +1 or -1, got {self.side}")
+        if not np.isfinite(self.offset_m) or self.support < 1 or not self.spread_m >= 0:
+            raise ValueError(f"StreetLine: bad offset {self.offset_m}, support {self.support} or spread {self.spread_m}")
+
+
+def lateral_offsets(points_ground: np.ndarray, axis: RoadAxis) -> np.ndarray:
+    """Signed distances of ground points from the road axis's centre line (left positive).
+
+    Args:
+        points_ground: (N, 2) float64 ground points.
+        axis: the road axis.
+
+    Returns:
+        (N,) float64 metres.
+
+    Example:
+        >>> axis = RoadAxis(0.0, np.zeros(2), "camera_forward")
+        >>> lateral_offsets(np.array([[10.0, 3.0], [5.0, -2.0]]), axis).tolist()
+        [3.0, -2.0]
+    """
+    p = np.asarray(points_ground, dtype=np.float64).reshape(-1, 2) - axis.center_ground
+    return np.cos(axis.angle) * p[:, 1] - np.sin(axis.angle) * p[:, 0]
+
+
+def fit_street_lines(
+    class_names: Sequence[str], points_ground: np.ndarray, axis: RoadAxis
+) -> list[StreetLine]:
+    """The rows that objects with a seen ground contact form, per class and side.
+
+    Args:
+        class_names: (N,) placed class of each object.
+        points_ground: (N, 2) float64 ground point of each object's seen contact (a
+            facade's front wall, a trunk's foot).
+        axis: the road axis.
+
+    Returns:
+        One line per (class, side) with at least :data:`MIN_SUPPORT` objects whose
+        offsets agree within :data:`MAX_SPREAD_M`, in class then side order.
+    """
+    offsets = lateral_offsets(points_ground, axis)
+    names = np.asarray(list(class_names), dtype=object)
+    lines = []
+    for class_name in sorted(set(class_names) & LINE_CLASSES):
+        for side in (-1, 1):
+            mine = offsets[(names == class_name) & (np.sign(offsets) == side)]
+            if len(mine) < MIN_SUPPORT:
+                continue
+            centre = float(np.median(mine))
+            spread = float(np.median(np.abs(mine - centre)))
+            if spread <= MAX_SPREAD_M[class_name]:
+                lines.append(StreetLine(class_name, side, centre, len(mine), spread))
+    return lines
+
+
+def depth_on_line(camera: PinholeCamera, pixel: tuple[float, float], line: StreetLine, axis: RoadAxis) -> float | None:
+    """Optical depth at which a pixel's viewing ray stands above a street line.
+
+    The ray's foot on the ground (the point straight below each of its points) runs
+    from below the camera outwards; it crosses the line once, unless it runs parallel
+    to the street or away from the line's side.
+
+    Args:
+        camera: the source camera.
+        pixel: (u, v) pixel of the object (a trunk's column, a facade's base).
+        line: the row.
+        axis: the road axis the line was fitted along.
+
+    Returns:
+        The depth along the optical axis in metres, or None when the ray never stands
+        above the line ahead of the camera.
+    """
+    ray = camera.rays_world(np.array([pixel], dtype=np.float64))[0]
+    c = camera.center_world[:2]
+    # offset(c + t * ray_xy) = offset(c) + t * (lateral component of ray_xy) = line.offset_m
+    start = float(lateral_offsets(c[None, :], axis)[0])
+    rate = float(np.cos(axis.angle) * ray[1] - np.sin(axis.angle) * ray[0])
+    if abs(rate) < 1e-9:
+        return None
+    t = (line.offset_m - start) / rate
+    return float(t) if t > 0 else None
+
+
+def line_for(lines: Sequence[StreetLine], class_name: str, camera: PinholeCamera, pixel: tuple[float, float], axis: RoadAxis) -> tuple[StreetLine, float] | None:
+    """The row of ``class_name`` that the pixel's ray meets first ahead, with the depth there."""
+    best = None
+    for line in lines:
+        if line.class_name != class_name:
+            continue
+        depth = depth_on_line(camera, pixel, line, axis)
+        if depth is not None and (best is None or depth < best[1]):
+            best = (line, depth)
+    return best

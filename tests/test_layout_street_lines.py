@@ -116,6 +116,14 @@ def _box_at(x: float, y: float, half_w: float, height: float) -> tuple[int, int,
     return (int(round(px[:, 0].min())), int(round(px[2, 1])), int(round(px[:, 0].max())), int(round(px[0, 1])))
 
 
+def _place(objects: list[ImageObject]) -> tuple[dict, list[str]]:
+    """Placements by object ref, and the names not placed, seen by the level camera."""
+    sizes = _asset_sizes(objects, library_dirs(None))
+    ground_from_px = np.linalg.inv(LEVEL.px_from_ground())
+    placements, skipped = place_objects(objects, LEVEL, ground_from_px, FORWARD, sizes)
+    return {p.obj.ref: p for p in placements}, skipped
+
+
 def test_a_tree_behind_a_parked_car_stands_in_the_row_of_the_trees_seen():
     # Trees at 4 m right of the camera, every 10 m; the one at 20 m has its trunk behind
     # a car parked at 17 m, so only its crown shows, down to the car's roof.
@@ -124,11 +132,7 @@ def test_a_tree_behind_a_parked_car_stands_in_the_row_of_the_trees_seen():
     car = _tree(car_box, 9)
     x0, y0, x1, _ = _box_at(20.0, -4.0, 1.5, 6.0)
     hidden = _tree((x0, y0, x1, car_box[1]), 4, hidden=True, by=9)
-    objects = [*seen, car, hidden]
-    sizes = _asset_sizes(objects, library_dirs(None))
-    ground_from_px = np.linalg.inv(LEVEL.px_from_ground())
-    placements, skipped = place_objects(objects, LEVEL, ground_from_px, FORWARD, sizes)
-    placed = {p.obj.ref: p for p in placements}
+    placed, skipped = _place([*seen, car, hidden])
     assert not skipped and set(placed) == {1, 2, 3, 4, 9}
     tree = placed[4]
     assert tree.depth_method == "street_line"
@@ -146,10 +150,6 @@ def test_a_row_that_puts_the_object_in_front_of_its_occluder_is_not_used():
     car = _tree(car_box, 9)
     x0, y0, x1, _ = _box_at(40.0, -8.0, 1.5, 6.0)
     hidden = _tree((x0, y0, x1, car_box[1]), 4, hidden=True, by=9)
-    objects = [*seen, car, hidden]
-    sizes = _asset_sizes(objects, library_dirs(None))
-    ground_from_px = np.linalg.inv(LEVEL.px_from_ground())
-    placements, _ = place_objects(objects, LEVEL, ground_from_px, FORWARD, sizes)
-    placed = {p.obj.ref: p for p in placements}
+    placed, _ = _place([*seen, car, hidden])
     assert placed[4].depth_method != "street_line"
     assert placed[4].depth_m > placed[9].depth_m

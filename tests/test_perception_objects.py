@@ -203,3 +203,30 @@ def test_crown_ranges_cover_every_column_once(tops: list[int]):
     assert ranges[0][0] == 0 and ranges[-1][1] == len(tops)
     assert all(a < b for a, b in ranges)
     assert all(ranges[i][1] == ranges[i + 1][0] for i in range(len(ranges) - 1))
+
+
+def _fill_reference(mask: np.ndarray, front: np.ndarray) -> np.ndarray:
+    """Row by row, pixel by pixel: what fill_through_occluders should give."""
+    out = mask.copy()
+    for r in range(mask.shape[0]):
+        c = 0
+        while c < mask.shape[1]:
+            if front[r, c] and not mask[r, c]:
+                e = c
+                while e < mask.shape[1] and front[r, e] and not mask[r, e]:
+                    e += 1
+                if c > 0 and mask[r, c - 1] and e < mask.shape[1] and mask[r, e]:
+                    out[r, c:e] = True
+                c = e
+            else:
+                c += 1
+    return out
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(1, 6), st.integers(1, 12), st.data())
+def test_fill_through_matches_a_pixel_by_pixel_reading(h: int, w: int, data):
+    cells = st.lists(st.booleans(), min_size=h * w, max_size=h * w)
+    mask = np.array(data.draw(cells), dtype=bool).reshape(h, w)
+    front = np.array(data.draw(cells), dtype=bool).reshape(h, w)
+    np.testing.assert_array_equal(fill_through_occluders(mask, front), _fill_reference(mask, front))

@@ -81,15 +81,19 @@ def fill_through_occluders(mask: np.ndarray, occluders: np.ndarray) -> np.ndarra
     mask = np.asarray(mask, dtype=bool)
     occ = np.asarray(occluders, dtype=bool) & ~mask
     h, w = mask.shape
-    cols = np.arange(w)
-    # Per pixel: column of the nearest pixel to its left (right) that is not an occluder.
-    stop = ~occ
-    left = np.maximum.accumulate(np.where(stop, cols, -1), axis=1)
-    right = np.minimum.accumulate(np.where(stop, cols, w)[:, ::-1], axis=1)[:, ::-1]
-    rows = np.arange(h)[:, None]
-    left_is_wall = (left >= 0) & mask[rows, np.clip(left, 0, w - 1)]
-    right_is_wall = (right < w) & mask[rows, np.clip(right, 0, w - 1)]
-    return mask | (occ & left_is_wall & right_is_wall)
+    # Rows laid end to end, each padded by a pixel that is neither facade nor occluder,
+    # so that a run of occluders never continues into the next row.
+    occ_flat = np.pad(occ, ((0, 0), (1, 1))).ravel()
+    wall_flat = np.pad(mask, ((0, 0), (1, 1))).ravel()
+    step = np.diff(occ_flat.view(np.int8))
+    starts = np.flatnonzero(step == 1) + 1  # first pixel of each run of occluders
+    ends = np.flatnonzero(step == -1) + 1  # first pixel after it
+    enclosed = wall_flat[starts - 1] & wall_flat[ends]
+    marks = np.zeros(occ_flat.size + 1, dtype=np.int8)
+    marks[starts[enclosed]] = 1
+    marks[ends[enclosed]] = -1
+    filled = np.cumsum(marks[:-1], dtype=np.int8).astype(bool)
+    return mask | filled.reshape(h, w + 2)[:, 1:-1]
 
 
 def _roofline_cuts(tops: np.ndarray, heights: np.ndarray) -> list[int]:

@@ -325,25 +325,24 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
         if present[k] < min_area:
             continue
         class_mask = class_map == k
-        # A facade or a crown split by a pole or a tree in front of it is one object: its
-        # pieces are joined through what stands in front before components are labelled
-        # (and cut again by roofline, frontage or crown tops below).
-        joined = (
-            fill_through_occluders(class_mask, (lookups.placed != "")[labels])
-            if class_name in FACADE_CLASSES | CROWN_CLASSES
-            else class_mask
-        )
         # Label components only inside the rows and columns the class occupies.
-        rows_any = np.nonzero(joined.any(axis=1))[0]
-        cols_any = np.nonzero(joined.any(axis=0))[0]
+        rows_any = np.nonzero(class_mask.any(axis=1))[0]
+        cols_any = np.nonzero(class_mask.any(axis=0))[0]
         oy, ox = int(rows_any[0]), int(cols_any[0])
-        window = joined[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
+        own = class_mask[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
+        window = own
+        if class_name in FACADE_CLASSES | CROWN_CLASSES:
+            # A facade or a crown split by a pole or a tree in front of it is one object:
+            # its pieces are joined through what stands in front before components are
+            # labelled (and cut again by roofline, frontage or crown tops below).
+            in_front = (lookups.placed != "")[labels[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]]
+            window = fill_through_occluders(own, in_front)
         n, comp, stats, _ = cv2.connectedComponentsWithStats(window.astype(np.uint8), connectivity=8)
         for k_comp in range(1, n):
             x, y, w, h, _ = (int(v) for v in stats[k_comp])
             region = comp[y : y + h, x : x + w] == k_comp
+            crop = region & own[y : y + h, x : x + w]
             x, y = x + ox, y + oy
-            crop = region & class_mask[y : y + h, x : x + w]
             if crop.sum() < min_area:
                 continue
             source = str(lookups.names[int(np.bincount(labels[y : y + h, x : x + w][crop]).argmax())])

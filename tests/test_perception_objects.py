@@ -230,3 +230,18 @@ def test_fill_through_matches_a_pixel_by_pixel_reading(h: int, w: int, data):
     mask = np.array(data.draw(cells), dtype=bool).reshape(h, w)
     front = np.array(data.draw(cells), dtype=bool).reshape(h, w)
     np.testing.assert_array_equal(fill_through_occluders(mask, front), _fill_reference(mask, front))
+
+
+def test_a_tree_whose_top_hides_behind_a_nearer_crown_is_found_by_its_trunk():
+    # One dome (columns 100-179) over two trunks: the near tree's (138-141, down to row
+    # 150) and, further down the row, a smaller tree's whose crown stays inside the dome's
+    # outline but whose trunk (104-106, down to row 135) reaches the sidewalk.
+    seg = _crowns([round(40 + 30 * ((c - 40) / 40) ** 2) for c in range(80)], [138])
+    labels = np.asarray(seg.label_ids).copy()
+    labels[120:135, 104:107] = VEGETATION
+    seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
+    trees = [o for o in objects_from_segmentation(seg) if o.class_name == "tree"]
+    assert len(trees) == 2
+    np.testing.assert_allclose(sorted(t.contact_px[1] for t in trees), [134.5, 149.5])
+    assert trees[0].box_px[2] == trees[1].box_px[0]
+    assert all(not t.bottom_occluded for t in trees)

@@ -1,12 +1,19 @@
-"""Cut a region of merged tree crowns into trees, one per crown top.
+"""Cut a region of merged tree crowns into trees, one per crown top or trunk.
 
 Cityscapes labels give vegetation no instances: a row of street trees whose crowns
 overlap in the image arrives as one region. Each crown rises to a top of its own (a
 conifer's tip, a broad crown's dome), so the region's upper outline has one clear
-summit per tree, with a dip where two crowns meet. The region is cut at the deepest
-dip between neighbouring summits; a summit counts when it rises above the dips on both
-its sides by :data:`MIN_PROMINENCE_FRACTION` of the region's height (small bumps of one
+summit per tree, with a dip where two crowns meet; the region is cut at the deepest dip
+between neighbouring summits. A summit counts when it rises above the dips on both its
+sides by :data:`MIN_PROMINENCE_FRACTION` of the region's height (small bumps of one
 crown's outline do not).
+
+A tree further down the row may hide its top behind a nearer crown and still show its
+trunk: the region's lower outline then reaches down to the ground once per trunk (a
+foot). When there are more feet than summits, the region is cut between neighbouring
+feet where the lower outline is highest, where two crowns meet above the ground. A
+foot counts when it stands on the ground and reaches down below its neighbourhood by
+:data:`MIN_FOOT_FRACTION` of the tree's height there.
 
 Everything here is in pixels.
 """
@@ -18,19 +25,45 @@ from scipy.signal import find_peaks
 
 #: A crown top must rise above its neighbouring dips by this fraction of the region's height.
 MIN_PROMINENCE_FRACTION = 0.1
-#: ... and by at least this many pixels.
+#: ... and by at least this many pixels (summits and feet).
 MIN_PROMINENCE_PX = 4.0
+#: A foot (trunk) must reach below its neighbourhood by this fraction of the height of
+#: its column.
+MIN_FOOT_FRACTION = 0.1
 
 
-def crown_ranges(mask: np.ndarray) -> list[tuple[int, int]]:
-    """Column ranges ``[c0, c1)`` of a vegetation crop, one per crown top.
+def _summits(profile: np.ndarray, prominence: np.ndarray | float) -> np.ndarray:
+    """Columns of the peaks of a profile that rise by ``prominence`` above their dips
+    (an edge counts as a dip to zero, so a peak at the crop's side is one)."""
+    padded = np.concatenate([[0.0], profile, [0.0]])
+    peaks, props = find_peaks(padded, prominence=0.0)
+    limit = np.broadcast_to(np.asarray(prominence, dtype=np.float64), profile.shape)
+    return peaks[props["prominences"] >= limit[peaks - 1]] - 1
+
+
+def _cut_at(profile: np.ndarray, peaks: np.ndarray, lowest: bool) -> list[int]:
+    """Between each pair of neighbouring peaks, the middle column of the profile's extreme
+    (its lowest value when ``lowest``, else its highest)."""
+    cuts = []
+    for a, b in zip(peaks[:-1], peaks[1:]):
+        valley = profile[a : b + 1]
+        target = valley.min() if lowest else valley.max()
+        at = np.nonzero(valley == target)[0]
+        cuts.append(int(a + at[len(at) // 2]))
+    return cuts
+
+
+def crown_ranges(mask: np.ndarray, on_ground: np.ndarray | None = None) -> list[tuple[int, int]]:
+    """Column ranges ``[c0, c1)`` of a vegetation crop, one per crown top or trunk.
 
     Args:
         mask: (h, w) bool crop of the vegetation region.
+        on_ground: (w,) bool, the pixel below each column's lowest pixel is ground; feet
+            are looked for only there (default: no feet, summits alone).
 
     Returns:
         Ranges covering every column of the crop, left to right (one range when the
-        outline has a single summit; empty for an empty crop).
+        outline has a single summit and at most one foot; empty for an empty crop).
 
     Example:
         >>> m = np.zeros((10, 9), dtype=bool)
@@ -43,24 +76,22 @@ def crown_ranges(mask: np.ndarray) -> list[tuple[int, int]]:
     cols = np.nonzero(mask.any(axis=0))[0]
     if len(cols) == 0:
         return []
-    w = mask.shape[1]
+    h, w = mask.shape
     rows = np.nonzero(mask.any(axis=1))[0]
-    height = float(rows[-1] - rows[0] + 1)
-    # Upper outline, as a height above the crop's bottom; empty columns take their
-    # neighbours' (a gap is not a summit).
-    top = np.full(w, np.nan)
-    top[cols] = mask.shape[0] - np.argmax(mask[:, cols], axis=0)
-    top = np.interp(np.arange(w), cols, top[cols])
-    prominence = max(MIN_PROMINENCE_PX, MIN_PROMINENCE_FRACTION * height)
-    # Pad with zero height so that a summit at the crop's edge is seen as one.
-    peaks, _ = find_peaks(np.concatenate([[0.0], top, [0.0]]), prominence=prominence)
-    peaks = peaks - 1
-    if len(peaks) < 2:
-        return [(0, w)]
-    cuts = []
-    for a, b in zip(peaks[:-1], peaks[1:]):
-        valley = top[a : b + 1]
-        low = np.nonzero(valley == valley.min())[0]
-        cuts.append(int(a + low[len(low) // 2]))
+    region_height = float(rows[-1] - rows[0] + 1)
+    # Upper and lower outlines as heights above the crop's bottom edge; empty columns
+    # take their neighbours' (a gap is neither a summit nor a foot).
+    top = np.interp(np.arange(w), cols, h - np.argmax(mask[:, cols], axis=0))
+    bottom = np.interp(np.arange(w), cols, np.argmax(mask[::-1, cols], axis=0).astype(np.float64))
+    summits = _summits(top, max(MIN_PROMINENCE_PX, MIN_PROMINENCE_FRACTION * region_height))
+    cuts = _cut_at(top, summits, lowest=True)
+    if on_ground is not None:
+        # Feet are the lower outline's lowest points: peaks of its depth below the top.
+        depth_below = h - bottom
+        local = np.maximum(MIN_PROMINENCE_PX, MIN_FOOT_FRACTION * (top - bottom))
+        feet = _summits(depth_below, local)
+        feet = feet[np.asarray(on_ground, dtype=bool)[feet]]
+        if len(feet) > max(len(summits), 1):
+            cuts = _cut_at(bottom, feet, lowest=False)
     bounds = [0, *cuts, w]
     return [(bounds[i], bounds[i + 1]) for i in range(len(bounds) - 1) if bounds[i + 1] > bounds[i]]

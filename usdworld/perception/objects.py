@@ -352,7 +352,7 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
                     crop, x, y, _ground_below(crop, x, y, labels), view, min_area, roof_mask=region
                 )
             if ranges is None and class_name in CROWN_CLASSES:
-                ranges = crown_ranges(crop)
+                ranges = crown_ranges(crop, _ground_below(crop, x, y, labels))
             if ranges is None:
                 ranges = _split_columns(crop, SPLIT_ASPECT[class_name]) if class_name in SPLIT_ASPECT else [(0, w)]
             for c0, c1 in ranges:

@@ -13,12 +13,14 @@ from usdworld.authoring.asset_library import library_dirs
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.layout.placement import place_objects
 from usdworld.layout.street_lines import (
+    KERB_SETBACK_M,
     MAX_SPREAD_M,
     StreetLine,
     depth_on_line,
     fit_street_lines,
     lateral_offsets,
     line_for,
+    sidewalk_lines,
 )
 from usdworld.layout.yaw import RoadAxis
 from usdworld.perception.objects import ImageObject
@@ -92,12 +94,16 @@ def test_depth_on_line_recovers_any_point_above_the_row(x, offset, z, pitch_deg,
     assert depth_on_line(cam, tuple(px[0]), line, axis) == pytest.approx(depth_true, rel=1e-6)
 
 
-def _tree(box: tuple[int, int, int, int], ref: int, hidden: bool = False, by: int = -1) -> ImageObject:
+def _obj(
+    box: tuple[int, int, int, int], ref: int, hidden: bool = False, by: int = -1, class_name: str = "tree"
+) -> ImageObject:
+    """A tree (or a car) whose mask fills its box; ``hidden``: its bottom is hidden by ``by``."""
     x0, y0, x1, y1 = box
+    car = class_name == "car"
     return ImageObject(
-        class_name="tree" if ref != 9 else "car",
-        source_label="vegetation" if ref != 9 else "car",
-        instance_id=-1 if ref != 9 else 26001,
+        class_name=class_name,
+        source_label=class_name if car else "vegetation",
+        instance_id=26000 + ref if car else -1,
         box_px=np.array(box, dtype=np.int64),
         mask=np.ones((y1 - y0, x1 - x0), bool),
         contact_px=np.array([(x0 + x1) / 2.0, y1 - 0.5]),
@@ -127,11 +133,11 @@ def _place(objects: list[ImageObject]) -> tuple[dict, list[str]]:
 def test_a_tree_behind_a_parked_car_stands_in_the_row_of_the_trees_seen():
     # Trees at 4 m right of the camera, every 10 m; the one at 20 m has its trunk behind
     # a car parked at 17 m, so only its crown shows, down to the car's roof.
-    seen = [_tree(_box_at(x, -4.0, 1.5, 6.0), ref) for ref, x in ((1, 10.0), (2, 30.0), (3, 40.0))]
+    seen = [_obj(_box_at(x, -4.0, 1.5, 6.0), ref) for ref, x in ((1, 10.0), (2, 30.0), (3, 40.0))]
     car_box = _box_at(17.0, -3.0, 2.0, 1.5)
-    car = _tree(car_box, 9)
+    car = _obj(car_box, 9, class_name="car")
     x0, y0, x1, _ = _box_at(20.0, -4.0, 1.5, 6.0)
-    hidden = _tree((x0, y0, x1, car_box[1]), 4, hidden=True, by=9)
+    hidden = _obj((x0, y0, x1, car_box[1]), 4, hidden=True, by=9)
     placed, skipped = _place([*seen, car, hidden])
     assert not skipped and set(placed) == {1, 2, 3, 4, 9}
     tree = placed[4]
@@ -145,11 +151,50 @@ def test_a_tree_behind_a_parked_car_stands_in_the_row_of_the_trees_seen():
 def test_a_row_that_puts_the_object_in_front_of_its_occluder_is_not_used():
     # Trees stand 4 m right; a crown 8 m right at 40 m, hidden below by a car at 30 m,
     # is not in that row: its ray meets the row at 20 m, in front of the car hiding it.
-    seen = [_tree(_box_at(x, -4.0, 1.5, 6.0), ref) for ref, x in ((1, 10.0), (2, 15.0))]
+    seen = [_obj(_box_at(x, -4.0, 1.5, 6.0), ref) for ref, x in ((1, 10.0), (2, 15.0))]
     car_box = _box_at(30.0, -6.5, 2.0, 1.5)
-    car = _tree(car_box, 9)
+    car = _obj(car_box, 9, class_name="car")
     x0, y0, x1, _ = _box_at(40.0, -8.0, 1.5, 6.0)
-    hidden = _tree((x0, y0, x1, car_box[1]), 4, hidden=True, by=9)
+    hidden = _obj((x0, y0, x1, car_box[1]), 4, hidden=True, by=9)
     placed, _ = _place([*seen, car, hidden])
     assert placed[4].depth_method != "street_line"
     assert placed[4].depth_m > placed[9].depth_m
+
+
+def _sidewalk(kerb: float, back: float, side: int) -> np.ndarray:
+    """Ground points covering a sidewalk from ``kerb`` to ``back`` metres off the axis."""
+    x, y = np.meshgrid(np.linspace(5.0, 60.0, 40), np.linspace(kerb, back, 21))
+    return np.column_stack([x.ravel(), side * y.ravel()])
+
+
+def test_the_sidewalk_gives_rows_for_the_classes_no_object_measured():
+    right = _sidewalk(4.0, 8.0, -1)
+    measured = [StreetLine("tree", -1, -5.5, 2, 0.1)]
+    lines = {(ln.class_name, ln.side): ln for ln in sidewalk_lines(right, FORWARD, measured)}
+    assert set(lines) == {("building", -1), ("pole", -1), ("traffic_sign", -1)}  # the trees' own row stands
+    assert lines["building", -1].offset_m == pytest.approx(-7.8)  # the 95th percentile of 4..8 m
+    assert lines["pole", -1].offset_m == pytest.approx(-(4.2 + KERB_SETBACK_M["pole"]))
+    assert all(ln.support == 0 and ln.source == "sidewalk" for ln in lines.values())
+    assert lines["pole", -1].spread_m == pytest.approx(0.25 * 3.6)
+    assert sidewalk_lines(right[:10], FORWARD) == []  # too few points to measure
+    assert sidewalk_lines(None, FORWARD) == []
+
+
+def test_a_tree_with_no_row_of_its_own_stands_behind_the_kerb_at_its_measured_height():
+    # No tree shows its trunk; the left sidewalk runs 6-9 m left of the camera, and a
+    # crown whose trunk a car hides stands 1 m behind the kerb (7 m left) at 25 m.
+    car_box = _box_at(20.0, 5.0, 2.0, 1.5)
+    car = _obj(car_box, 9, class_name="car")
+    x0, y0, x1, _ = _box_at(25.0, 7.0, 1.5, 6.0)
+    hidden = _obj((x0, y0, x1, car_box[1]), 4, hidden=True, by=9)
+    objects = [car, hidden]
+    sizes = _asset_sizes(objects, library_dirs(None))
+    ground_from_px = np.linalg.inv(LEVEL.px_from_ground())
+    placements, _ = place_objects(
+        objects, LEVEL, ground_from_px, FORWARD, sizes, sidewalk_ground=_sidewalk(6.0, 9.0, 1)
+    )
+    tree = {p.obj.ref: p for p in placements}[4]
+    assert tree.depth_method == "street_line"
+    assert abs(tree.position_world[1] - 7.0) < 0.3 and abs(tree.position_world[0] - 25.0) < 1.0
+    assert "row from the sidewalk" in {c.name: c for c in tree.cues}["street_line"].note
+    assert tree.size_m[2] == pytest.approx(6.0, rel=0.05)  # from its top row at that depth

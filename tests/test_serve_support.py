@@ -164,7 +164,7 @@ def find_targets(world: Path) -> Targets:
             (o for o, s in zip(objects, surfaces) if o.active and o.class_name == "car" and s == "road"),
             key=lambda o: o.position_world[0],
         )
-        steps = [(dx, dy) for dx in (2.5, -2.5, 3.5, -3.5, 5.0, 6.5) for dy in (0.0, 0.4, -0.4)]
+        steps = [(dx, dy) for dx in (2.5, -2.5, 3.5, -3.5, 5.0, 6.5) for dy in (0.0, 0.4, -0.4, 0.8, -0.8)]
         choice = None
         for car in (c for c in cars if in_view(c.position_world[:2])):
             x, y = car.position_world[:2]
@@ -190,7 +190,10 @@ def find_targets(world: Path) -> Targets:
             table.size_lw,
             table.yaw,
         )
-        road = ground.triangles["road"][:, :, :2].mean(axis=1)
+        # Candidate spots: each road triangle's centroid and the points halfway to its corners.
+        corners = ground.triangles["road"][:, :, :2]
+        centroids = corners.mean(axis=1)
+        road = np.concatenate([centroids, ((corners + centroids[:, None, :]) / 2).reshape(-1, 2)])
         add_at = next(
             (
                 (round(float(p[0]), 2), round(float(p[1]), 2))

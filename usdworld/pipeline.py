@@ -265,10 +265,13 @@ def _asset_sizes(objects: list[ImageObject], libraries: tuple[Path, ...]) -> dic
     return sizes
 
 
-def _road_points(seg: Segmentation | None, fit: HomographyFit, camera: PinholeCamera, max_range_m: float) -> np.ndarray | None:
+def _surface_points(
+    seg: Segmentation | None, fit: HomographyFit, camera: PinholeCamera, max_range_m: float, name: str = "road"
+) -> np.ndarray | None:
+    """Ground points of every fourth pixel of a surface class (within range), or None."""
     if seg is None:
         return None
-    road = np.asarray(seg.label_ids) == label_lookups().id_of("road")
+    road = np.asarray(seg.label_ids) == label_lookups().id_of(name)
     ys, xs = np.nonzero(road[::4, ::4])
     if len(ys) == 0:
         return None
@@ -326,7 +329,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     depth = dense.depth_map
     fit, dlt_source = _ground_fit(request, camera.camera)
     axis = road_axis(
-        _road_points(seg, fit, camera.camera, request.max_range_m),
+        _surface_points(seg, fit, camera.camera, request.max_range_m),
         vanishing_angle=_vanishing_yaw(vanishing, camera.camera),
     )
     placements, skipped = place_objects(
@@ -338,6 +341,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         depth,
         camera_sigma=(camera.sigma_height_m, camera.sigma_pitch),
         max_partial_depth_m=request.max_range_m,
+        sidewalk_ground=_surface_points(seg, fit, camera.camera, request.max_range_m, "sidewalk"),
     )
     lk = label_lookups()
     surface_ids = {"road": [lk.id_of("road"), lk.id_of("parking")], "sidewalk": [lk.id_of("sidewalk")]}

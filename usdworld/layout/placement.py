@@ -33,7 +33,7 @@ from usdworld.layout.collision import footprint_half_extents, resolve_collisions
 from usdworld.layout.ordering import apply_ordering_rules
 from usdworld.layout.priors import ClassPrior, prior_for
 from usdworld.layout.silhouette import depth_from_silhouette, depth_from_top_row, top_offsets
-from usdworld.layout.street_lines import LINE_CLASSES, StreetLine, fit_street_lines, line_for
+from usdworld.layout.street_lines import LINE_CLASSES, StreetLine, fit_street_lines, line_for, sidewalk_lines
 from usdworld.layout.yaw import RoadAxis, choose_yaw, yaw_from_view_angle
 from usdworld.perception.depth.fusion import HEIGHT_MEAN_REL_SIGMA, DepthCue, fuse, object_depth_cues
 from usdworld.perception.objects import TRUNK_CLASSES, ImageObject
@@ -227,6 +227,7 @@ def place_objects(
     sidewalk_lift: bool = True,
     camera_sigma: tuple[float, float] = (0.0, 0.0),
     max_partial_depth_m: float = 80.0,
+    sidewalk_ground: np.ndarray | None = None,
 ) -> tuple[list[Placement], list[str]]:
     """Place every object in the world frame, then resolve footprint collisions.
 
@@ -243,6 +244,8 @@ def place_objects(
             which widen the ground-contact cue when the camera was estimated.
         max_partial_depth_m: objects whose depth is only an upper bound (cut or hidden
             bottom) are dropped beyond this depth.
+        sidewalk_ground: (N, 2) float64 ground points of sidewalk pixels, or None; they
+            give the rows (:mod:`usdworld.layout.street_lines`) no object measured.
 
     Returns:
         Placements in the same order as ``objects`` and the names of objects that
@@ -282,6 +285,7 @@ def place_objects(
     # Rows along the street (building lines, tree and lamp rows) place the members whose
     # own contact is hidden or cut where their ray meets the row.
     lines = _street_lines(drafts, camera, axis)
+    lines += sidewalk_lines(sidewalk_ground, axis, lines)
     if lines:
         by_ref = {d["obj"].ref: d for d in drafts if d["obj"].ref >= 0}
         for k, d in enumerate(drafts):
@@ -449,12 +453,12 @@ def _onto_street_line(  # noqa: PLR0913
     lateral = abs(float(line.offset_m)) + 1.0
     sigma = max(line.spread_m, 0.25) * max(front / lateral, 1.0)
     side = "left" if line.side > 0 else "right"
+    what = f"row of {line.support} {obj.class_name}s" if line.support else f"{obj.class_name} row from the sidewalk"
     cue = DepthCue(
         "street_line",
         front + moved["back_m"],
         sigma,
-        f"row of {line.support} {obj.class_name}s {abs(line.offset_m):.2f} m {side} of the road axis "
-        f"(spread {line.spread_m:.2f} m)",
+        f"{what} {abs(line.offset_m):.2f} m {side} of the road axis (spread {line.spread_m:.2f} m)",
     )
     moved["cues"] = (*moved["cues"], cue)
     return moved
@@ -586,6 +590,10 @@ def _draft(  # noqa: PLR0913
     yaw, _ = _object_yaw(prior, front_ground, axis, obj, camera)
     bearing = float(np.arctan2(front_ground[1], front_ground[0]))
     measured_h = float(obj.height_px * front / camera.fy) if whole else float("nan")
+    if method == "street_line" and not obj.top_truncated:
+        # Its row gives the depth of an object whose bottom is hidden: its top row there
+        # gives its height above the ground.
+        measured_h = _height_of_top(camera, obj, front)
     sides_cut = obj.box_px[0] <= 0 or obj.box_px[2] >= camera.width
     # The silhouette's aspect tells stuff variants apart (a conifer from a broad tree); for
     # vehicles and people perspective dominates it, so only their height counts.
@@ -659,6 +667,15 @@ def _draft(  # noqa: PLR0913
         # The visible bottom's ground point bounds a hidden or cut bottom's depth from above.
         "upper_m": front if method == "contact_partial" else float("inf"),
     }
+
+
+def _height_of_top(camera: PinholeCamera, obj: ImageObject, depth: float) -> float:
+    """Height above the ground of an object's top row at ``depth`` (NaN when not above it)."""
+    x0, y0, x1, _ = (float(b) for b in obj.box_px)
+    v_top = y0 if obj.box_only else y0 - 0.5
+    ray = camera.rays_world(np.array([[0.5 * (x0 + x1), v_top]]))[0]
+    z = float(camera.center_world[2] + ray[2] * depth)
+    return z if z > 0 else float("nan")
 
 
 def _object_yaw(

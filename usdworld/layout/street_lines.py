@@ -1,12 +1,17 @@
 """Street lines: objects of one class on one side of a straight street stand in a row.
 
 Facades keep to a building line; trees, lamp posts and signs are set a fixed distance
-from the kerb. Where several objects of a class on one side of the street have a seen
-ground contact, the row they form is a line parallel to the road axis at a lateral
-offset that they measure. An object of that class whose own contact is hidden (a tree
-trunk behind a parked car, a facade behind a row of cars) or cut by the image border
-is then placed where its viewing ray meets that line, instead of at the loose bounds
-its visible bottom and its occluder give.
+from the kerb. Where objects of a class on one side of the street have a seen ground
+contact, the row they form is a line parallel to the road axis at a lateral offset that
+they measure. An object of that class whose own contact is hidden (a tree trunk behind
+a parked car, a facade behind a row of cars) or cut by the image border is then placed
+where its viewing ray meets that line, instead of at the loose bounds its visible
+bottom and its occluder give.
+
+Where no object of the class shows its contact on that side, the sidewalk gives the
+row: facades stand at its back edge, and street furniture and trees a customary
+distance behind the kerb (:data:`KERB_SETBACK_M`), measured on the sidewalk's ground
+points (:func:`sidewalk_lines`).
 
 Everything here works on the ground plane of the world frame (``_ground``: x forward,
 y left, metres) and the road axis of :mod:`usdworld.layout.yaw`.
@@ -32,6 +37,17 @@ MIN_SUPPORT = 1
 MAX_SPREAD_M = {"building": 1.5, "tree": 0.75, "pole": 0.75, "traffic_sign": 0.75}
 
 
+#: Where a class stands behind the kerb when none of its row is seen, metres (street
+#: trees are planted about a metre in, posts and signs half a metre); buildings stand
+#: at the sidewalk's back edge.
+KERB_SETBACK_M = {"tree": 1.0, "pole": 0.5, "traffic_sign": 0.5}
+#: The sidewalk's kerb and back edge: these percentiles of its points' distances from
+#: the road axis (a few stray label pixels do not move them).
+SIDEWALK_EDGE_PERCENTILES = (5.0, 95.0)
+#: A side's sidewalk is measured from at least this many ground points.
+MIN_SIDEWALK_POINTS = 50
+
+
 @dataclass(frozen=True)
 class StreetLine:
     """A row of objects of one class along one side of the street.
@@ -40,8 +56,9 @@ class StreetLine:
         class_name: placed class of the row.
         side: +1 left of the road axis, -1 right of it.
         offset_m: signed lateral offset of the row from the axis's centre line (left positive).
-        support: number of objects with a seen contact that measured it.
-        spread_m: median absolute deviation of their offsets, metres.
+        support: number of objects with a seen contact that measured it (0: the sidewalk did).
+        spread_m: median absolute deviation of their offsets, metres (for a sidewalk row,
+            a quarter of the sidewalk's width).
     """
 
     class_name: str
@@ -53,8 +70,13 @@ class StreetLine:
     def __post_init__(self) -> None:
         if self.side not in (-1, 1):
             raise ValueError(f"StreetLine.side must be +1 or -1, got {self.side}")
-        if not np.isfinite(self.offset_m) or self.support < 1 or not self.spread_m >= 0:
+        if not np.isfinite(self.offset_m) or self.support < 0 or not self.spread_m >= 0:
             raise ValueError(f"StreetLine: bad offset {self.offset_m}, support {self.support} or spread {self.spread_m}")
+
+    @property
+    def source(self) -> str:
+        """What measured the row: ``objects`` or ``sidewalk``."""
+        return "objects" if self.support > 0 else "sidewalk"
 
 
 def lateral_offsets(points_ground: np.ndarray, axis: RoadAxis) -> np.ndarray:
@@ -103,6 +125,38 @@ def fit_street_lines(
             spread = float(np.median(np.abs(mine - centre)))
             if spread <= MAX_SPREAD_M[class_name]:
                 lines.append(StreetLine(class_name, side, centre, len(mine), spread))
+    return lines
+
+
+def sidewalk_lines(
+    sidewalk_ground: np.ndarray | None, axis: RoadAxis, measured: Sequence[StreetLine] = ()
+) -> list[StreetLine]:
+    """Rows the sidewalks give, for the classes and sides no object measured.
+
+    Args:
+        sidewalk_ground: (N, 2) float64 ground points of sidewalk pixels (within range), or None.
+        axis: the road axis.
+        measured: rows already measured by objects (their class and side get none here).
+
+    Returns:
+        Per side with enough sidewalk points: a building line at the sidewalk's back edge
+        and a row per class of :data:`KERB_SETBACK_M` behind the kerb (within the sidewalk).
+    """
+    if sidewalk_ground is None or len(sidewalk_ground) == 0:
+        return []
+    offsets = lateral_offsets(sidewalk_ground, axis)
+    taken = {(line.class_name, line.side) for line in measured}
+    lines = []
+    for side in (-1, 1):
+        mine = np.abs(offsets[np.sign(offsets) == side])
+        if len(mine) < MIN_SIDEWALK_POINTS:
+            continue
+        kerb, back = (float(v) for v in np.percentile(mine, SIDEWALK_EDGE_PERCENTILES))
+        spread = 0.25 * (back - kerb)
+        places = {"building": back, **{c: min(kerb + d, back) for c, d in KERB_SETBACK_M.items()}}
+        for class_name, distance in sorted(places.items()):
+            if (class_name, side) not in taken:
+                lines.append(StreetLine(class_name, side, side * distance, 0, spread))
     return lines
 
 

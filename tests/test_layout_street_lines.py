@@ -119,7 +119,8 @@ def _box_at(x: float, y: float, half_w: float, height: float) -> tuple[int, int,
     """Image box of an upright object of that half width and height standing at (x, y)."""
     corners = np.array([[x, y - half_w, 0.0], [x, y + half_w, 0.0], [x, y, height]])
     px, _ = LEVEL.project(corners)
-    return (int(round(px[:, 0].min())), int(round(px[2, 1])), int(round(px[:, 0].max())), int(round(px[0, 1])))
+    u0, u1, v_top, v_base = px[:, 0].min(), px[:, 0].max(), px[2, 1], px[0, 1]
+    return round(float(u0)), round(float(v_top)), round(float(u1)), round(float(v_base))
 
 
 def _place(objects: list[ImageObject]) -> tuple[dict, list[str]]:

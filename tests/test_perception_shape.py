@@ -27,7 +27,8 @@ def _disc(radius: int) -> np.ndarray:
 @given(rows=st.integers(40, 200), slope=st.floats(0.2, 0.6), hidden=st.floats(0.0, 0.6))
 def test_a_cone_keeps_its_ratio_when_its_bottom_is_hidden(rows: int, slope: float, hidden: float):
     cone = _cone(rows, slope)
-    cut = cone[: max(10, int(rows * (1 - hidden)))]
+    # At least 30 rows stay in view: fewer are too coarse for 20 % (20 rows can be 26 % off).
+    cut = cone[: max(30, int(rows * (1 - hidden)))]
     expected = 1.0 / (4 * slope)  # half the width is reached half way down
     assert top_shape_ratio(cone) == pytest.approx(expected, rel=0.15)
     assert top_shape_ratio(cut) == pytest.approx(expected, rel=0.2)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import shutil
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -103,24 +104,47 @@ def _nan_if_none(value: float | None) -> float:
     return float("nan") if value is None else float(value)
 
 
-def define_object(stage: Usd.Stage, placement: Placement, asset_ref: str, image_name: str) -> UsdGeom.Xform:
-    """Author one placed object: a reference to its class asset, its transform and provenance.
+def define_objects(
+    stage: Usd.Stage, placements: Sequence[Placement], asset_refs: dict[str, str], image_name: str
+) -> list[UsdGeom.Xform]:
+    """Author the placed objects: each a reference to its class asset, with its model
+    variant, transform, class label and provenance.
+
+    The assets are referenced after every object's own opinions are written, all in one
+    change block, so the stage composes them once rather than after every object (the
+    layer's text is the same either way).
 
     Args:
-        stage: the base stage.
-        placement: where and how the object is placed.
-        asset_ref: relative path of the class asset from the base layer.
+        stage: the base stage (its root layer is the edit target).
+        placements: where and how the objects are placed.
+        asset_refs: class name -> relative path of the class asset from the base layer.
         image_name: source image file name.
 
     Returns:
-        The object's Xform.
+        The objects' Xforms, in the order of ``placements``.
+
+    Raises:
+        AuthoringError: an object name that is no valid prim name, or a class without an asset.
     """
-    if not Sdf.Path.IsValidIdentifier(placement.name):
-        raise AuthoringError(f"invalid object name '{placement.name}'")
+    for placement in placements:
+        if not Sdf.Path.IsValidIdentifier(placement.name):
+            raise AuthoringError(f"invalid object name '{placement.name}'")
+        if placement.obj.class_name not in asset_refs:
+            raise AuthoringError(f"{placement.name}: no asset for class '{placement.obj.class_name}'")
+    xforms = [_define_object_opinions(stage, p, image_name) for p in placements]
+    layer = stage.GetRootLayer()
+    with Sdf.ChangeBlock():
+        for placement, xform in zip(placements, xforms):
+            spec = layer.GetPrimAtPath(xform.GetPath())
+            spec.referenceList.Prepend(Sdf.Reference(asset_refs[placement.obj.class_name]))
+            spec.variantSelections["model"] = placement.variant
+    return xforms
+
+
+def _define_object_opinions(stage: Usd.Stage, placement: Placement, image_name: str) -> UsdGeom.Xform:
+    """One object's own opinions: its Xform, transform ops, class label and provenance."""
     xform = UsdGeom.Xform.Define(stage, f"{OBJECTS_PATH}/{placement.name}")
     prim = xform.GetPrim()
-    prim.GetReferences().AddReference(asset_ref)
-    prim.GetVariantSets().SetSelection("model", placement.variant)
     p = placement.position_world
     xform.AddTranslateOp().Set(Gf.Vec3d(float(p[0]), float(p[1]), float(p[2])))
     xform.AddRotateZOp().Set(float(round(math.degrees(placement.yaw), 6)))
@@ -201,8 +225,7 @@ def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) 
     apply_with_values(world.GetPrim(), SCENE_API, _scene_values(model))
     objects = UsdGeom.Scope.Define(stage, OBJECTS_PATH)
     Usd.ModelAPI(objects.GetPrim()).SetKind(Kind.Tokens.group)
-    for placement in model.placements:
-        define_object(stage, placement, asset_refs[placement.obj.class_name], model.image_name)
+    define_objects(stage, model.placements, asset_refs, model.image_name)
     if model.surfaces:
         ground = UsdGeom.Xform.Define(stage, GROUND_PATH)
         ground.GetPrim().GetReferences().AddReference(f"./{Path(GROUND_LAYER).name}")

@@ -106,14 +106,30 @@ def resolve_collisions(centers: np.ndarray, half: np.ndarray, priority: np.ndarr
             placed.append(int(i))
             continue
         near = np.all(np.abs(pc - c0) < ph + h + 50.0, axis=1)
-        cand = _candidates(c0, h, pc[near], ph[near])
-        ok = _clear(cand, h, pc, ph)
-        if not ok.any():  # pushed out past the neighbourhood: consider every box's edges
-            cand = _candidates(c0, h, pc, ph)
-            ok = _clear(cand, h, pc, ph)
-        cand = cand[ok]
-        dist = np.linalg.norm(cand - c0, axis=1)
-        best = np.lexsort((cand[:, 1], cand[:, 0], dist))[0]
-        out[i] = cand[best]
+        best = _nearest_clear(c0, _candidates(c0, h, pc[near], ph[near]), h, pc, ph)
+        if best is None:  # pushed out past the neighbourhood: consider every box's edges
+            best = _nearest_clear(c0, _candidates(c0, h, pc, ph), h, pc, ph)
+        out[i] = best
         placed.append(int(i))
     return CollisionResult(out - centers, out)
+
+
+#: Candidates are checked in batches of this many, nearest first.
+_BATCH = 64
+
+
+def _nearest_clear(
+    c0: np.ndarray, cand: np.ndarray, h: np.ndarray, pc: np.ndarray, ph: np.ndarray
+) -> np.ndarray | None:
+    """The candidate nearest ``c0`` (ties by x, then y) that overlaps no placed box, or None.
+
+    Candidates are checked nearest first, a batch at a time, so that a free spot close
+    by is found without checking the far ones.
+    """
+    order = np.lexsort((cand[:, 1], cand[:, 0], np.linalg.norm(cand - c0, axis=1)))
+    for start in range(0, len(order), _BATCH):
+        batch = cand[order[start : start + _BATCH]]
+        ok = np.nonzero(_clear(batch, h, pc, ph))[0]
+        if len(ok):
+            return batch[ok[0]]
+    return None

@@ -416,7 +416,7 @@ def _line_pixel(obj: ImageObject, width: int) -> np.ndarray:
     return np.array([u, v])
 
 
-def _onto_street_line(  # noqa: PLR0913
+def _onto_street_line(
     obj: ImageObject,
     name: str,
     draft: dict | None,
@@ -439,9 +439,9 @@ def _onto_street_line(  # noqa: PLR0913
     if hit is None:
         return None
     line, front = hit
-    if draft is not None and np.isfinite(draft["upper_m"]):
-        if front > draft["upper_m"] * (1.0 + LINE_BOUND_SLACK) + LINE_BOUND_SLACK_M:
-            return None
+    upper = draft["upper_m"] if draft is not None else float("inf")
+    if front > upper * (1.0 + LINE_BOUND_SLACK) + LINE_BOUND_SLACK_M:
+        return None
     occ = _occluder(by_ref, obj)
     if occ is not None and front < occ["depth_m"] - occ["back_m"] - LINE_BOUND_SLACK_M:
         return None

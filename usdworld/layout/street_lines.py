@@ -71,7 +71,9 @@ class StreetLine:
         if self.side not in (-1, 1):
             raise ValueError(f"StreetLine.side must be +1 or -1, got {self.side}")
         if not np.isfinite(self.offset_m) or self.support < 0 or not self.spread_m >= 0:
-            raise ValueError(f"StreetLine: bad offset {self.offset_m}, support {self.support} or spread {self.spread_m}")
+            raise ValueError(
+                f"StreetLine: bad offset {self.offset_m}, support {self.support} or spread {self.spread_m}"
+            )
 
     @property
     def source(self) -> str:
@@ -160,7 +162,9 @@ def sidewalk_lines(
     return lines
 
 
-def depth_on_line(camera: PinholeCamera, pixel: tuple[float, float], line: StreetLine, axis: RoadAxis) -> float | None:
+def depth_on_line(
+    camera: PinholeCamera, pixel: tuple[float, float], line: StreetLine, axis: RoadAxis
+) -> float | None:
     """Optical depth at which a pixel's viewing ray stands above a street line.
 
     The ray's foot on the ground (the point straight below each of its points) runs
@@ -188,7 +192,13 @@ def depth_on_line(camera: PinholeCamera, pixel: tuple[float, float], line: Stree
     return float(t) if t > 0 else None
 
 
-def line_for(lines: Sequence[StreetLine], class_name: str, camera: PinholeCamera, pixel: tuple[float, float], axis: RoadAxis) -> tuple[StreetLine, float] | None:
+def line_for(
+    lines: Sequence[StreetLine],
+    class_name: str,
+    camera: PinholeCamera,
+    pixel: tuple[float, float],
+    axis: RoadAxis,
+) -> tuple[StreetLine, float] | None:
     """The row of ``class_name`` that the pixel's ray meets first ahead, with the depth there."""
     best = None
     for line in lines:

@@ -20,6 +20,8 @@ Everything here is in pixels.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 from scipy.signal import find_peaks
 
@@ -45,7 +47,7 @@ def _cut_at(profile: np.ndarray, peaks: np.ndarray, lowest: bool) -> list[int]:
     """Between each pair of neighbouring peaks, the middle column of the profile's extreme
     (its lowest value when ``lowest``, else its highest)."""
     cuts = []
-    for a, b in zip(peaks[:-1], peaks[1:]):
+    for a, b in itertools.pairwise(peaks):
         valley = profile[a : b + 1]
         target = valley.min() if lowest else valley.max()
         at = np.nonzero(valley == target)[0]

@@ -20,6 +20,7 @@ the centre too.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -409,9 +410,10 @@ def _street_lines(drafts: list[dict], camera: PinholeCamera, axis: RoadAxis) -> 
 
 def _line_pixel(obj: ImageObject, width: int) -> np.ndarray:
     """Pixel whose ray finds an object on its row: a trunk or post stands below the middle
-    of its crown or sign when its own foot is hidden (unless the image's side cuts it)."""
+    of its crown or sign when its own foot is hidden (unless the image's side cuts it); a
+    facade keeps its contact pixel."""
     u, v = (float(x) for x in obj.contact_px)
-    if obj.class_name != "building" and obj.box_px[0] > 0 and obj.box_px[2] < width:
+    if prior_for(obj.class_name).yaw != "face_road" and obj.box_px[0] > 0 and obj.box_px[2] < width:
         u = 0.5 * float(obj.box_px[0] + obj.box_px[2])
     return np.array([u, v])
 
@@ -424,7 +426,7 @@ def _onto_street_line(
     lines: list[StreetLine],
     camera: PinholeCamera,
     axis: RoadAxis,
-    draft_of,
+    draft_of: Callable[[ImageObject, str, tuple[float, str]], dict | None],
 ) -> dict | None:
     """The draft of an object whose contact is hidden or cut, placed on its class's row.
 

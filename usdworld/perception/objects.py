@@ -18,8 +18,9 @@ from usdworld.perception.crowns import crown_ranges
 from usdworld.perception.facades import StreetView, facade_ranges, fill_through_occluders
 
 #: Stuff classes split into chunks of this width/height aspect (metres of the class
-#: prior); classes not listed are never split (trees are cut by crown, below). With the photo's perspective known, facades
-#: are cut by :func:`usdworld.perception.facades.facade_ranges` instead.
+#: prior); classes not listed are never split (trees are cut by crown, below). With the
+#: photo's perspective known, facades are cut by
+#: :func:`usdworld.perception.facades.facade_ranges` instead.
 SPLIT_ASPECT: dict[str, float] = {"building": 1.0, "fence": 2.5}
 #: Stuff cut into one object per crown top (:func:`usdworld.perception.crowns.crown_ranges`).
 CROWN_CLASSES = frozenset({"tree"})

@@ -34,7 +34,9 @@ FORWARD = RoadAxis(0.0, np.zeros(2), "camera_forward")
 def test_lateral_offsets_are_signed_distances_from_a_turned_axis():
     axis = RoadAxis(math.pi / 4, np.array([1.0, 1.0]), "vanishing_point")
     pts = np.array([[1.0, 1.0], [5.0, 5.0], [1.0, 3.0], [3.0, 1.0]])
-    np.testing.assert_allclose(lateral_offsets(pts, axis), [0.0, 0.0, math.sqrt(2), -math.sqrt(2)], atol=1e-12)
+    np.testing.assert_allclose(
+        lateral_offsets(pts, axis), [0.0, 0.0, math.sqrt(2), -math.sqrt(2)], atol=1e-12
+    )
 
 
 def test_one_line_per_class_and_side_at_the_median_offset():
@@ -123,11 +125,13 @@ def _box_at(x: float, y: float, half_w: float, height: float) -> tuple[int, int,
     return round(float(u0)), round(float(v_top)), round(float(u1)), round(float(v_base))
 
 
-def _place(objects: list[ImageObject]) -> tuple[dict, list[str]]:
+def _place(objects: list[ImageObject], sidewalk: np.ndarray | None = None) -> tuple[dict, list[str]]:
     """Placements by object ref, and the names not placed, seen by the level camera."""
     sizes = _asset_sizes(objects, library_dirs(None))
     ground_from_px = np.linalg.inv(LEVEL.px_from_ground())
-    placements, skipped = place_objects(objects, LEVEL, ground_from_px, FORWARD, sizes)
+    placements, skipped = place_objects(
+        objects, LEVEL, ground_from_px, FORWARD, sizes, sidewalk_ground=sidewalk
+    )
     return {p.obj.ref: p for p in placements}, skipped
 
 
@@ -188,13 +192,8 @@ def test_a_tree_with_no_row_of_its_own_stands_behind_the_kerb_at_its_measured_he
     car = _obj(car_box, 9, class_name="car")
     x0, y0, x1, _ = _box_at(25.0, 7.0, 1.5, 6.0)
     hidden = _obj((x0, y0, x1, car_box[1]), 4, hidden=True, by=9)
-    objects = [car, hidden]
-    sizes = _asset_sizes(objects, library_dirs(None))
-    ground_from_px = np.linalg.inv(LEVEL.px_from_ground())
-    placements, _ = place_objects(
-        objects, LEVEL, ground_from_px, FORWARD, sizes, sidewalk_ground=_sidewalk(6.0, 9.0, 1)
-    )
-    tree = {p.obj.ref: p for p in placements}[4]
+    placed, _ = _place([car, hidden], sidewalk=_sidewalk(6.0, 9.0, 1))
+    tree = placed[4]
     assert tree.depth_method == "street_line"
     assert abs(tree.position_world[1] - 7.0) < 0.3 and abs(tree.position_world[0] - 25.0) < 1.0
     assert "row from the sidewalk" in {c.name: c for c in tree.cues}["street_line"].note

@@ -245,3 +245,21 @@ def test_a_tree_whose_top_hides_behind_a_nearer_crown_is_found_by_its_trunk():
     np.testing.assert_allclose(sorted(t.contact_px[1] for t in trees), [134.5, 149.5])
     assert trees[0].box_px[2] == trees[1].box_px[0]
     assert all(not t.bottom_occluded for t in trees)
+
+
+def test_two_crowns_over_a_parked_car_are_two_trees():
+    # Two crowns run together (columns 100-219), their tops cut by the image's top: one
+    # summit. Their trunks (128-131 and 188-191) show only down to a parked car's roof.
+    labels = np.full((200, 400), BUILDING, dtype=np.uint8)
+    labels[115:, :] = SIDEWALK
+    labels[0:100, 100:220] = VEGETATION
+    for t in (128, 188):
+        labels[100:115, t : t + 4] = VEGETATION
+    labels[115:170, 90:230] = CAR
+    inst = labels.astype(np.int32)
+    inst[115:170, 90:230] = 26000
+    trees = [o for o in objects_from_segmentation(Segmentation(labels, inst, (FILE,))) if o.class_name == "tree"]
+    assert len(trees) == 2
+    assert 132 <= trees[0].box_px[2] == trees[1].box_px[0] <= 188
+    assert all(t.bottom_occluded for t in trees)
+    np.testing.assert_allclose([t.contact_px[0] for t in trees], [130.0, 190.0])

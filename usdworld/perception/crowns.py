@@ -12,8 +12,9 @@ A tree further down the row may hide its top behind a nearer crown and still sho
 trunk: the region's lower outline then reaches down to the ground once per trunk (a
 foot). When there are more feet than summits, the region is cut between neighbouring
 feet where the lower outline is highest, where two crowns meet above the ground. A
-foot counts when it stands on the ground and reaches down below its neighbourhood by
-:data:`MIN_FOOT_FRACTION` of the tree's height there.
+foot counts when it stands on the ground, or on a thing that hides the trunk below it
+(behind a parked car a crown's lowest point is right above its trunk), and reaches down
+below its neighbourhood by :data:`MIN_FOOT_FRACTION` of the tree's height there.
 
 Everything here is in pixels.
 """
@@ -60,8 +61,9 @@ def crown_ranges(mask: np.ndarray, on_ground: np.ndarray | None = None) -> list[
 
     Args:
         mask: (h, w) bool crop of the vegetation region.
-        on_ground: (w,) bool, the pixel below each column's lowest pixel is ground; feet
-            are looked for only there (default: no feet, summits alone).
+        on_ground: (w,) bool, the pixel below each column's lowest pixel is ground or a
+            thing standing on it; feet are looked for only there (default: no feet,
+            summits alone).
 
     Returns:
         Ranges covering every column of the crop, left to right (one range when the

@@ -235,13 +235,18 @@ def _split_columns(mask: np.ndarray, aspect: float) -> list[tuple[int, int]]:
     return ranges
 
 
-def _ground_below(crop: np.ndarray, x0: int, y0: int, labels: np.ndarray) -> np.ndarray:
-    """(w,) bool: the pixel below each column's lowest pixel of the crop is a ground class."""
+def _ground_below(
+    crop: np.ndarray, x0: int, y0: int, labels: np.ndarray, or_things: bool = False
+) -> np.ndarray:
+    """(w,) bool: the pixel below each column's lowest pixel of the crop is a ground class
+    (or, with ``or_things``, a thing that may hide the ground there)."""
     cols, bottoms = _column_bottoms(crop)
     rows = y0 + bottoms + 1
     inside = rows < labels.shape[0]
+    lookups = label_lookups()
+    below = labels[rows[inside], x0 + cols[inside]]
     out = np.zeros(crop.shape[1], dtype=bool)
-    out[cols[inside]] = label_lookups().is_ground[labels[rows[inside], x0 + cols[inside]]]
+    out[cols[inside]] = lookups.is_ground[below] | (or_things & lookups.is_thing[below])
     return out
 
 
@@ -353,7 +358,7 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
                     crop, x, y, _ground_below(crop, x, y, labels), view, min_area, roof_mask=region
                 )
             if ranges is None and class_name in CROWN_CLASSES:
-                ranges = crown_ranges(crop, _ground_below(crop, x, y, labels))
+                ranges = crown_ranges(crop, _ground_below(crop, x, y, labels, or_things=True))
             if ranges is None:
                 ranges = _split_columns(crop, SPLIT_ASPECT[class_name]) if class_name in SPLIT_ASPECT else [(0, w)]
             for c0, c1 in ranges:

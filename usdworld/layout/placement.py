@@ -33,7 +33,12 @@ from usdworld.layout.boxes import align_box_columns, box_aspect_usable, fit_view
 from usdworld.layout.collision import footprint_half_extents, resolve_collisions
 from usdworld.layout.ordering import apply_ordering_rules
 from usdworld.layout.priors import ClassPrior, prior_for
-from usdworld.layout.silhouette import depth_from_silhouette, depth_from_top_row, top_offsets
+from usdworld.layout.silhouette import (
+    depth_from_silhouette,
+    depth_from_top_row,
+    height_from_top_row,
+    top_offsets,
+)
 from usdworld.layout.street_lines import LINE_CLASSES, StreetLine, fit_street_lines, line_for, sidewalk_lines
 from usdworld.layout.yaw import RoadAxis, choose_yaw, yaw_from_view_angle
 from usdworld.perception.depth.fusion import HEIGHT_MEAN_REL_SIGMA, DepthCue, fuse, object_depth_cues
@@ -455,7 +460,11 @@ def _onto_street_line(
     lateral = abs(float(line.offset_m)) + 1.0
     sigma = max(line.spread_m, 0.25) * max(front / lateral, 1.0)
     side = "left" if line.side > 0 else "right"
-    what = f"row of {line.support} {obj.class_name}s" if line.support else f"{obj.class_name} row from the sidewalk"
+    what = (
+        f"row of {line.support} {obj.class_name}s"
+        if line.source == "objects"
+        else f"{obj.class_name} row from the sidewalk"
+    )
     cue = DepthCue(
         "street_line",
         front + moved["back_m"],
@@ -595,7 +604,8 @@ def _draft(  # noqa: PLR0913
     if method == "street_line" and not obj.top_truncated:
         # Its row gives the depth of an object whose bottom is hidden: its top row there
         # gives its height above the ground.
-        measured_h = _height_of_top(camera, obj, front)
+        x0, y0, x1, _ = (float(b) for b in obj.box_px)
+        measured_h = height_from_top_row(camera, 0.5 * (x0 + x1), y0 if obj.box_only else y0 - 0.5, front)
     sides_cut = obj.box_px[0] <= 0 or obj.box_px[2] >= camera.width
     # The silhouette's aspect tells stuff variants apart (a conifer from a broad tree); for
     # vehicles and people perspective dominates it, so only their height counts.
@@ -669,15 +679,6 @@ def _draft(  # noqa: PLR0913
         # The visible bottom's ground point bounds a hidden or cut bottom's depth from above.
         "upper_m": front if method == "contact_partial" else float("inf"),
     }
-
-
-def _height_of_top(camera: PinholeCamera, obj: ImageObject, depth: float) -> float:
-    """Height above the ground of an object's top row at ``depth`` (NaN when not above it)."""
-    x0, y0, x1, _ = (float(b) for b in obj.box_px)
-    v_top = y0 if obj.box_only else y0 - 0.5
-    ray = camera.rays_world(np.array([[0.5 * (x0 + x1), v_top]]))[0]
-    z = float(camera.center_world[2] + ray[2] * depth)
-    return z if z > 0 else float("nan")
 
 
 def _object_yaw(

@@ -191,3 +191,23 @@ def depth_from_top_row(
     d = float(grid[k] + t * (grid[k + 1] - grid[k]))
     sigma = d * float(np.hypot(height_std_m / clearance, d / (camera.fy * clearance)))
     return d, sigma
+
+
+def height_from_top_row(camera: PinholeCamera, u: float, v_top: float, depth_m: float) -> float:
+    """Height above the ground of an object's top seen at row ``v_top``, when its depth is known.
+
+    The inverse of :func:`depth_from_top_row`: the point of the top row's ray at that
+    depth along the optical axis stands this high.
+
+    Args:
+        camera: the source camera.
+        u: column of the object's top, pixels.
+        v_top: row of the object's top, pixels.
+        depth_m: the object's depth along the optical axis, metres.
+
+    Returns:
+        Metres above the ground; NaN when the ray is at or below the ground there.
+    """
+    ray = camera.rays_world(np.array([[u, v_top]], dtype=np.float64))[0]
+    z = float(camera.center_world[2] + ray[2] * depth_m)
+    return z if z > 0 else float("nan")

@@ -98,4 +98,4 @@ def crown_ranges(mask: np.ndarray, on_ground: np.ndarray | None = None) -> list[
         if len(feet) > max(len(summits), 1):
             cuts = _cut_at(bottom, feet, lowest=False)
     bounds = [0, *cuts, w]
-    return [(bounds[i], bounds[i + 1]) for i in range(len(bounds) - 1) if bounds[i + 1] > bounds[i]]
+    return [(a, b) for a, b in itertools.pairwise(bounds) if b > a]

@@ -15,7 +15,13 @@ from usdworld.io.types import Segmentation
 from usdworld.layout.placement import CURB_HEIGHT_M, place_objects
 from usdworld.layout.yaw import RoadAxis, choose_yaw
 from usdworld.perception.classes import label_lookups
-from usdworld.perception.facades import FRONTAGE_M, StreetView, base_frontage_m, facade_ranges
+from usdworld.perception.facades import (
+    FRONTAGE_M,
+    ROOFLINE_FRONTAGE_M,
+    StreetView,
+    base_frontage_m,
+    facade_ranges,
+)
 from usdworld.perception.objects import objects_from_segmentation
 from usdworld.pipeline import _asset_sizes
 
@@ -23,6 +29,9 @@ W, H = 1024, 512
 K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
 CAM = PinholeCamera(W, H, K, 1.5)
 VIEW = StreetView(horizon_v=256.0, focal_px=800.0, principal_u=512.0, camera_height_m=1.5)
+#: The camera as the pipeline describes it: its height above the sidewalk the facades
+#: stand on, and the street's vanishing point (straight ahead).
+VIEW_VP = StreetView(256.0, 800.0, 512.0, 1.5 - CURB_HEIGHT_M, vanishing_u=512.0)
 LEFT_Y = 8.0  # the left building line, metres left of the camera
 
 
@@ -48,14 +57,20 @@ def _facade_labels(walls: list[tuple[float, float, float]]) -> np.ndarray:
     return labels
 
 
-def _ranges(labels: np.ndarray) -> list[tuple[int, int]]:
+def _ranges(
+    labels: np.ndarray, view: StreetView = VIEW, on_ground: int | None = None
+) -> list[tuple[int, int]]:
+    """Column ranges of the building pieces; ``on_ground``: only that many of the nearest
+    (leftmost) columns stand on the ground, the rest hidden (by parked cars)."""
     mask = labels == label_lookups().id_of("building")
     cols = np.nonzero(mask.any(axis=0))[0]
     rows = np.nonzero(mask.any(axis=1))[0]
     x0, y0 = int(cols[0]), int(rows[0])
     crop = mask[y0 : rows[-1] + 1, x0 : cols[-1] + 1]
     below = np.ones(crop.shape[1], dtype=bool)
-    out = facade_ranges(crop, x0, y0, below, VIEW, min_area_px=50)
+    if on_ground is not None:
+        below[on_ground:] = False
+    out = facade_ranges(crop, x0, y0, below, view, min_area_px=50, image_width=W)
     assert out is not None
     return [(a + x0, b + x0) for a, b in out]
 
@@ -73,13 +88,52 @@ def test_base_frontage_sums_to_the_wall_length():
 
 
 def test_a_long_wall_of_one_height_is_cut_into_equal_frontages():
-    ranges = _ranges(_facade_labels([(14.0, 14.0 + 3 * FRONTAGE_M, 14.0)]))
+    ranges = _ranges(_facade_labels([(20.0, 20.0 + 3 * ROOFLINE_FRONTAGE_M, 7.0)]))
     assert len(ranges) == 3
-    # each piece is about FRONTAGE_M long on the ground, though the far one is far narrower in pixels
+    # each piece is about ROOFLINE_FRONTAGE_M long on the ground, though the far one is far
+    # narrower in pixels
     lengths = [_ahead_of_column(b) - _ahead_of_column(a) for a, b in ranges]
-    assert lengths == pytest.approx([FRONTAGE_M] * 3, rel=0.08)
+    assert lengths == pytest.approx([ROOFLINE_FRONTAGE_M] * 3, rel=0.08)
     widths = [b - a for a, b in ranges]
     assert widths[0] > 3 * widths[2]
+
+
+def test_a_wall_cut_by_the_top_is_cut_into_town_houses():
+    # 60 m tall: its roofline is above the image, so nothing shows where one house ends
+    ranges = _ranges(_facade_labels([(20.0, 20.0 + 3 * FRONTAGE_M, 60.0)]))
+    lengths = [_ahead_of_column(b) - _ahead_of_column(a) for a, b in ranges]
+    assert lengths == pytest.approx([FRONTAGE_M] * 3, rel=0.08)
+
+
+def test_a_wall_running_out_of_the_image_is_cut_from_its_seen_end():
+    # The left image edge meets the building line 12.5 m ahead; the wall runs from 5 m
+    # (out of view) to 45 m: its seen end at 45 m is a building's end.
+    edge = _ahead_of_column(0.0)
+    ranges = _ranges(_facade_labels([(5.0, 45.0, 60.0)]), VIEW_VP)
+    ends = [_ahead_of_column(b) for _, b in ranges]
+    assert ends[-1] == pytest.approx(45.0, abs=0.5)
+    assert ends[-2] == pytest.approx(45.0 - FRONTAGE_M, abs=0.6)
+    assert ends[-3] == pytest.approx(45.0 - 2 * FRONTAGE_M, abs=0.6)
+    # what is left at the edge is the seen part of one more building
+    assert ranges[0][0] == 0 and ends[0] - edge == pytest.approx(45.0 - 2 * FRONTAGE_M - edge, abs=0.6)
+
+
+def test_with_the_vanishing_point_one_column_on_the_ground_measures_the_wall():
+    # A wall from 20 to 68 m whose base shows in its nearest 3 columns only: through the
+    # vanishing point, its base line is known all the way down the street.
+    labels = _facade_labels([(20.0, 20.0 + 3 * ROOFLINE_FRONTAGE_M, 7.0)])
+    ranges = _ranges(labels, VIEW_VP, on_ground=3)
+    lengths = [_ahead_of_column(b) - _ahead_of_column(a) for a, b in ranges]
+    assert lengths == pytest.approx([ROOFLINE_FRONTAGE_M] * 3, rel=0.08)
+    # a single column is enough with it, and not enough without it
+    assert len(_ranges(labels, VIEW_VP, on_ground=1)) == 3
+    mask = labels == label_lookups().id_of("building")
+    cols = np.nonzero(mask.any(axis=0))[0]
+    rows = np.nonzero(mask.any(axis=1))[0]
+    crop = mask[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+    below = np.zeros(crop.shape[1], dtype=bool)
+    below[0] = True
+    assert facade_ranges(crop, int(cols[0]), int(rows[0]), below, VIEW, 50) is None
 
 
 def test_a_roofline_step_starts_a_new_building():
@@ -148,8 +202,10 @@ def test_the_street_view_comes_from_the_vanishing_point_or_a_given_pitch():
     image = SourceImage(np.zeros((H, W, 3), dtype=np.uint8), InputFile("image", "x.png", "0" * 64))
     spec = CameraSpec(K, 1.2, np.radians(2.0), 0.0, 0.0, "cityscapes", file)
     seen = _street_view(spec, image, VanishingPoint(500.0, 240.0, 1.0, 30, 40))
-    assert (seen.horizon_v, seen.focal_px, seen.camera_height_m) == (240.0, 800.0, 1.2)
+    assert (seen.horizon_v, seen.focal_px, seen.vanishing_u) == (240.0, 800.0, 500.0)
+    assert seen.camera_height_m == pytest.approx(1.2 - CURB_HEIGHT_M)  # above the sidewalk
     # no vanishing point: the given pitch (2 deg down) puts the horizon 800 tan(2 deg) above row 256
     pitched = _street_view(spec, image, None)
+    assert pitched.vanishing_u is None
     assert pitched.horizon_v == pytest.approx(256.0 - 800.0 * np.tan(np.radians(2.0)), abs=0.01)
     assert _street_view(None, image, None) is None

@@ -151,7 +151,8 @@ def _street_view(
     street's vanishing point, else from a given camera pitch (None otherwise).
 
     The camera is not estimated yet: a missing focal length is the default field of view's
-    and a missing height the typical one (facade pieces scale with it).
+    and a missing height the typical one (facade pieces scale with it). Facades stand on the
+    sidewalk: the height is the camera's above it.
     """
     if spec is not None and spec.K is not None:
         K = spec.K
@@ -164,7 +165,8 @@ def _street_view(
         horizon = PinholeCamera(image.width, image.height, K, height, spec.pitch, spec.roll or 0.0).horizon_v()
     else:
         return None
-    return StreetView(float(horizon), float(K[0, 0]), float(K[0, 2]), float(height))
+    vanishing_u = float(vanishing.u) if vanishing is not None else None
+    return StreetView(float(horizon), float(K[0, 0]), float(K[0, 2]), float(height) - CURB_HEIGHT_M, vanishing_u)
 
 
 def _objects(

@@ -42,6 +42,7 @@ from usdworld.layout.silhouette import (
 from usdworld.layout.street_lines import LINE_CLASSES, StreetLine, fit_street_lines, line_for, sidewalk_lines
 from usdworld.layout.yaw import RoadAxis, choose_yaw, yaw_from_view_angle
 from usdworld.perception.depth.fusion import HEIGHT_MEAN_REL_SIGMA, DepthCue, fuse, object_depth_cues
+from usdworld.perception.facades import FRONTAGE_M
 from usdworld.perception.objects import TRUNK_CLASSES, ImageObject
 from usdworld.perception.shape import top_shape_ratio
 
@@ -153,26 +154,58 @@ def _forward_half_extent(size_lw: np.ndarray, yaw: float, direction: float) -> f
     return float(0.5 * (size_lw[0] * abs(np.cos(rel)) + size_lw[1] * abs(np.sin(rel))))
 
 
-def _facade_frontage(camera: PinholeCamera, obj: ImageObject, front_ground: np.ndarray, yaw: float) -> float:
-    """Metres of facade between an object's first and last columns (NaN when not measurable).
+def _wall_positions(
+    camera: PinholeCamera, v: float, front_ground: np.ndarray, yaw: float, columns: tuple[float, ...]
+) -> list[float] | None:
+    """Where image columns meet a facade, metres along it from ``front_ground`` (None when
+    a column's trace runs parallel to it).
 
     The facade is the vertical wall through ``front_ground`` whose front faces ``yaw``; each
-    image column sees the ground along a line (its vertical plane's trace), and the wall
-    spans the two columns' traces.
+    image column sees the ground along a line (its vertical plane's trace, taken at row ``v``),
+    which crosses the wall's foot at one point.
     """
     along = np.array([-np.sin(yaw), np.cos(yaw)])
-    v = float(obj.contact_px[1])
-    ends = []
-    for u in (float(obj.box_px[0]), float(obj.box_px[2])):
+    out = []
+    for u in columns:
         trace, _ = camera.ground_points(np.array([[u, v], [u, v + 20.0]]))
         d = trace[1] - trace[0]
         # front_ground + t * along = trace[0] + r * d
         m = np.column_stack([along, -d])
         if not np.all(np.isfinite(m)) or abs(np.linalg.det(m)) < 1e-9:
-            return float("nan")
+            return None
         t, _ = np.linalg.solve(m, trace[0] - front_ground)
-        ends.append(t)
-    return float(abs(ends[1] - ends[0]))
+        out.append(float(t))
+    return out
+
+
+def _facade_frontage(camera: PinholeCamera, obj: ImageObject, front_ground: np.ndarray, yaw: float) -> float:
+    """Metres of facade between an object's first and last columns (NaN when not measurable)."""
+    ends = _wall_positions(camera, float(obj.contact_px[1]), front_ground, yaw, (obj.box_px[0], obj.box_px[2]))
+    return float("nan") if ends is None else abs(ends[1] - ends[0])
+
+
+def _past_the_side(
+    camera: PinholeCamera, obj: ImageObject, front_ground: np.ndarray, yaw: float, frontage: float
+) -> float:
+    """How far along its wall (metres) a facade cut by one side of the image moves so that
+    its seen end stays put and the rest of its frontage runs on out of view (0 when
+    neither or both sides are cut, or when what is seen is longer than ``frontage``).
+
+    The seen part of such a facade is its far end: the building goes on beyond the edge,
+    by as much as a building of its size needs.
+    """
+    x0, x1 = float(obj.box_px[0]), float(obj.box_px[2])
+    cut_left, cut_right = x0 <= 0, x1 >= camera.width
+    if cut_left == cut_right:
+        return 0.0
+    ends = _wall_positions(camera, float(obj.contact_px[1]), front_ground, yaw, (x0, x1))
+    if ends is None:
+        return 0.0
+    seen_end, cut_end = (ends[1], ends[0]) if cut_left else (ends[0], ends[1])
+    seen = abs(cut_end - seen_end)
+    if seen >= frontage:
+        return 0.0
+    return float(seen_end + np.sign(cut_end - seen_end) * 0.5 * frontage)
 
 
 def _depth_of_ground_point(camera: PinholeCamera, p_ground: np.ndarray) -> float:
@@ -623,6 +656,9 @@ def _draft(  # noqa: PLR0913
         # A facade cut by the image's top: its frontage in view sizes it, never below the
         # height in view (a lower bound on its height).
         frontage = _facade_frontage(camera, obj, front_ground, yaw)
+        if (obj.box_px[0] <= 0) != (obj.box_px[2] >= camera.width):
+            # It goes on out of the image at one side: a building of a typical frontage at least.
+            frontage = max(frontage, FRONTAGE_M)
         if np.isfinite(frontage):
             seen_h = float(obj.height_px * front / camera.fy) / base[2] if obj.height_px > 0 else 0.0
             scale_measured = max(frontage / base[1], seen_h)
@@ -645,7 +681,12 @@ def _draft(  # noqa: PLR0913
     if prior.yaw == "face_road":
         # A facade's contact lies on its front wall, which faces the road: the centre is
         # half the depth behind it, away from the road (not further along the ray).
-        ground = front_ground - 0.5 * size[0] * np.array([np.cos(yaw), np.sin(yaw)])
+        along = _past_the_side(camera, obj, front_ground, yaw, float(size[1])) if bottom_seen else 0.0
+        ground = (
+            front_ground
+            + along * np.array([-np.sin(yaw), np.cos(yaw)])
+            - 0.5 * size[0] * np.array([np.cos(yaw), np.sin(yaw)])
+        )
         depth = _depth_of_ground_point(camera, ground)
         back = depth - front
     else:

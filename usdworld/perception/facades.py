@@ -2,7 +2,9 @@
 
 Cityscapes labels give buildings no instances: a street's facades arrive as one region.
 It is cut where the roofline steps (neighbouring buildings rarely share a height) and
-then into pieces of about :data:`FRONTAGE_M` of frontage each.
+then into pieces of about :data:`ROOFLINE_FRONTAGE_M` of frontage each where the roofline
+is seen, :data:`FRONTAGE_M` where the image's top cuts it off (near the camera, where
+nothing tells one building from the next).
 
 Frontage is foreshortened: a facade running along the street towards its vanishing point
 is squeezed more the nearer it gets to that point, so a fixed pixel width would hold one
@@ -11,9 +13,11 @@ much ground each column spans: a ground point seen at row ``v`` below the horizo
 ``v_h`` lies ``Z = f * h_cam / (v - v_h)`` ahead and ``X = (u - c_x) * Z / f`` aside (a
 level camera of height ``h_cam``; a pitch of a few degrees changes this little), and the
 frontage is the length of the base line on the ground. Where parked cars or people hide
-the base, it is interpolated between the columns that stand on the ground (a wall's base
-is a straight line in the image). A facade's height does not enter, so a facade cut by
-the top of the image is measured as well as one seen whole.
+the base, it is taken from the columns that stand on the ground: a wall's base is a
+straight line in the image and, for a wall along the street, one through the street's
+vanishing point, so one column on the ground measures the whole wall down to the
+horizon. A facade's height does not enter, so a facade cut by the top of the image is
+measured as well as one seen whole.
 
 Everything here is in pixels plus the camera height; :class:`StreetView` carries what the
 photo's perspective needs (no camera pose).
@@ -26,9 +30,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: A piece holds about this much frontage, metres (a town house; long facades of one
-#: height are cut into equal pieces about this long).
+#: A facade whose roofline is out of view is cut into pieces of about this much frontage,
+#: metres (a town house).
 FRONTAGE_M = 12.0
+#: A run of one roofline (its top in view) is cut into pieces of about this frontage:
+#: where buildings' heights differ the roofline has cut them already, so what is left is
+#: one long building or a few of one height.
+ROOFLINE_FRONTAGE_M = 16.0
 #: The roofline steps between neighbouring columns by more than this fraction of the
 #: lower column's height (and at least :data:`ROOF_STEP_MIN_PX`): a new building.
 ROOF_STEP_FRACTION = 0.12
@@ -48,13 +56,18 @@ class StreetView:
             camera pitch puts it; roll taken as level).
         focal_px: focal length, pixels.
         principal_u: column of the principal point.
-        camera_height_m: the camera's height above the ground (given, or a typical one).
+        camera_height_m: the camera's height above the ground the facades stand on (given,
+            or a typical one).
+        vanishing_u: column of the street's vanishing point (on the horizon), when the
+            photo's lines give one: walls along the street have their base lines through
+            it. None: each base line is fitted freely.
     """
 
     horizon_v: float
     focal_px: float
     principal_u: float
     camera_height_m: float
+    vanishing_u: float | None = None
 
 
 def fill_through_occluders(mask: np.ndarray, occluders: np.ndarray) -> np.ndarray:
@@ -105,8 +118,19 @@ def _roofline_cuts(tops: np.ndarray, heights: np.ndarray) -> list[int]:
     ]
 
 
-def _base_line(u: np.ndarray, v: np.ndarray) -> tuple[float, float] | None:
-    """Least-squares line ``v = slope * u + intercept`` through base points spanning >= 3 columns."""
+def _base_line(u: np.ndarray, v: np.ndarray, view: StreetView) -> tuple[float, float] | None:
+    """Least-squares line ``v = slope * u + intercept`` through base points.
+
+    With the street's vanishing point known, the line passes through it (a wall along the
+    street) and one base point fixes it; otherwise the points must span >= 3 columns.
+    """
+    if view.vanishing_u is not None:
+        du, dv = u - view.vanishing_u, v - view.horizon_v
+        norm = float(du @ du)
+        if len(u) == 0 or norm == 0.0:
+            return None
+        slope = float(du @ dv) / norm
+        return slope, view.horizon_v - slope * view.vanishing_u
     if len(u) < 2 or np.ptp(u) < 3:
         return None
     slope, intercept = np.polyfit(u, v, 1)
@@ -134,6 +158,32 @@ def base_frontage_m(u: np.ndarray, v_base: np.ndarray, view: StreetView) -> np.n
     return np.concatenate([step, step[-1:]]) if len(step) else np.zeros(len(u))
 
 
+def _cut_lengths(
+    total: float, max_pieces: int, cut_left: bool, cut_right: bool, frontage: float = FRONTAGE_M
+) -> np.ndarray:
+    """Where to cut one building's run of facade: metres of frontage from its left end.
+
+    A run seen whole is cut into equal pieces of about ``frontage``. A run that goes on
+    out of the image at one side is seen from its far end, which is a building's end: it
+    is cut every ``frontage`` from that end, and what is left at the image's edge
+    is the seen part of one more building (no piece shorter than :data:`MIN_PIECE_M`).
+    At most ``max_pieces`` pieces; equal pieces when that is fewer.
+
+    Example:
+        >>> _cut_lengths(30.0, 10, False, False).round(1).tolist()
+        [15.0]
+        >>> _cut_lengths(30.0, 10, True, False).round(1).tolist()
+        [6.0, 18.0]
+    """
+    n = max(1, min(round(total / frontage), max_pieces))
+    if cut_left != cut_right:
+        from_end = frontage * np.arange(1, int(np.ceil(total / frontage)))
+        from_end = from_end[total - from_end >= MIN_PIECE_M]
+        if 0 < len(from_end) < max_pieces:
+            return np.sort(total - from_end) if cut_left else from_end
+    return total * np.arange(1, n) / n
+
+
 def facade_ranges(
     mask: np.ndarray,
     x0: int,
@@ -142,6 +192,7 @@ def facade_ranges(
     view: StreetView,
     min_area_px: float,
     roof_mask: np.ndarray | None = None,
+    image_width: int | None = None,
 ) -> list[tuple[int, int]] | None:
     """Column ranges ``[c0, c1)`` of a facade crop, one per building-sized piece.
 
@@ -153,10 +204,13 @@ def facade_ranges(
         min_area_px: pieces are no smaller than this many pixels on average.
         roof_mask: (h, w) bool crop of the region with what stands in front of it filled
             in (:func:`fill_through_occluders`), whose top is the roofline; default ``mask``.
+        image_width: the image's width; with it, a building running out of the image at
+            one side is cut from its seen end (:func:`_cut_lengths`).
 
     Returns:
         Ranges covering every column of the crop, left to right; None when the base is
-        not measurable (fewer than two columns on the ground below the horizon).
+        not measurable (no column on the ground below the horizon, or fewer than two
+        without the vanishing point).
     """
     cols = np.nonzero(mask.any(axis=0))[0]
     if len(cols) == 0:
@@ -169,16 +223,16 @@ def facade_ranges(
     u = x0 + cols + 0.5
     v_edge = y0 + bottoms + 1.0
     ground = np.asarray(on_ground, dtype=bool)[cols] & (v_edge - view.horizon_v >= MIN_BELOW_HORIZON_PX)
-    if ground.sum() < 2:
+    if ground.sum() < (1 if view.vanishing_u is not None else 2):
         return None
     # Each building's base is a straight line in the image: fitted to its columns on the
     # ground (pixel rows are too coarse to measure depth column by column), or to the
     # whole run's when too few of its own are on the ground (parked cars hide them).
     starts = [0, *_roofline_cuts(tops, heights), len(cols)]
-    run_line = _base_line(u[ground], v_edge[ground])
+    run_line = _base_line(u[ground], v_edge[ground], view)
     v_base = np.empty_like(u)
     for a, b in itertools.pairwise(starts):
-        line = _base_line(u[a:b][ground[a:b]], v_edge[a:b][ground[a:b]]) or run_line
+        line = _base_line(u[a:b][ground[a:b]], v_edge[a:b][ground[a:b]], view) or run_line
         if line is None:
             v_base[a:b] = np.interp(u[a:b], u[ground], v_edge[ground])
         else:
@@ -197,13 +251,18 @@ def facade_ranges(
             buildings.append((a, b))
 
     ranges: list[tuple[int, int]] = []
-    for a, b in buildings:
+    for k, (a, b) in enumerate(buildings):
+        cut_left = k == 0 and x0 + int(cols[a]) <= 0
+        cut_right = (
+            k == len(buildings) - 1 and image_width is not None and x0 + int(cols[b - 1]) + 1 >= image_width
+        )
         w = length[a:b]
-        total = float(w.sum())
-        n = max(1, round(total / FRONTAGE_M))
-        n = max(1, min(n, int(heights[a:b].sum() // max(min_area_px, 1.0))))
-        edges = np.searchsorted(np.cumsum(w), total * np.arange(1, n) / n)
-        bounds = sorted({a, *(a + int(e) + 1 for e in edges), b})
+        max_pieces = max(1, int(heights[a:b].sum() // max(min_area_px, 1.0)))
+        roof_seen = np.mean(y0 + tops[a:b] > 0) > 0.5
+        frontage = ROOFLINE_FRONTAGE_M if roof_seen else FRONTAGE_M
+        edges = _cut_lengths(float(w.sum()), max_pieces, cut_left, cut_right, frontage)
+        cuts = np.searchsorted(np.cumsum(w), edges)
+        bounds = sorted({a, *(a + int(e) + 1 for e in cuts), b})
         ranges.extend((int(cols[s]), int(cols[e - 1]) + 1) for s, e in itertools.pairwise(bounds) if e > s)
     # Cover the crop's columns without gaps (empty columns go to the piece on their left).
     return [

@@ -33,6 +33,9 @@ MIN_STUFF_AREA_FRACTION = 4e-4
 #: The same for thin street furniture, whose whole area is small (a pole 40 m away is a
 #: few pixels wide).
 MIN_THIN_AREA_FRACTION: dict[str, float] = {"pole": 1e-4, "traffic_sign": 1e-4, "traffic_light": 1e-4}
+#: A facade region (itself at least the smallest stuff area) is cut into pieces of at least
+#: this fraction of that area each: far down the street a building is a few columns wide.
+FACADE_PIECE_AREA = 0.25
 #: Smallest thing instance kept, in pixels.
 MIN_THING_AREA_PX = 10
 #: A detection box counts as occluded when a lower box covers this fraction of its bottom edge.
@@ -353,9 +356,18 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
                 continue
             source = str(lookups.names[int(np.bincount(labels[y : y + h, x : x + w][crop]).argmax())])
             ranges = None
+            piece_area = min_area
             if view is not None and class_name in FACADE_CLASSES:
+                piece_area = max(30, int(min_area * FACADE_PIECE_AREA))
                 ranges = facade_ranges(
-                    crop, x, y, _ground_below(crop, x, y, labels), view, min_area, roof_mask=region
+                    crop,
+                    x,
+                    y,
+                    _ground_below(crop, x, y, labels),
+                    view,
+                    piece_area,
+                    roof_mask=region,
+                    image_width=W,
                 )
             if ranges is None and class_name in CROWN_CLASSES:
                 ranges = crown_ranges(crop, _ground_below(crop, x, y, labels, or_things=True))
@@ -364,7 +376,7 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
             for c0, c1 in ranges:
                 sub = crop[:, c0:c1]
                 rows = np.nonzero(sub.any(axis=1))[0]
-                if len(rows) == 0 or sub.sum() < min_area / 2:
+                if len(rows) == 0 or sub.sum() < piece_area / 2:
                     continue
                 sub = sub[rows[0] : rows[-1] + 1]
                 box = np.array([x + c0, y + rows[0], x + c1, y + rows[-1] + 1])

@@ -20,6 +20,7 @@ from usdworld.layout.street_lines import (
     fit_street_lines,
     lateral_offsets,
     line_for,
+    parked_car_lines,
     sidewalk_lines,
 )
 from usdworld.layout.yaw import RoadAxis
@@ -198,3 +199,35 @@ def test_a_tree_with_no_row_of_its_own_stands_behind_the_kerb_at_its_measured_he
     assert abs(tree.position_world[1] - 7.0) < 0.3 and abs(tree.position_world[0] - 25.0) < 1.0
     assert "row from the sidewalk" in {c.name: c for c in tree.cues}["street_line"].note
     assert tree.size_m[2] == pytest.approx(6.0, rel=0.05)  # from its top row at that depth
+
+
+def test_parked_cars_give_the_kerb_where_no_sidewalk_shows():
+    # Right of the road: a car parked 5 m off the axis (1.8 m wide) and one driving at 2 m;
+    # left: a car turned across the road (leaving a driveway), which parks along nothing.
+    ground = np.array([[12.0, -5.0], [20.0, -2.0], [15.0, 4.0]])
+    headings = np.array([math.pi, 0.0, math.pi / 2])
+    measured = [StreetLine("pole", -1, -6.5, 1, 0.1)]
+    lines = {
+        (ln.class_name, ln.side): ln
+        for ln in parked_car_lines(ground, headings, np.full(3, 1.8), FORWARD, measured)
+    }
+    assert set(lines) == {("tree", -1), ("traffic_sign", -1)}  # the poles' own row stands; no building line
+    kerb = 5.0 + 0.9 + 0.3
+    assert lines["tree", -1].offset_m == pytest.approx(-(kerb + KERB_SETBACK_M["tree"]))
+    assert all(ln.source == "parked_cars" and ln.support == 0 for ln in lines.values())
+    assert parked_car_lines(np.zeros((0, 2)), np.zeros(0), np.zeros(0), FORWARD) == []
+
+
+def test_a_tree_behind_parked_cars_with_no_sidewalk_in_view_stands_behind_their_kerb():
+    # A car parked 5 m left at 20 m hides a crown's trunk; no sidewalk or tree row is seen.
+    car_box = _box_at(20.0, 5.0, 2.0, 1.5)
+    car = _obj(car_box, 9, class_name="car")
+    x0, y0, x1, _ = _box_at(28.0, 7.2, 1.5, 6.0)
+    hidden = _obj((x0, y0, x1, car_box[1]), 4, hidden=True, by=9)
+    placed, _ = _place([car, hidden])
+    tree, parked = placed[4], placed[9]
+    assert tree.depth_method == "street_line"
+    assert "the parked cars line" in {c.name: c for c in tree.cues}["street_line"].note
+    # the tree row: the car's kerb side (its centre + half its width) + 0.3 m + 1 m
+    expected = parked.position_world[1] + parked.size_m[1] / 2 + 0.3 + KERB_SETBACK_M["tree"]
+    assert tree.position_world[1] == pytest.approx(expected, abs=0.1)

@@ -193,6 +193,20 @@ def test_a_crown_split_by_a_pole_in_front_is_one_tree():
     assert [o.class_name for o in objects_from_segmentation(seg)].count("tree") == 1
 
 
+def test_two_crowns_with_a_facade_between_them_are_two_trees():
+    # Two crowns of one height (rows 60-110, their trunks hidden) in front of a facade that
+    # shows between them: the wall stands behind street trees and does not join them.
+    labels = np.full((200, 400), 23, dtype=np.uint8)
+    labels[100:, :] = SIDEWALK
+    labels[40:130, 80:300] = BUILDING
+    labels[110:130, 80:300] = CAR  # parked cars hide the trunks
+    for c0 in (100, 200):
+        labels[60:110, c0 : c0 + 50] = VEGETATION
+    seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
+    trees = [o for o in objects_from_segmentation(seg) if o.class_name == "tree"]
+    assert [(int(t.box_px[0]), int(t.box_px[2])) for t in trees] == [(100, 150), (200, 250)]
+
+
 @settings(max_examples=50, deadline=None)
 @given(st.lists(st.integers(0, 30), min_size=1, max_size=60))
 def test_crown_ranges_cover_every_column_once(tops: list[int]):

@@ -39,7 +39,14 @@ from usdworld.layout.silhouette import (
     height_from_top_row,
     top_offsets,
 )
-from usdworld.layout.street_lines import LINE_CLASSES, StreetLine, fit_street_lines, line_for, sidewalk_lines
+from usdworld.layout.street_lines import (
+    LINE_CLASSES,
+    StreetLine,
+    fit_street_lines,
+    line_for,
+    parked_car_lines,
+    sidewalk_lines,
+)
 from usdworld.layout.yaw import RoadAxis, choose_yaw, yaw_from_view_angle
 from usdworld.perception.depth.fusion import HEIGHT_MEAN_REL_SIGMA, DepthCue, fuse, object_depth_cues
 from usdworld.perception.facades import FRONTAGE_M
@@ -180,7 +187,9 @@ def _wall_positions(
 
 def _facade_frontage(camera: PinholeCamera, obj: ImageObject, front_ground: np.ndarray, yaw: float) -> float:
     """Metres of facade between an object's first and last columns (NaN when not measurable)."""
-    ends = _wall_positions(camera, float(obj.contact_px[1]), front_ground, yaw, (obj.box_px[0], obj.box_px[2]))
+    ends = _wall_positions(
+        camera, float(obj.contact_px[1]), front_ground, yaw, (obj.box_px[0], obj.box_px[2])
+    )
     return float("nan") if ends is None else abs(ends[1] - ends[0])
 
 
@@ -325,6 +334,7 @@ def place_objects(
     # own contact is hidden or cut where their ray meets the row.
     lines = _street_lines(drafts, camera, axis)
     lines += sidewalk_lines(sidewalk_ground, axis, lines)
+    lines += _parked_car_lines(drafts, axis, lines)
     if lines:
         by_ref = {d["obj"].ref: d for d in drafts if d["obj"].ref >= 0}
         for k, d in enumerate(drafts):
@@ -446,6 +456,18 @@ def _street_lines(drafts: list[dict], camera: PinholeCamera, axis: RoadAxis) -> 
     return fit_street_lines([d["obj"].class_name for d in seen], fronts, axis)
 
 
+def _parked_car_lines(drafts: list[dict], axis: RoadAxis, lines: list[StreetLine]) -> list[StreetLine]:
+    """Kerb rows from the cars placed by their seen contact (:func:`parked_car_lines`)."""
+    cars = [d for d in drafts if d["obj"].class_name == "car" and d["depth_method"] in SEEN_CONTACT_METHODS]
+    return parked_car_lines(
+        np.array([d["ground"][:2] for d in cars], dtype=np.float64).reshape(-1, 2),
+        np.array([d["yaw"] for d in cars], dtype=np.float64),
+        np.array([d["size"][1] for d in cars], dtype=np.float64),
+        axis,
+        lines,
+    )
+
+
 def _line_pixel(obj: ImageObject, width: int) -> np.ndarray:
     """Pixel whose ray finds an object on its row: a trunk or post stands below the middle
     of its crown or sign when its own foot is hidden (unless the image's side cuts it); a
@@ -493,11 +515,11 @@ def _onto_street_line(
     lateral = abs(float(line.offset_m)) + 1.0
     sigma = max(line.spread_m, 0.25) * max(front / lateral, 1.0)
     side = "left" if line.side > 0 else "right"
-    what = (
-        f"row of {line.support} {obj.class_name}s"
-        if line.source == "objects"
-        else f"{obj.class_name} row from the sidewalk"
-    )
+    what = {
+        "objects": f"row of {line.support} {obj.class_name}s",
+        "sidewalk": f"{obj.class_name} row from the sidewalk",
+        "parked_cars": f"{obj.class_name} row behind the kerb the parked cars line",
+    }[line.source]
     cue = DepthCue(
         "street_line",
         front + moved["back_m"],

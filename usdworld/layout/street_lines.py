@@ -11,7 +11,8 @@ bottom and its occluder give.
 Where no object of the class shows its contact on that side, the sidewalk gives the
 row: facades stand at its back edge, and street furniture and trees a customary
 distance behind the kerb (:data:`KERB_SETBACK_M`), measured on the sidewalk's ground
-points (:func:`sidewalk_lines`).
+points (:func:`sidewalk_lines`). Where parked cars hide that side's sidewalk too, the
+cars give the kerb: they park along it (:func:`parked_car_lines`).
 
 Everything here works on the ground plane of the world frame (``_ground``: x forward,
 y left, metres) and the road axis of :mod:`usdworld.layout.yaw`.
@@ -46,6 +47,10 @@ KERB_SETBACK_M = {"tree": 1.0, "pole": 0.5, "traffic_sign": 0.5}
 SIDEWALK_EDGE_PERCENTILES = (5.0, 95.0)
 #: A side's sidewalk is measured from at least this many ground points.
 MIN_SIDEWALK_POINTS = 50
+#: A parked car's kerb side is about this far from the kerb, metres.
+PARKED_KERB_GAP_M = 0.3
+#: A car parks along the kerb: its heading within this angle of the road's (radians).
+PARKED_HEADING_TOL = np.radians(10.0)
 
 
 @dataclass(frozen=True)
@@ -56,9 +61,11 @@ class StreetLine:
         class_name: placed class of the row.
         side: +1 left of the road axis, -1 right of it.
         offset_m: signed lateral offset of the row from the axis's centre line (left positive).
-        support: number of objects with a seen contact that measured it (0: the sidewalk did).
+        support: number of objects with a seen contact that measured it (0: the sidewalk
+            or the parked cars did).
         spread_m: median absolute deviation of their offsets, metres (for a sidewalk row,
             a quarter of the sidewalk's width).
+        source: what measured it: ``objects`` (its own class), ``sidewalk`` or ``parked_cars``.
     """
 
     class_name: str
@@ -66,6 +73,7 @@ class StreetLine:
     offset_m: float
     support: int
     spread_m: float
+    source: str = "objects"
 
     def __post_init__(self) -> None:
         if self.side not in (-1, 1):
@@ -74,11 +82,10 @@ class StreetLine:
             raise ValueError(
                 f"StreetLine: bad offset {self.offset_m}, support {self.support} or spread {self.spread_m}"
             )
-
-    @property
-    def source(self) -> str:
-        """What measured the row: ``objects`` or ``sidewalk``."""
-        return "objects" if self.support > 0 else "sidewalk"
+        if self.source not in ("objects", "sidewalk", "parked_cars"):
+            raise ValueError(
+                f"StreetLine.source must be objects, sidewalk or parked_cars, got {self.source!r}"
+            )
 
 
 def lateral_offsets(points_ground: np.ndarray, axis: RoadAxis) -> np.ndarray:
@@ -158,7 +165,59 @@ def sidewalk_lines(
         places = {"building": back, **{c: min(kerb + d, back) for c, d in KERB_SETBACK_M.items()}}
         for class_name, distance in sorted(places.items()):
             if (class_name, side) not in taken:
-                lines.append(StreetLine(class_name, side, side * distance, 0, spread))
+                lines.append(StreetLine(class_name, side, side * distance, 0, spread, "sidewalk"))
+    return lines
+
+
+def parked_car_lines(
+    car_ground: np.ndarray,
+    car_headings: np.ndarray,
+    car_widths: np.ndarray,
+    axis: RoadAxis,
+    measured: Sequence[StreetLine] = (),
+) -> list[StreetLine]:
+    """Rows of street furniture and trees behind the kerb that parked cars line.
+
+    For a side of the street where neither its own objects nor a sidewalk gave a class
+    its row, the outermost car parked along the road there (heading within
+    :data:`PARKED_HEADING_TOL` of the road's, either way) marks the kerb: its kerb side
+    is :data:`PARKED_KERB_GAP_M` from it. Trees, posts and signs stand their
+    :data:`KERB_SETBACK_M` behind that; the building line stays unknown.
+
+    Args:
+        car_ground: (N, 2) float64 ground centres of cars placed by their seen contact.
+        car_headings: (N,) float64 their yaws, radians.
+        car_widths: (N,) float64 their widths, metres.
+        axis: the road axis.
+        measured: rows already given (their class and side get none here).
+
+    Returns:
+        The rows, in side then class order.
+
+    Example:
+        >>> axis = RoadAxis(0.0, np.zeros(2), "camera_forward")
+        >>> rows = parked_car_lines(np.array([[12.0, 5.0], [20.0, 2.0]]), np.zeros(2), np.full(2, 1.8), axis)
+        >>> [(r.class_name, r.offset_m) for r in rows if r.class_name == "tree"]
+        [('tree', 7.2)]
+    """
+    if len(car_ground) == 0:
+        return []
+    offsets = lateral_offsets(car_ground, axis)
+    turn = np.abs(np.angle(np.exp(1j * (np.asarray(car_headings, dtype=np.float64) - axis.angle))))
+    along = np.minimum(turn, np.pi - turn) <= PARKED_HEADING_TOL
+    outer = np.abs(offsets) + 0.5 * np.asarray(car_widths, dtype=np.float64)
+    taken = {(line.class_name, line.side) for line in measured}
+    lines = []
+    for side in (-1, 1):
+        mine = along & (np.sign(offsets) == side)
+        if not mine.any():
+            continue
+        kerb = float(outer[mine].max()) + PARKED_KERB_GAP_M
+        for class_name, distance in sorted(KERB_SETBACK_M.items()):
+            if (class_name, side) not in taken:
+                lines.append(
+                    StreetLine(class_name, side, round(side * (kerb + distance), 6), 0, 0.5, "parked_cars")
+                )
     return lines
 
 

@@ -344,7 +344,11 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
             # A facade or a crown split by a pole or a tree in front of it is one object:
             # its pieces are joined through what stands in front before components are
             # labelled (and cut again by roofline, frontage or crown tops below).
-            in_front = (lookups.placed != "")[labels[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]]
+            window_labels = labels[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
+            in_front = (lookups.placed != "")[window_labels]
+            if class_name in CROWN_CLASSES:
+                # Facades stand behind street trees: two crowns with a wall between them are two.
+                in_front &= ~np.isin(lookups.placed[window_labels], list(FACADE_CLASSES))
             window = fill_through_occluders(own, in_front)
         n, comp, stats, _ = cv2.connectedComponentsWithStats(window.astype(np.uint8), connectivity=8)
         for k_comp in range(1, n):

@@ -203,19 +203,20 @@ def test_a_tree_with_no_row_of_its_own_stands_behind_the_kerb_at_its_measured_he
 
 def test_parked_cars_give_the_kerb_where_no_sidewalk_shows():
     # Right of the road: a car parked 5 m off the axis (1.8 m wide) and one driving at 2 m;
-    # left: a car turned across the road (leaving a driveway), which parks along nothing.
-    ground = np.array([[12.0, -5.0], [20.0, -2.0], [15.0, 4.0]])
-    headings = np.array([math.pi, 0.0, math.pi / 2])
+    # left: a car turned across the road (leaving a driveway), which parks along nothing,
+    # and one driving ahead in the camera's lane.
+    ground = np.array([[12.0, -5.0], [20.0, -2.0], [15.0, 4.0], [9.0, 0.5]])
+    headings = np.array([math.pi, 0.0, math.pi / 2, 0.0])
     measured = [StreetLine("pole", -1, -6.5, 1, 0.1)]
     lines = {
         (ln.class_name, ln.side): ln
-        for ln in parked_car_lines(ground, headings, np.full(3, 1.8), FORWARD, measured)
+        for ln in parked_car_lines(ground, headings, np.full(4, 1.8), FORWARD, np.zeros(2), measured)
     }
     assert set(lines) == {("tree", -1), ("traffic_sign", -1)}  # the poles' own row stands; no building line
     kerb = 5.0 + 0.9 + 0.3
     assert lines["tree", -1].offset_m == pytest.approx(-(kerb + KERB_SETBACK_M["tree"]))
     assert all(ln.source == "parked_cars" and ln.support == 0 for ln in lines.values())
-    assert parked_car_lines(np.zeros((0, 2)), np.zeros(0), np.zeros(0), FORWARD) == []
+    assert parked_car_lines(np.zeros((0, 2)), np.zeros(0), np.zeros(0), FORWARD, np.zeros(2)) == []
 
 
 def test_a_tree_behind_parked_cars_with_no_sidewalk_in_view_stands_behind_their_kerb():

@@ -334,7 +334,7 @@ def place_objects(
     # own contact is hidden or cut where their ray meets the row.
     lines = _street_lines(drafts, camera, axis)
     lines += sidewalk_lines(sidewalk_ground, axis, lines)
-    lines += _parked_car_lines(drafts, axis, lines)
+    lines += _parked_car_lines(drafts, axis, camera, lines)
     if lines:
         by_ref = {d["obj"].ref: d for d in drafts if d["obj"].ref >= 0}
         for k, d in enumerate(drafts):
@@ -456,7 +456,9 @@ def _street_lines(drafts: list[dict], camera: PinholeCamera, axis: RoadAxis) -> 
     return fit_street_lines([d["obj"].class_name for d in seen], fronts, axis)
 
 
-def _parked_car_lines(drafts: list[dict], axis: RoadAxis, lines: list[StreetLine]) -> list[StreetLine]:
+def _parked_car_lines(
+    drafts: list[dict], axis: RoadAxis, camera: PinholeCamera, lines: list[StreetLine]
+) -> list[StreetLine]:
     """Kerb rows from the cars placed by their seen contact (:func:`parked_car_lines`)."""
     cars = [d for d in drafts if d["obj"].class_name == "car" and d["depth_method"] in SEEN_CONTACT_METHODS]
     return parked_car_lines(
@@ -464,6 +466,7 @@ def _parked_car_lines(drafts: list[dict], axis: RoadAxis, lines: list[StreetLine
         np.array([d["yaw"] for d in cars], dtype=np.float64),
         np.array([d["size"][1] for d in cars], dtype=np.float64),
         axis,
+        camera.center_world[:2],
         lines,
     )
 

@@ -51,6 +51,8 @@ MIN_SIDEWALK_POINTS = 50
 PARKED_KERB_GAP_M = 0.3
 #: A car parks along the kerb: its heading within this angle of the road's (radians).
 PARKED_HEADING_TOL = np.radians(10.0)
+#: ... and outside the camera's own lane: at least this far to its side, metres.
+PARKED_MIN_SIDEWAYS_M = 3.0
 
 
 @dataclass(frozen=True)
@@ -174,14 +176,16 @@ def parked_car_lines(
     car_headings: np.ndarray,
     car_widths: np.ndarray,
     axis: RoadAxis,
+    camera_ground: np.ndarray,
     measured: Sequence[StreetLine] = (),
 ) -> list[StreetLine]:
     """Rows of street furniture and trees behind the kerb that parked cars line.
 
     For a side of the street where neither its own objects nor a sidewalk gave a class
     its row, the outermost car parked along the road there (heading within
-    :data:`PARKED_HEADING_TOL` of the road's, either way) marks the kerb: its kerb side
-    is :data:`PARKED_KERB_GAP_M` from it. Trees, posts and signs stand their
+    :data:`PARKED_HEADING_TOL` of the road's, either way, and at least
+    :data:`PARKED_MIN_SIDEWAYS_M` to the camera's side, out of its lane) marks the kerb:
+    its kerb side is :data:`PARKED_KERB_GAP_M` from it. Trees, posts and signs stand their
     :data:`KERB_SETBACK_M` behind that; the building line stays unknown.
 
     Args:
@@ -189,6 +193,7 @@ def parked_car_lines(
         car_headings: (N,) float64 their yaws, radians.
         car_widths: (N,) float64 their widths, metres.
         axis: the road axis.
+        camera_ground: (2,) float64 the camera's ground point.
         measured: rows already given (their class and side get none here).
 
     Returns:
@@ -196,7 +201,8 @@ def parked_car_lines(
 
     Example:
         >>> axis = RoadAxis(0.0, np.zeros(2), "camera_forward")
-        >>> rows = parked_car_lines(np.array([[12.0, 5.0], [20.0, 2.0]]), np.zeros(2), np.full(2, 1.8), axis)
+        >>> cars = np.array([[12.0, 5.0], [20.0, 4.0]])
+        >>> rows = parked_car_lines(cars, np.zeros(2), np.full(2, 1.8), axis, np.zeros(2))
         >>> [(r.class_name, r.offset_m) for r in rows if r.class_name == "tree"]
         [('tree', 7.2)]
     """
@@ -205,6 +211,8 @@ def parked_car_lines(
     offsets = lateral_offsets(car_ground, axis)
     turn = np.abs(np.angle(np.exp(1j * (np.asarray(car_headings, dtype=np.float64) - axis.angle))))
     along = np.minimum(turn, np.pi - turn) <= PARKED_HEADING_TOL
+    camera_offset = float(lateral_offsets(np.asarray(camera_ground, dtype=np.float64)[None, :2], axis)[0])
+    along &= np.abs(offsets - camera_offset) >= PARKED_MIN_SIDEWAYS_M
     outer = np.abs(offsets) + 0.5 * np.asarray(car_widths, dtype=np.float64)
     taken = {(line.class_name, line.side) for line in measured}
     lines = []

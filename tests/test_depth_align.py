@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from usdworld.errors import CalibrationError, InputError
@@ -81,6 +81,9 @@ def test_deterministic_and_rng_argument() -> None:
     shift_frac=st.floats(-0.5, 0.5),
     seed=st.integers(0, 2**16),
 )
+# Found by hypothesis: a sample at the edge of the inlier band counted as many inliers as
+# the exact one (an outlier-heavy band), and the reweighting followed the outliers.
+@example(kind="relative", scale=1.0, shift_frac=0.0, seed=463)
 def test_property_noise_free_fit_is_exact(kind: str, scale: float, shift_frac: float, seed: int) -> None:
     # Shift as a fraction of the typical value of the space (metres or 1/metres).
     if kind == "relative":

@@ -15,7 +15,7 @@ disparity           ``1/g = s v + t``    ``inverse_depth`` ``(s v + t) g - 1``
 Residuals are relative (a fraction of the depth) in both spaces, so near and far
 ground pixels count alike and one threshold serves all kinds; both are linear in
 ``(s, t)``. The estimator is RANSAC on minimal samples (1 pixel for scale, 2 for scale
-and shift) followed by iteratively reweighted least squares with Tukey's biweight
+and shift; ranked by the truncated squared residual, MSAC) followed by iteratively reweighted least squares with Tukey's biweight
 (scale from the median absolute residual). Random choices come from the ``rng`` argument (default: seed 0), so the fit
 is deterministic.
 
@@ -114,7 +114,7 @@ def _design(values: np.ndarray, ground_m: np.ndarray, space: AlignmentSpace, wit
 def _ransac(
     A: np.ndarray, threshold: float, iterations: int, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Best parameters on minimal samples and their inlier mask."""
+    """Best parameters on minimal samples (least truncated squared residual) and their inlier mask."""
     n, k = A.shape
     first = rng.integers(n, size=iterations)
     if k == 1:
@@ -137,8 +137,11 @@ def _ransac(
             "depth alignment: every RANSAC sample was degenerate (prediction constant on the ground?)"
         )
     params = params[ok]
-    counts = (np.abs(A @ params.T - 1.0) < threshold).sum(axis=0)  # (I,)
-    best = params[int(np.argmax(counts))]
+    # MSAC: the truncated squared residual, not the inlier count, ranks the samples. A
+    # count ties the exact model with one at the band's edge that also takes in some
+    # outliers, and the IRLS below then follows those outliers away from the inliers.
+    cost = np.minimum((A @ params.T - 1.0) ** 2, threshold**2).sum(axis=0)  # (I,)
+    best = params[int(np.argmin(cost))]
     return best, np.abs(A @ best - 1.0) < threshold
 
 

@@ -345,10 +345,11 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
             # its pieces are joined through what stands in front before components are
             # labelled (and cut again by roofline, frontage or crown tops below).
             window_labels = labels[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
-            in_front = (lookups.placed != "")[window_labels]
+            stands_in_front = lookups.placed != ""
             if class_name in CROWN_CLASSES:
                 # Facades stand behind street trees: two crowns with a wall between them are two.
-                in_front &= ~np.isin(lookups.placed[window_labels], list(FACADE_CLASSES))
+                stands_in_front &= ~np.isin(lookups.placed, list(FACADE_CLASSES))
+            in_front = stands_in_front[window_labels]
             window = fill_through_occluders(own, in_front)
         n, comp, stats, _ = cv2.connectedComponentsWithStats(window.astype(np.uint8), connectivity=8)
         for k_comp in range(1, n):

@@ -193,6 +193,23 @@ def test_a_crown_split_by_a_pole_in_front_is_one_tree():
     assert [o.class_name for o in objects_from_segmentation(seg)].count("tree") == 1
 
 
+def test_a_trunk_beside_a_low_hanging_crown_is_a_foot():
+    # A broad crown hanging down to row 130 on its trunk to row 160; behind it a lower
+    # crown (no summit of its own) hanging to row 128, whose trunk stands on the sidewalk
+    # at row 136: 6-8 px below the hems beside it, under a tenth of the tree's height,
+    # but a trunk on the ground all the same.
+    labels = np.full((200, 400), 23, dtype=np.uint8)
+    labels[100:, :] = SIDEWALK
+    labels[40:130, 100:160] = VEGETATION
+    labels[130:160, 128:132] = VEGETATION
+    labels[50:128, 160:200] = VEGETATION
+    labels[128:136, 180:183] = VEGETATION
+    seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
+    trees = [o for o in objects_from_segmentation(seg) if o.class_name == "tree"]
+    assert len(trees) == 2
+    assert 132 <= trees[0].box_px[2] == trees[1].box_px[0] <= 180  # cut between the trunks
+
+
 def test_two_crowns_with_a_facade_between_them_are_two_trees():
     # Two crowns of one height (rows 60-110, their trunks hidden) in front of a facade that
     # shows between them: the wall stands behind street trees and does not join them.

@@ -31,8 +31,9 @@ MIN_PROMINENCE_FRACTION = 0.1
 #: ... and by at least this many pixels (summits and feet).
 MIN_PROMINENCE_PX = 4.0
 #: A foot (trunk) must reach below its neighbourhood by this fraction of the height of
-#: its column.
-MIN_FOOT_FRACTION = 0.1
+#: its column (small: a trunk beside a nearer crown hanging almost to the ground reaches
+#: only a few pixels below its hem).
+MIN_FOOT_FRACTION = 0.04
 
 
 def _summits(profile: np.ndarray, prominence: np.ndarray | float) -> np.ndarray:

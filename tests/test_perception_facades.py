@@ -193,6 +193,23 @@ def test_a_facade_run_becomes_buildings_behind_their_fronts():
         assert np.all(p.collision_displacement == 0.0)
 
 
+def test_a_building_running_out_of_the_image_keeps_its_seen_end():
+    # A wall from 2 to 20 m, too tall for its top to show; the image's left edge meets the
+    # building line 12.5 m ahead, so 7.5 m of it are seen. The building keeps its seen end
+    # at 20 m and runs on out of view for at least a town house's frontage.
+    labels = _facade_labels([(2.0, 20.0, 60.0)])
+    seg = Segmentation(labels, None, ())
+    buildings = [o for o in objects_from_segmentation(seg, VIEW_VP) if o.class_name == "building"]
+    assert len(buildings) == 1 and buildings[0].box_px[0] == 0
+    sizes = _asset_sizes(buildings, library_dirs(None))
+    axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
+    (placed,), _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
+    frontage = placed.size_m[1]
+    assert frontage >= FRONTAGE_M - 1e-6
+    assert placed.position_world[0] + frontage / 2 == pytest.approx(20.0, abs=0.7)
+    assert placed.position_world[0] < 20.0 - FRONTAGE_M / 2 + 0.7  # the seen part's middle is at 16 m
+
+
 def test_the_street_view_comes_from_the_vanishing_point_or_a_given_pitch():
     from usdworld.geometry.vanishing import VanishingPoint
     from usdworld.io.types import CameraSpec, InputFile, SourceImage

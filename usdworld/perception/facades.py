@@ -225,9 +225,10 @@ def facade_ranges(
     ground = np.asarray(on_ground, dtype=bool)[cols] & (v_edge - view.horizon_v >= MIN_BELOW_HORIZON_PX)
     if ground.sum() < (1 if view.vanishing_u is not None else 2):
         return None
-    # Each building's base is a straight line in the image: fitted to its columns on the
-    # ground (pixel rows are too coarse to measure depth column by column), or to the
-    # whole run's when too few of its own are on the ground (parked cars hide them).
+    # Each building's base is a straight line in the image (through the street's
+    # vanishing point when it is known): fitted to its columns on the ground (pixel rows
+    # are too coarse to measure depth column by column), or to the whole run's when too
+    # few of its own are on the ground (parked cars hide them).
     starts = [0, *_roofline_cuts(tops, heights), len(cols)]
     run_line = _base_line(u[ground], v_edge[ground], view)
     v_base = np.empty_like(u)

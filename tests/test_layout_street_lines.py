@@ -232,3 +232,19 @@ def test_a_tree_behind_parked_cars_with_no_sidewalk_in_view_stands_behind_their_
     # the tree row: the car's kerb side (its centre + half its width) + 0.3 m + 1 m
     expected = parked.position_world[1] + parked.size_m[1] / 2 + 0.3 + KERB_SETBACK_M["tree"]
     assert tree.position_world[1] == pytest.approx(expected, abs=0.1)
+
+
+def test_a_tree_whose_contact_lies_far_beyond_its_row_stands_in_the_row():
+    # Trees 4 m right at 10, 30 and 50 m show their trunks. A fourth "stands" 8 m right at
+    # 40 m: what is seen below it is ground behind a crown's hem, not a trunk; its ray
+    # meets the row at 20 m, so that is where it stands (its contact bounds it from above).
+    seen = [_obj(_box_at(x, -4.0, 1.5, 6.0), ref) for ref, x in ((1, 10.0), (2, 30.0), (3, 50.0))]
+    hem = _obj(_box_at(40.0, -8.0, 1.5, 6.0), 4)
+    placed, _ = _place([*seen, hem])
+    tree = placed[4]
+    assert tree.depth_method == "street_line"
+    assert abs(tree.position_world[1] + 4.0) < 0.3 and abs(tree.position_world[0] - 20.0) < 1.0
+    # a tree 1.5 m off the row is a tree standing there
+    near = _obj(_box_at(40.0, -5.5, 1.5, 6.0), 5)
+    placed, _ = _place([*seen, near])
+    assert placed[5].depth_method == "contact" and abs(placed[5].position_world[1] + 5.5) < 0.5

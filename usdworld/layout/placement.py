@@ -43,6 +43,7 @@ from usdworld.layout.street_lines import (
     LINE_CLASSES,
     StreetLine,
     fit_street_lines,
+    lateral_offsets,
     line_for,
     parked_car_lines,
     sidewalk_lines,
@@ -342,6 +343,13 @@ def place_objects(
                 moved = _onto_street_line(d["obj"], d["name"], d, by_ref, lines, camera, axis, draft_of)
                 if moved is not None:
                     drafts[k] = moved
+            elif _off_its_row(d, lines, camera, axis):
+                # Its "contact" is ground seen under its crown or arm, behind its hidden foot:
+                # an upper bound, and the row it belongs to is nearer.
+                bounded = {**d, "upper_m": d["front_depth_m"]}
+                moved = _onto_street_line(d["obj"], d["name"], bounded, by_ref, lines, camera, axis, draft_of)
+                if moved is not None:
+                    drafts[k] = moved
         remaining = []
         for obj, name in unplaced:
             moved = _onto_street_line(obj, name, None, by_ref, lines, camera, axis, draft_of)
@@ -469,6 +477,24 @@ def _parked_car_lines(
         camera.center_world[:2],
         lines,
     )
+
+
+#: A tree or pole whose seen contact lies further than this (metres) across the street
+#: from the row its class forms on that side is taken to stand in the row.
+ROW_OUTLIER_M = 2.5
+
+
+def _off_its_row(d: dict, lines: list[StreetLine], camera: PinholeCamera, axis: RoadAxis) -> bool:
+    """True for a tree or pole placed by a seen contact that lies off its class's row on its
+    side of the street by more than :data:`ROW_OUTLIER_M`, beyond the row (the contact
+    is then ground seen past a crown's hem or a lamp's arm, not the foot)."""
+    obj = d["obj"]
+    if obj.class_name not in TRUNK_CLASSES or d["depth_method"] not in SEEN_CONTACT_METHODS:
+        return False
+    front = _point_at_depth(camera, *obj.contact_px, d["front_depth_m"])[:2]
+    offset = float(lateral_offsets(front[None, :], axis)[0])
+    rows = [ln for ln in lines if ln.class_name == obj.class_name and ln.side == np.sign(offset)]
+    return any(abs(offset) - abs(ln.offset_m) > ROW_OUTLIER_M for ln in rows)
 
 
 def _line_pixel(obj: ImageObject, width: int) -> np.ndarray:

@@ -248,3 +248,19 @@ def test_a_tree_whose_contact_lies_far_beyond_its_row_stands_in_the_row():
     near = _obj(_box_at(40.0, -5.5, 1.5, 6.0), 5)
     placed, _ = _place([*seen, near])
     assert placed[5].depth_method == "contact" and abs(placed[5].position_world[1] + 5.5) < 0.5
+
+
+def test_a_lone_tree_off_the_sidewalk_row_does_not_make_a_row_of_its_own():
+    # The only tree "stands" 8.5 m right at 40 m, where ground shows past its crown's hem;
+    # the right sidewalk runs 4-8 m off the axis, so trees stand 1 m behind its kerb
+    # (4.2 m, its 5th percentile). Its ray meets that row at 40 * 5.2 / 8.5 m.
+    hem = _obj(_box_at(40.0, -8.5, 1.5, 6.0), 1)
+    placed, _ = _place([hem], sidewalk=_sidewalk(4.0, 8.0, -1))
+    tree = placed[1]
+    assert tree.depth_method == "street_line"
+    assert "row from the sidewalk" in {c.name: c for c in tree.cues}["street_line"].note
+    assert abs(tree.position_world[1] + 5.2) < 0.3 and abs(tree.position_world[0] - 40.0 * 5.2 / 8.5) < 1.0
+    # one 1 m off that row is believed: its own foot makes the row
+    near = _obj(_box_at(30.0, -6.2, 1.5, 6.0), 2)
+    placed, _ = _place([near], sidewalk=_sidewalk(4.0, 8.0, -1))
+    assert placed[2].depth_method == "contact" and abs(placed[2].position_world[1] + 6.2) < 0.5

@@ -45,6 +45,7 @@ from usdworld.layout.street_lines import (
     fit_street_lines,
     lateral_offsets,
     line_for,
+    lone_rows_agreeing,
     parked_car_lines,
     sidewalk_lines,
 )
@@ -333,7 +334,7 @@ def place_objects(
     _move_behind_occluders(drafts, camera)
     # Rows along the street (building lines, tree and lamp rows) place the members whose
     # own contact is hidden or cut where their ray meets the row.
-    lines = _street_lines(drafts, camera, axis)
+    lines = lone_rows_agreeing(_street_lines(drafts, camera, axis), sidewalk_lines(sidewalk_ground, axis))
     lines += sidewalk_lines(sidewalk_ground, axis, lines)
     lines += _parked_car_lines(drafts, axis, camera, lines)
     if lines:

@@ -47,6 +47,9 @@ KERB_SETBACK_M = {"tree": 1.0, "pole": 0.5, "traffic_sign": 0.5}
 SIDEWALK_EDGE_PERCENTILES = (5.0, 95.0)
 #: A side's sidewalk is measured from at least this many ground points.
 MIN_SIDEWALK_POINTS = 50
+#: A row measured by one object alone is dropped when it stands further than this
+#: (metres) from the row the sidewalk gives (:func:`lone_rows_agreeing`).
+LONE_ROW_TOLERANCE_M = 1.5
 #: A parked car's kerb side is about this far from the kerb, metres.
 PARKED_KERB_GAP_M = 0.3
 #: A car parks along the kerb: its heading within this angle of the road's (radians).
@@ -169,6 +172,31 @@ def sidewalk_lines(
             if (class_name, side) not in taken:
                 lines.append(StreetLine(class_name, side, side * distance, 0, spread, "sidewalk"))
     return lines
+
+
+def lone_rows_agreeing(measured: Sequence[StreetLine], sidewalk: Sequence[StreetLine]) -> list[StreetLine]:
+    """The measured rows, less those of a single tree, post or sign that stand more than
+    :data:`LONE_ROW_TOLERANCE_M` off the row the sidewalk gives its class on that side
+    (a facade's own base line stands: the sidewalk's back edge is the rougher measure).
+
+    One tree's or post's "foot" may be ground seen past its crown or arm; the sidewalk,
+    measured from many points, then says better where the row is.
+
+    Example:
+        >>> lone = StreetLine("tree", -1, -8.0, 1, 0.0)
+        >>> walk = StreetLine("tree", -1, -5.0, 0, 0.5, "sidewalk")
+        >>> lone_rows_agreeing([lone], [walk])
+        []
+    """
+    by_key = {(line.class_name, line.side): line for line in sidewalk}
+    kept = []
+    for line in measured:
+        walk = by_key.get((line.class_name, line.side))
+        lone = line.support == 1 and line.class_name in KERB_SETBACK_M
+        if lone and walk is not None and abs(line.offset_m - walk.offset_m) > LONE_ROW_TOLERANCE_M:
+            continue
+        kept.append(line)
+    return kept
 
 
 def parked_car_lines(

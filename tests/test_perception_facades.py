@@ -100,7 +100,7 @@ def test_a_long_wall_of_one_height_is_cut_into_equal_frontages():
 
 def test_a_wall_cut_by_the_top_is_cut_into_town_houses():
     # 60 m tall: its roofline is above the image, so nothing shows where one house ends
-    ranges = _ranges(_facade_labels([(20.0, 20.0 + 3 * FRONTAGE_M, 60.0)]))
+    ranges = _ranges(_facade_labels([(20.0, 20.0 + 3 * FRONTAGE_M, 60.0)]), VIEW_VP)
     lengths = [_ahead_of_column(b) - _ahead_of_column(a) for a, b in ranges]
     assert lengths == pytest.approx([FRONTAGE_M] * 3, rel=0.08)
 

@@ -48,6 +48,7 @@ from usdworld.layout.street_lines import (
     lone_rows_agreeing,
     parked_car_lines,
     sidewalk_lines,
+    unmeasured,
 )
 from usdworld.layout.yaw import RoadAxis, choose_yaw, yaw_from_view_angle
 from usdworld.perception.depth.fusion import HEIGHT_MEAN_REL_SIGMA, DepthCue, fuse, object_depth_cues
@@ -334,8 +335,9 @@ def place_objects(
     _move_behind_occluders(drafts, camera)
     # Rows along the street (building lines, tree and lamp rows) place the members whose
     # own contact is hidden or cut where their ray meets the row.
-    lines = lone_rows_agreeing(_street_lines(drafts, camera, axis), sidewalk_lines(sidewalk_ground, axis))
-    lines += sidewalk_lines(sidewalk_ground, axis, lines)
+    walk = sidewalk_lines(sidewalk_ground, axis)
+    lines = lone_rows_agreeing(_street_lines(drafts, camera, axis), walk)
+    lines += unmeasured(walk, lines)
     lines += _parked_car_lines(drafts, axis, camera, lines)
     if lines:
         by_ref = {d["obj"].ref: d for d in drafts if d["obj"].ref >= 0}

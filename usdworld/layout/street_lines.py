@@ -142,6 +142,18 @@ def fit_street_lines(
     return lines
 
 
+def unmeasured(rows: Sequence[StreetLine], measured: Sequence[StreetLine]) -> list[StreetLine]:
+    """The rows whose class and side no row of ``measured`` has, in their order.
+
+    Example:
+        >>> walk = [StreetLine("tree", 1, 5.0, 0, 0.5, "sidewalk"), StreetLine("pole", 1, 4.5, 0, 0.5, "sidewalk")]
+        >>> [r.class_name for r in unmeasured(walk, [StreetLine("tree", 1, 5.5, 2, 0.1)])]
+        ['pole']
+    """
+    taken = {(line.class_name, line.side) for line in measured}
+    return [line for line in rows if (line.class_name, line.side) not in taken]
+
+
 def sidewalk_lines(
     sidewalk_ground: np.ndarray | None, axis: RoadAxis, measured: Sequence[StreetLine] = ()
 ) -> list[StreetLine]:
@@ -159,7 +171,6 @@ def sidewalk_lines(
     if sidewalk_ground is None or len(sidewalk_ground) == 0:
         return []
     offsets = lateral_offsets(sidewalk_ground, axis)
-    taken = {(line.class_name, line.side) for line in measured}
     lines = []
     for side in (-1, 1):
         mine = np.abs(offsets[np.sign(offsets) == side])
@@ -169,9 +180,8 @@ def sidewalk_lines(
         spread = 0.25 * (back - kerb)
         places = {"building": back, **{c: min(kerb + d, back) for c, d in KERB_SETBACK_M.items()}}
         for class_name, distance in sorted(places.items()):
-            if (class_name, side) not in taken:
-                lines.append(StreetLine(class_name, side, side * distance, 0, spread, "sidewalk"))
-    return lines
+            lines.append(StreetLine(class_name, side, side * distance, 0, spread, "sidewalk"))
+    return unmeasured(lines, measured)
 
 
 def lone_rows_agreeing(measured: Sequence[StreetLine], sidewalk: Sequence[StreetLine]) -> list[StreetLine]:
@@ -242,7 +252,6 @@ def parked_car_lines(
     camera_offset = float(lateral_offsets(np.asarray(camera_ground, dtype=np.float64)[None, :2], axis)[0])
     along &= np.abs(offsets - camera_offset) >= PARKED_MIN_SIDEWAYS_M
     outer = np.abs(offsets) + 0.5 * np.asarray(car_widths, dtype=np.float64)
-    taken = {(line.class_name, line.side) for line in measured}
     lines = []
     for side in (-1, 1):
         mine = along & (np.sign(offsets) == side)
@@ -250,11 +259,10 @@ def parked_car_lines(
             continue
         kerb = float(outer[mine].max()) + PARKED_KERB_GAP_M
         for class_name, distance in sorted(KERB_SETBACK_M.items()):
-            if (class_name, side) not in taken:
-                lines.append(
-                    StreetLine(class_name, side, round(side * (kerb + distance), 6), 0, 0.5, "parked_cars")
-                )
-    return lines
+            lines.append(
+                StreetLine(class_name, side, round(side * (kerb + distance), 6), 0, 0.5, "parked_cars")
+            )
+    return unmeasured(lines, measured)
 
 
 def depth_on_line(

@@ -28,8 +28,10 @@ CROWN_CLASSES = frozenset({"tree"})
 TRUNK_CLASSES = frozenset({"tree", "pole"})
 #: Classes cut like facades when the perspective is known.
 FACADE_CLASSES = frozenset({"building"})
-#: Smallest stuff region kept, as a fraction of the image area (and never below 30 px).
+#: Smallest stuff region kept, as a fraction of the image area (and never below
+#: :data:`MIN_STUFF_AREA_PX`).
 MIN_STUFF_AREA_FRACTION = 4e-4
+MIN_STUFF_AREA_PX = 30
 #: The same for thin street furniture, whose whole area is small (a pole 40 m away is a
 #: few pixels wide).
 MIN_THIN_AREA_FRACTION: dict[str, float] = {"pole": 1e-4, "traffic_sign": 1e-4, "traffic_light": 1e-4}
@@ -330,7 +332,9 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
                 class_map[(class_map == k) & ~group_mask] = 0
     present = np.bincount(class_map.ravel(), minlength=len(class_names) + 1)
     for k, class_name in enumerate(class_names, start=1):
-        min_area = max(30, int(MIN_THIN_AREA_FRACTION.get(class_name, MIN_STUFF_AREA_FRACTION) * H * W))
+        min_area = max(
+            MIN_STUFF_AREA_PX, int(MIN_THIN_AREA_FRACTION.get(class_name, MIN_STUFF_AREA_FRACTION) * H * W)
+        )
         if present[k] < min_area:
             continue
         class_mask = class_map == k
@@ -363,7 +367,7 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
             ranges = None
             piece_area = min_area
             if view is not None and class_name in FACADE_CLASSES:
-                piece_area = max(30, int(min_area * FACADE_PIECE_AREA))
+                piece_area = max(MIN_STUFF_AREA_PX, int(min_area * FACADE_PIECE_AREA))
                 ranges = facade_ranges(
                     crop,
                     x,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 
 import pytest
-from pxr import Sdf, Usd, UsdGeom, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 from test_edit_support import base_x, build_world, fresh_world, sha256, template
 
 from usdworld.authoring.edits import WorldEditor, parse_color
@@ -365,3 +365,20 @@ def test_trees_are_checked_by_their_trunk_as_the_build_places_them(world, editor
     editor.move("person_0001", to=(x + 0.3, y))  # still under the crown, clear of the trunk
     with pytest.raises(LayoutError, match="tree_0001"):
         editor.move("person_0001", to=(x + 1.2, y))  # into the trunk
+
+
+def test_a_stretched_footprint_is_read_per_axis_and_kept_by_edits(world):
+    # The build stretches a facade's footprint (its unseen depth): the editor's rules must
+    # see the footprint per axis, the height's scale as the object's, and keep the stretch.
+    base = Sdf.Layer.FindOrOpen(str(world.parent / "layers/base.usda"))
+    base.GetAttributeAtPath(f"{OBJ}/car_0001.xformOp:scale").default = Gf.Vec3f(2.0, 1.5, 1.0)
+    base.Save()
+    with WorldEditor(world) as editor:
+        car = next(o for o in editor.objects() if o.name == "car_0001")
+        length, width = editor._size("car", car.variant)
+        assert car.scale == pytest.approx(1.0)
+        assert car.size_lw == pytest.approx((2.0 * length, 1.5 * width))
+        assert car.footprint_lw == pytest.approx(car.size_lw)
+        editor.move("car_0001", by=(0.5, 0.0), force=True)
+    stage = _fresh_stage(world)
+    assert tuple(stage.GetPrimAtPath(f"{OBJ}/car_0001").GetAttribute("xformOp:scale").Get()) == pytest.approx((2.0, 1.5, 1.0))

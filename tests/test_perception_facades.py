@@ -9,10 +9,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from usdworld.authoring.asset_library import library_dirs
+from usdworld.authoring.asset_library import asset_path, library_dirs
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.types import Segmentation
-from usdworld.layout.placement import CURB_HEIGHT_M, place_objects
+from usdworld.layout.placement import CURB_HEIGHT_M, FACADE_HEIGHT_NOTE, out_of_view_frontage, place_objects
+from usdworld.layout.priors import prior_for
 from usdworld.layout.yaw import RoadAxis, choose_yaw
 from usdworld.perception.classes import label_lookups
 from usdworld.perception.facades import (
@@ -186,17 +187,23 @@ def test_a_facade_run_becomes_buildings_behind_their_fronts():
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
     placements, _ = place_objects(buildings, CAM, ground_from_px, axis, sizes)
     assert len(placements) == 3
+    depth = prior_for("building").facade_depth_m
     for p in sorted(placements, key=lambda p: p.position_world[0]):
         assert np.degrees(p.yaw) == pytest.approx(-90.0)
-        # the centre is half the building's depth behind the wall, away from the road
-        assert p.position_world[1] == pytest.approx(LEFT_Y + p.size_m[0] / 2, abs=0.3)
+        # the footprint behind the wall takes the class's usual depth, whatever the
+        # building's height: only its front is seen
+        assert p.size_m[0] == pytest.approx(depth) and p.stretch[0] != 1.0
+        assert p.size_m[1:] == pytest.approx(p.size_m[1:] / p.stretch[1:])  # frontage and height: the uniform scale
+        # the centre is half that depth behind the wall, away from the road
+        assert p.position_world[1] == pytest.approx(LEFT_Y + depth / 2, abs=0.3)
         assert np.all(p.collision_displacement == 0.0)
 
 
 def test_a_building_running_out_of_the_image_keeps_its_seen_end():
     # A wall from 2 to 20 m, too tall for its top to show; the image's left edge meets the
     # building line 12.5 m ahead, so 7.5 m of it are seen. The building keeps its seen end
-    # at 20 m and runs on out of view for at least a town house's frontage.
+    # at 20 m and runs on out of view: of the usual frontages (8-25 m), any at least 8 m
+    # is as likely, so it is given their middle, 16.5 m.
     labels = _facade_labels([(2.0, 20.0, 60.0)])
     seg = Segmentation(labels, None, ())
     buildings = [o for o in objects_from_segmentation(seg, VIEW_VP) if o.class_name == "building"]
@@ -204,10 +211,54 @@ def test_a_building_running_out_of_the_image_keeps_its_seen_end():
     sizes = _asset_sizes(buildings, library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
     (placed,), _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
-    frontage = placed.size_m[1]
-    assert frontage >= FRONTAGE_M - 1e-6
-    assert placed.position_world[0] + frontage / 2 == pytest.approx(20.0, abs=0.7)
-    assert placed.position_world[0] < 20.0 - FRONTAGE_M / 2 + 0.7  # the seen part's middle is at 16 m
+    lo, hi = prior_for("building").frontage_range_m
+    assert (lo, hi) == (8.0, 25.0)
+    assert placed.size_m[1] == pytest.approx(0.5 * (lo + hi), abs=0.3)
+    assert placed.size_m[0] == pytest.approx(prior_for("building").facade_depth_m)
+    assert placed.position_world[0] + placed.size_m[1] / 2 == pytest.approx(20.0, abs=0.7)
+    assert placed.position_world[0] == pytest.approx(20.0 - 16.5 / 2, abs=0.7)  # not the seen part's middle (16 m)
+
+
+def test_stretched_buildings_are_authored_with_their_footprint(tmp_path):
+    from pxr import Usd, UsdGeom
+
+    from usdworld.authoring.world import define_objects
+    from usdworld.evaluation.world_objects import world_objects
+
+    labels = _facade_labels([(14.0, 14.0 + 2 * FRONTAGE_M, 20.0)])
+    buildings = [o for o in objects_from_segmentation(Segmentation(labels, None, ()), VIEW) if o.class_name == "building"]
+    sizes = _asset_sizes(buildings, library_dirs(None))
+    axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
+    placements, _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
+    stage = Usd.Stage.CreateNew(str(tmp_path / "w.usda"))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    define_objects(stage, placements, {"building": str(asset_path("building", library_dirs(None)))}, "x.png")
+    authored = {o.name: o for o in world_objects(stage)}
+    for p in placements:
+        prim = stage.GetPrimAtPath(f"/World/Objects/{p.name}")
+        assert tuple(prim.GetAttribute("xformOp:scale").Get()) == pytest.approx(tuple(p.scale * p.stretch), rel=1e-6)
+        assert prim.GetAttribute("usdworld:scaleFactor").Get() == pytest.approx(p.scale, rel=1e-6)
+        assert authored[p.name].size_lwh == pytest.approx(p.size_m, rel=1e-4)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.floats(0.0, 60.0),
+    st.floats(0.0, 60.0),
+    st.tuples(st.floats(1.0, 20.0), st.floats(0.0, 20.0)).map(lambda t: (t[0], t[0] + t[1])),
+)
+def test_out_of_view_frontage_is_at_least_the_seen_and_grows_with_it(a: float, b: float, usual):
+    lo, hi = usual
+    fa, fb = out_of_view_frontage(a, usual), out_of_view_frontage(b, usual)
+    assert fa >= a and fb >= b
+    if a <= b:
+        assert fa <= fb + 1e-9
+    if a <= hi:
+        assert lo <= fa <= hi + 1e-9
+    else:
+        assert fa == a
+    assert np.isnan(out_of_view_frontage(float("nan"), usual))
 
 
 def test_the_street_view_comes_from_the_vanishing_point_or_a_given_pitch():
@@ -226,3 +277,32 @@ def test_the_street_view_comes_from_the_vanishing_point_or_a_given_pitch():
     assert pitched.vanishing_u is None
     assert pitched.horizon_v == pytest.approx(256.0 - 800.0 * np.tan(np.radians(2.0)), abs=0.01)
     assert _street_view(None, image, None) is None
+
+
+def test_facade_priors_are_checked():
+    import dataclasses
+
+    from usdworld.errors import InputError
+
+    building = prior_for("building")
+    with pytest.raises(InputError, match="facade_depth_m: must be > 0"):
+        dataclasses.replace(building, facade_depth_m=0.0)
+    with pytest.raises(InputError, match="frontage_range_m"):
+        dataclasses.replace(building, frontage_range_m=(20.0, 10.0))
+    assert prior_for("car").facade_depth_m is None and prior_for("car").frontage_range_m is None
+
+
+def test_a_facade_whose_base_is_seen_is_not_placed_by_its_height():
+    # A 20 m tall block 60-76 m ahead, roof in view: the class's usual height (12 m) would
+    # put it far too near; its base says where it stands.
+    labels = _facade_labels([(60.0, 76.0, 20.0)])
+    buildings = [o for o in objects_from_segmentation(Segmentation(labels, None, ()), VIEW) if o.class_name == "building"]
+    assert buildings and not any(b.top_truncated for b in buildings)
+    sizes = _asset_sizes(buildings, library_dirs(None))
+    axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
+    placements, _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
+    for p in placements:
+        height = next(c for c in p.cues if c.name == "height")
+        assert not height.available and height.note == FACADE_HEIGHT_NOTE
+        assert p.depth_method == "contact"
+        assert 60.0 < p.position_world[0] < 76.0

@@ -224,6 +224,21 @@ def test_two_crowns_with_a_facade_between_them_are_two_trees():
     assert [(int(t.box_px[0]), int(t.box_px[2])) for t in trees] == [(100, 150), (200, 250)]
 
 
+def test_a_small_far_crown_beside_a_big_near_one_is_a_tree_of_its_own():
+    # A far crown (columns 0-19) stands higher in the image, 30 px tall, its top 8 px
+    # above where it meets the flank of a near crown 100 px tall (columns 20-59). 8 px is
+    # under a tenth of the region's height but well over a tenth of its own.
+    h = 110
+    mask = np.zeros((h, 60), dtype=bool)
+    for c in range(60):
+        if c < 20:
+            top, bottom = (70 - abs(c - 8) if c <= 16 else 62), 40
+        else:
+            top, bottom = (min(100, 62 + 2 * (c - 20)) if c < 40 else 100 - (c - 40)), 0
+        mask[h - top : h - bottom, c] = True
+    assert crown_ranges(mask) == [(0, 18), (18, 60)]
+
+
 @settings(max_examples=50, deadline=None)
 @given(st.lists(st.integers(0, 30), min_size=1, max_size=60))
 def test_crown_ranges_cover_every_column_once(tops: list[int]):

@@ -189,7 +189,7 @@ class ObjectState:
         variant: its ``model`` variant ('' when the asset has none).
         position_world: (x, y, z) of its origin, metres.
         yaw_deg: rotation about Z, degrees.
-        scale: uniform scale.
+        scale: uniform scale (the height's, for a footprint stretched along its axes).
         size_lw: scaled footprint (length, width), metres.
         footprint_lw: scaled footprint the permissibility rules use: ``size_lw``, but the
             trunk's for trees and poles (people stand under crowns and lamp arms, as the
@@ -632,12 +632,15 @@ class WorldEditor:
         )
         t, r, s = (prim.GetAttribute(f"xformOp:{op}") for op in ("translate", "rotateZ", "scale"))
         if t and r and s:
-            pos, yaw, scale = _gf3(t.Get()), float(r.Get()), float(s.Get()[0])
+            pos, yaw, axes = _gf3(t.Get()), float(r.Get()), _gf3(s.Get())
         else:
             m = UsdGeom.Xformable(prim).GetLocalTransformation()
             pos = _gf3(m.ExtractTranslation())
             yaw = math.degrees(math.atan2(m[0][1], m[0][0]))
-            scale = float(Gf.Vec3d(m[0][0], m[0][1], m[0][2]).GetLength())
+            axes = tuple(float(Gf.Vec3d(m[i][0], m[i][1], m[i][2]).GetLength()) for i in range(3))
+        # A facade's footprint may be stretched (its unseen depth): the height's is the
+        # object's uniform scale, the footprint takes each axis's own.
+        sx, sy, scale = axes
         length, width = self._size(class_name, variant)
         foot_l, foot_w = self._footprint_size(class_name, variant)
         spec = self._edits.GetPrimAtPath(prim.GetPath())
@@ -656,8 +659,8 @@ class WorldEditor:
             pos,
             yaw,
             scale,
-            (length * scale, width * scale),
-            (foot_l * scale, foot_w * scale),
+            (length * sx, width * sy),
+            (foot_l * sx, foot_w * sy),
             active,
             status,
             color,

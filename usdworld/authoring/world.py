@@ -148,8 +148,8 @@ def _define_object_opinions(stage: Usd.Stage, placement: Placement, image_name: 
     p = placement.position_world
     xform.AddTranslateOp().Set(Gf.Vec3d(float(p[0]), float(p[1]), float(p[2])))
     xform.AddRotateZOp().Set(float(round(math.degrees(placement.yaw), 6)))
-    s = float(placement.scale)
-    xform.AddScaleOp().Set(Gf.Vec3f(s, s, s))
+    s = float(placement.scale) * np.asarray(placement.stretch, dtype=np.float64)
+    xform.AddScaleOp().Set(Gf.Vec3f(*(float(v) for v in s)))
     _label(prim, placement.obj.class_name)
     obj = placement.obj
     cues = placement.cues

@@ -52,10 +52,11 @@ from usdworld.layout.street_lines import (
 )
 from usdworld.layout.yaw import RoadAxis, choose_yaw, yaw_from_view_angle
 from usdworld.perception.depth.fusion import HEIGHT_MEAN_REL_SIGMA, DepthCue, fuse, object_depth_cues
-from usdworld.perception.facades import FRONTAGE_M
 from usdworld.perception.objects import TRUNK_CLASSES, ImageObject
 from usdworld.perception.shape import top_shape_ratio
 
+#: Why a facade whose base is seen has no height cue.
+FACADE_HEIGHT_NOTE = "not used: a facade's base is seen"
 #: Depth methods the paper's ordering rules may change (those decided by the dense map).
 ORDERED_METHODS = ("cnn", "contact_partial", "height_partial", "top_row")
 #: Depth methods of objects whose bottom is cut or hidden (an upper bound, or the weak
@@ -131,6 +132,8 @@ class Placement:
         yaw: rotation about Z, radians.
         yaw_source: how the yaw was chosen.
         scale: uniform scale applied to the asset.
+        stretch: (3,) float64 factors on the uniform scale along the asset's axes (1 but
+            for a facade's unseen depth and the frontage of one cut by the image's side).
         scale_measured: scale measured from the image before clamping (NaN if not measurable).
         size_m: (3,) float64 size after scaling (length, width, height).
         depth_m: centre depth along the optical axis, metres.
@@ -149,6 +152,7 @@ class Placement:
     yaw: float
     yaw_source: str
     scale: float
+    stretch: np.ndarray
     scale_measured: float
     size_m: np.ndarray
     depth_m: float
@@ -194,6 +198,29 @@ def _facade_frontage(camera: PinholeCamera, obj: ImageObject, front_ground: np.n
         camera, float(obj.contact_px[1]), front_ground, yaw, (obj.box_px[0], obj.box_px[2])
     )
     return float("nan") if ends is None else abs(ends[1] - ends[0])
+
+
+def out_of_view_frontage(seen_m: float, frontage_range_m: tuple[float, float]) -> float:
+    """The frontage to expect of a building that runs out of the image at one side, of
+    which ``seen_m`` metres are in view.
+
+    A long building is more likely than a short one to cover the column where the image
+    ends (in proportion to its frontage), and its seen end lies anywhere along it (with
+    density one over its frontage): the two cancel, so of the usual frontages
+    (``frontage_range_m``, taken as uniform) every one at least ``seen_m`` long is equally
+    likely. The middle of those; ``seen_m`` itself when it is longer than the usual ones.
+    NaN stays NaN.
+
+    Example:
+        >>> out_of_view_frontage(5.0, (8.0, 25.0)), out_of_view_frontage(15.0, (8.0, 25.0))
+        (16.5, 20.0)
+        >>> out_of_view_frontage(30.0, (8.0, 25.0))
+        30.0
+    """
+    lo, hi = frontage_range_m
+    if not np.isfinite(seen_m) or seen_m >= hi:
+        return float(seen_m)
+    return 0.5 * (max(seen_m, lo) + hi)
 
 
 def _past_the_side(
@@ -429,6 +456,7 @@ def place_objects(
                 yaw=d["yaw"],
                 yaw_source=d["yaw_source"],
                 scale=d["scale"],
+                stretch=d["stretch"],
                 scale_measured=d["scale_measured"],
                 size_m=d["size"],
                 depth_m=_depth_of_ground_point(camera, center) if np.any(disp) else d["depth_m"],
@@ -583,7 +611,7 @@ def _sliver_behind(draft: dict, camera: PinholeCamera) -> bool:
     obj = draft["obj"]
     if obj.is_thing or not draft["depth_method"].startswith("behind_"):
         return False
-    base = draft["size"] / draft["scale"]
+    base = draft["size"] / (draft["scale"] * draft["stretch"])
     metres_per_px = draft["front_depth_m"] / camera.fy
     seen = max(obj.width_px * metres_per_px / base[1], obj.height_px * metres_per_px / base[2])
     return seen < prior_for(obj.class_name).scale_range[0]
@@ -671,6 +699,10 @@ def _draft(  # noqa: PLR0913
         class_mean_rel_sigma=HEIGHT_MEAN_REL_SIGMA if camera_sigma[0] == 0.0 else 0.0,
     )
     cues = [_with_camera_uncertainty(c, camera, camera_sigma) for c in cues]
+    if prior.yaw == "face_road" and any(c.name == "contact" and c.available for c in cues):
+        # Buildings are 3 to 30 m tall: where a facade's base is seen, its height only
+        # drags a far one nearer (a tall building looks like a near one of usual height).
+        cues = [DepthCue("height", None, None, FACADE_HEIGHT_NOTE) if c.name == "height" else c for c in cues]
     if forced is not None:
         front, method = forced
         confidence = _CONFIDENCE["street_line" if method == "street_line" else "behind"]
@@ -706,19 +738,27 @@ def _draft(  # noqa: PLR0913
     )
     base = np.array(sizes.by_variant[variant], dtype=np.float64)
     scale_measured = float(measured_h / base[2]) if np.isfinite(measured_h) else float("nan")
-    if not np.isfinite(scale_measured) and prior.yaw == "face_road" and bottom_seen:
-        # A facade cut by the image's top: its frontage in view sizes it, never below the
-        # height in view (a lower bound on its height).
+    one_side_cut = (obj.box_px[0] <= 0) != (obj.box_px[2] >= camera.width)
+    frontage = float("nan")
+    if prior.yaw == "face_road" and bottom_seen:
         frontage = _facade_frontage(camera, obj, front_ground, yaw)
-        if (obj.box_px[0] <= 0) != (obj.box_px[2] >= camera.width):
-            # It goes on out of the image at one side: a building of a typical frontage at least.
-            frontage = max(frontage, FRONTAGE_M)
-        if np.isfinite(frontage):
-            seen_h = float(obj.height_px * front / camera.fy) / base[2] if obj.height_px > 0 else 0.0
-            scale_measured = max(frontage / base[1], seen_h)
+        if one_side_cut and prior.frontage_range_m is not None:
+            frontage = out_of_view_frontage(frontage, prior.frontage_range_m)
+    if not np.isfinite(scale_measured) and np.isfinite(frontage):
+        # A facade cut by the image's top: its frontage sizes it, never below the height
+        # in view (a lower bound on its height).
+        seen_h = float(obj.height_px * front / camera.fy) / base[2] if obj.height_px > 0 else 0.0
+        scale_measured = max(frontage / base[1], seen_h)
     lo, hi = prior.scale_range
     scale = float(np.clip(scale_measured, lo, hi)) if np.isfinite(scale_measured) else 1.0
-    size = base * scale
+    stretch = np.ones(3)
+    if prior.yaw == "face_road" and prior.facade_depth_m is not None:
+        # A photo shows a facade's front only: the footprint behind it takes the class's
+        # usual depth, not the uniform scale's (which makes a tall building as deep as tall).
+        stretch[0] = prior.facade_depth_m / (base[0] * scale)
+        if one_side_cut and np.isfinite(frontage):
+            stretch[1] = frontage / (base[1] * scale)
+    size = base * scale * stretch
 
     # Move back by the footprint's extent. A mask's lowest pixel is its nearest ground
     # contact (tyres, feet); a detector's box bottom follows the projected 3D box, i.e. the
@@ -761,6 +801,7 @@ def _draft(  # noqa: PLR0913
         "yaw": yaw,
         "yaw_source": yaw_source,
         "scale": scale,
+        "stretch": stretch,
         "scale_measured": scale_measured,
         "size": size,
         # Trees and poles collide by their trunk: people stand under crowns and lamp arms.

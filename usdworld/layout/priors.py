@@ -26,6 +26,12 @@ class ClassPrior:
             (:func:`usdworld.layout.yaw.choose_yaw`).
         kind: ``thing`` or ``stuff``.
         rigid_height: True when the height is reliable enough to calibrate the camera.
+        facade_depth_m: for classes that face the road, the footprint's extent behind the
+            facade (a photo shows only the front): it replaces the uniform scale's depth.
+            None: the uniform scale's.
+        frontage_range_m: for classes that face the road, the usual (min, max) frontage
+            along the street, which sizes one running out of the image at a side. None:
+            no such sizing.
     """
 
     name: str
@@ -35,12 +41,18 @@ class ClassPrior:
     yaw: str
     kind: str
     rigid_height: bool
+    facade_depth_m: float | None = None
+    frontage_range_m: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         if any(s <= 0 for s in self.size_m) or not 0 < self.scale_range[0] <= 1 <= self.scale_range[1]:
             raise InputError(f"class_priors.json -> {self.name}: sizes must be > 0 and scale_range contain 1")
         if self.yaw not in YAW_MODES:
             raise InputError(f"class_priors.json -> {self.name} -> yaw: must be one of {', '.join(YAW_MODES)}")
+        if self.facade_depth_m is not None and not self.facade_depth_m > 0:
+            raise InputError(f"class_priors.json -> {self.name} -> facade_depth_m: must be > 0")
+        if self.frontage_range_m is not None and not 0 < self.frontage_range_m[0] <= self.frontage_range_m[1]:
+            raise InputError(f"class_priors.json -> {self.name} -> frontage_range_m: must be [min, max] with 0 < min <= max")
 
 
 @lru_cache(maxsize=1)
@@ -59,6 +71,12 @@ def class_priors() -> dict[str, ClassPrior]:
             yaw=str(entry["yaw"]),
             kind=str(entry["kind"]),
             rigid_height=bool(entry["rigid_height"]),
+            facade_depth_m=float(entry["facade_depth_m"]) if "facade_depth_m" in entry else None,
+            frontage_range_m=(
+                tuple(float(v) for v in entry["frontage_range_m"])  # type: ignore[arg-type]
+                if "frontage_range_m" in entry
+                else None
+            ),
         )
     return priors
 

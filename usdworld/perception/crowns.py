@@ -5,8 +5,9 @@ overlap in the image arrives as one region. Each crown rises to a top of its own
 conifer's tip, a broad crown's dome), so the region's upper outline has one clear
 summit per tree, with a dip where two crowns meet; the region is cut at the deepest dip
 between neighbouring summits. A summit counts when it rises above the dips on both its
-sides by :data:`MIN_PROMINENCE_FRACTION` of the region's height (small bumps of one
-crown's outline do not).
+sides by :data:`MIN_PROMINENCE_FRACTION` of the tree's height in its column, the
+region's outline from top to bottom there (small bumps of one crown's outline do not;
+a small far crown beside a big near one counts by its own height, not the big one's).
 
 A tree further down the row may hide its top behind a nearer crown and still show its
 trunk: the region's lower outline then reaches down to the ground once per trunk (a
@@ -26,7 +27,7 @@ import itertools
 import numpy as np
 from scipy.signal import find_peaks
 
-#: A crown top must rise above its neighbouring dips by this fraction of the region's height.
+#: A crown top must rise above its neighbouring dips by this fraction of the tree's height in its column.
 MIN_PROMINENCE_FRACTION = 0.1
 #: ... and by at least this many pixels (summits and feet).
 MIN_PROMINENCE_PX = 4.0
@@ -82,13 +83,11 @@ def crown_ranges(mask: np.ndarray, on_ground: np.ndarray | None = None) -> list[
     if len(cols) == 0:
         return []
     h, w = mask.shape
-    rows = np.nonzero(mask.any(axis=1))[0]
-    region_height = float(rows[-1] - rows[0] + 1)
     # Upper and lower outlines as heights above the crop's bottom edge; empty columns
     # take their neighbours' (a gap is neither a summit nor a foot).
     top = np.interp(np.arange(w), cols, h - np.argmax(mask[:, cols], axis=0))
     bottom = np.interp(np.arange(w), cols, np.argmax(mask[::-1, cols], axis=0).astype(np.float64))
-    summits = _summits(top, max(MIN_PROMINENCE_PX, MIN_PROMINENCE_FRACTION * region_height))
+    summits = _summits(top, np.maximum(MIN_PROMINENCE_PX, MIN_PROMINENCE_FRACTION * (top - bottom)))
     cuts = _cut_at(top, summits, lowest=True)
     if on_ground is not None:
         # Feet are the lower outline's lowest points: peaks of its depth below the top.

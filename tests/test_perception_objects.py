@@ -129,6 +129,7 @@ def test_a_tree_whose_trunk_a_car_hides_has_no_contact():
 
 
 POLE = 17
+TRAFFIC_SIGN = 20
 
 
 def test_fill_through_joins_what_stands_in_front_and_nothing_else():
@@ -177,6 +178,23 @@ def test_merged_crowns_are_cut_at_the_dip_between_their_tops():
     assert len(trees) == 2
     assert trees[0].box_px[2] in (159, 160, 161) and trees[1].box_px[0] == trees[0].box_px[2]
     np.testing.assert_allclose([t.contact_px[0] for t in trees], [130.0, 185.0])  # the trunks' middles
+
+
+def test_two_signs_one_behind_the_other_are_two_signs():
+    # Two triangular plates along the kerb run together in the labels (the nearer one
+    # larger and lower), each on its own post down to the sidewalk: two signs, each
+    # standing on its own post.
+    labels = np.full((200, 400), 23, dtype=np.uint8)
+    labels[100:, :] = SIDEWALK
+    for left, width, tip, post_bottom in ((100, 41, 40, 150), (130, 31, 50, 140)):
+        for c, top in enumerate(_cone(width, tip, tip + 30)):
+            labels[top : tip + 30, left + c] = TRAFFIC_SIGN
+        post = left + width // 2
+        labels[tip + 30 : post_bottom, post : post + 2] = TRAFFIC_SIGN
+    seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
+    signs = [o for o in objects_from_segmentation(seg) if o.class_name == "traffic_sign"]
+    assert len(signs) == 2
+    assert sorted(float(s.contact_px[1]) for s in signs) == [139.5, 149.5]  # each post's lowest row's edge
 
 
 def test_one_crown_with_a_bumpy_outline_is_one_tree():

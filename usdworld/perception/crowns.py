@@ -17,6 +17,10 @@ foot counts when it stands on the ground, or on a thing that hides the trunk bel
 (behind a parked car a crown's lowest point is right above its trunk), and reaches down
 below its neighbourhood by :data:`MIN_FOOT_FRACTION` of the tree's height there.
 
+Traffic signs are cut the same way (``perception.objects.TOPPED_CLASSES``): two signs
+one behind the other along the kerb run together in the image, each with its plate's
+top and its own post down to the ground.
+
 Everything here is in pixels.
 """
 

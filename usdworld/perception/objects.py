@@ -24,6 +24,9 @@ from usdworld.perception.facades import StreetView, facade_ranges, fill_through_
 SPLIT_ASPECT: dict[str, float] = {"building": 1.0, "fence": 2.5}
 #: Stuff cut into one object per crown top (:func:`usdworld.perception.crowns.crown_ranges`).
 CROWN_CLASSES = frozenset({"tree"})
+#: Stuff cut the same way, one object per top or post: signs one behind the other along
+#: the kerb run together in the image, each with its plate's top and its own post.
+TOPPED_CLASSES = CROWN_CLASSES | {"traffic_sign"}
 #: Stuff standing on a trunk or a post: its crown or arm may hang over ground far behind it.
 TRUNK_CLASSES = frozenset({"tree", "pole"})
 #: Classes cut like facades when the perspective is known.
@@ -378,7 +381,7 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
                     roof_mask=region,
                     image_width=W,
                 )
-            if ranges is None and class_name in CROWN_CLASSES:
+            if ranges is None and class_name in TOPPED_CLASSES:
                 ranges = crown_ranges(crop, _ground_below(crop, x, y, labels, or_things=True))
             if ranges is None:
                 ranges = _split_columns(crop, SPLIT_ASPECT[class_name]) if class_name in SPLIT_ASPECT else [(0, w)]

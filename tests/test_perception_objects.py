@@ -155,6 +155,22 @@ def test_a_facade_split_by_a_pole_in_front_is_one_building():
     assert [o.class_name for o in objects].count("pole") == 1
 
 
+def test_a_pole_split_by_a_sign_and_a_car_in_front_is_one_pole():
+    # A lamp post from row 30 to the sidewalk at row 150, hidden at rows 70-80 by a sign
+    # plate in front and at rows 120-140 by a parked car: three pieces of one post, placed
+    # once and standing where its lowest piece does.
+    labels = np.full((200, 400), 23, dtype=np.uint8)
+    labels[100:, :] = SIDEWALK
+    labels[30:150, 200:203] = POLE
+    labels[70:80, 190:215] = TRAFFIC_SIGN
+    labels[120:140, 150:260] = CAR
+    seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
+    poles = [o for o in objects_from_segmentation(seg) if o.class_name == "pole"]
+    assert len(poles) == 1
+    assert poles[0].mask_area == 3 * (120 - 10 - 20)  # only the post's own pixels
+    assert poles[0].contact_px[1] == 149.5 and not poles[0].bottom_occluded
+
+
 def _crowns(tops: list[int], trunks: list[int]) -> Segmentation:
     """Vegetation whose upper outline follows ``tops`` (one row per column from column
     100) down to row 120, with 4-px trunks down to the sidewalk (row 150) at ``trunks``."""

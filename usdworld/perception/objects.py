@@ -29,6 +29,9 @@ CROWN_CLASSES = frozenset({"tree"})
 TOPPED_CLASSES = CROWN_CLASSES | {"traffic_sign"}
 #: Stuff standing on a trunk or a post: its crown or arm may hang over ground far behind it.
 TRUNK_CLASSES = frozenset({"tree", "pole"})
+#: Thin upright stuff whose pieces one above the other, split by what stands in front
+#: (a sign plate, a crown, a parked car), are one object.
+POST_CLASSES = frozenset({"pole", "traffic_sign", "traffic_light"})
 #: Classes cut like facades when the perspective is known.
 FACADE_CLASSES = frozenset({"building"})
 #: Smallest stuff region kept, as a fraction of the image area (and never below
@@ -36,8 +39,9 @@ FACADE_CLASSES = frozenset({"building"})
 MIN_STUFF_AREA_FRACTION = 4e-4
 MIN_STUFF_AREA_PX = 30
 #: The same for thin street furniture, whose whole area is small (a pole 40 m away is a
-#: few pixels wide).
-MIN_THIN_AREA_FRACTION: dict[str, float] = {"pole": 1e-4, "traffic_sign": 1e-4, "traffic_light": 1e-4}
+#: few pixels wide; poles lowest, as their pieces are joined through what stands in
+#: front, :data:`POST_CLASSES`, and a far one's pieces no longer count as poles).
+MIN_THIN_AREA_FRACTION: dict[str, float] = {"pole": 5e-5, "traffic_sign": 1e-4, "traffic_light": 1e-4}
 #: A facade region (itself at least the smallest stuff area) is cut into pieces of at least
 #: this fraction of that area each: far down the street a building is a few columns wide.
 FACADE_PIECE_AREA = 0.25
@@ -358,6 +362,12 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
                 stands_in_front &= ~np.isin(lookups.placed, list(FACADE_CLASSES))
             in_front = stands_in_front[window_labels]
             window = fill_through_occluders(own, in_front)
+        elif class_name in POST_CLASSES:
+            # A post split by a sign, a crown or a car in front of it is one post: its
+            # pieces are joined down each column through what stands in front.
+            window_labels = labels[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
+            in_front = (lookups.placed != "")[window_labels]
+            window = fill_through_occluders(own.T, in_front.T).T
         n, comp, stats, _ = cv2.connectedComponentsWithStats(window.astype(np.uint8), connectivity=8)
         for k_comp in range(1, n):
             x, y, w, h, _ = (int(v) for v in stats[k_comp])

@@ -264,3 +264,13 @@ def test_a_lone_tree_off_the_sidewalk_row_does_not_make_a_row_of_its_own():
     near = _obj(_box_at(30.0, -6.2, 1.5, 6.0), 2)
     placed, _ = _place([near], sidewalk=_sidewalk(4.0, 8.0, -1))
     assert placed[2].depth_method == "contact" and abs(placed[2].position_world[1] + 6.2) < 0.5
+
+
+def test_a_hidden_post_is_found_on_its_row_below_its_post_a_crown_below_its_middle():
+    from usdworld.layout.placement import _line_pixel
+
+    tree = _obj((100, 50, 160, 120), 1, hidden=True)
+    tree = ImageObject(**{**tree.__dict__, "contact_px": np.array([150.5, 119.5])})
+    assert _line_pixel(tree, 1000).tolist() == [130.0, 119.5]  # a trunk stands below its crown
+    lamp = ImageObject(**{**tree.__dict__, "class_name": "pole", "source_label": "pole"})
+    assert _line_pixel(lamp, 1000).tolist() == [150.5, 119.5]  # a post where its lowest columns are

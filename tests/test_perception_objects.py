@@ -171,6 +171,23 @@ def test_a_pole_split_by_a_sign_and_a_car_in_front_is_one_pole():
     assert poles[0].contact_px[1] == 149.5 and not poles[0].bottom_occluded
 
 
+def test_a_lamp_post_hidden_by_a_car_stands_below_its_post_not_its_arm():
+    # A post (columns 300-302) from row 30 down behind a parked car (rows 120-150), its
+    # arm reaching 40 columns out over the road at rows 30-33 with sky below it: the
+    # post's hidden foot is the contact, not the arm's lower edge.
+    labels = np.full((200, 400), 23, dtype=np.uint8)
+    labels[100:, :] = SIDEWALK
+    labels[30:120, 300:303] = POLE
+    labels[30:34, 260:300] = POLE
+    labels[120:150, 250:350] = CAR
+    instances = labels.astype(np.int32)
+    instances[labels == CAR] = CAR * 1000 + 1  # the car is an object of its own
+    seg = Segmentation(labels, instances, (FILE,))
+    (pole,) = [o for o in objects_from_segmentation(seg) if o.class_name == "pole"]
+    assert pole.bottom_occluded
+    assert 300 <= pole.contact_px[0] <= 303 and pole.contact_px[1] == 119.5
+
+
 def _crowns(tops: list[int], trunks: list[int]) -> Segmentation:
     """Vegetation whose upper outline follows ``tops`` (one row per column from column
     100) down to row 120, with 4-px trunks down to the sidewalk (row 150) at ``trunks``."""

@@ -513,6 +513,8 @@ def _parked_car_lines(
 #: A tree or pole whose seen contact lies further than this (metres) across the street
 #: from the row its class forms on that side is taken to stand in the row.
 ROW_OUTLIER_M = 2.5
+#: Classes found on their row below their contact's column, not their box's middle.
+POST_CONTACT_CLASSES = frozenset({"pole"})
 
 
 def _off_its_row(d: dict, lines: list[StreetLine], camera: PinholeCamera, axis: RoadAxis) -> bool:
@@ -531,9 +533,11 @@ def _off_its_row(d: dict, lines: list[StreetLine], camera: PinholeCamera, axis: 
 def _line_pixel(obj: ImageObject, width: int) -> np.ndarray:
     """Pixel whose ray finds an object on its row: a trunk or post stands below the middle
     of its crown or sign when its own foot is hidden (unless the image's side cuts it); a
-    facade keeps its contact pixel."""
+    facade, and a pole (its lowest columns are its post, not the lamp's arm beside it),
+    keep their contact pixel."""
     u, v = (float(x) for x in obj.contact_px)
-    if prior_for(obj.class_name).yaw != "face_road" and obj.box_px[0] > 0 and obj.box_px[2] < width:
+    middle = prior_for(obj.class_name).yaw != "face_road" and obj.class_name not in POST_CONTACT_CLASSES
+    if middle and obj.box_px[0] > 0 and obj.box_px[2] < width:
         u = 0.5 * float(obj.box_px[0] + obj.box_px[2])
     return np.array([u, v])
 

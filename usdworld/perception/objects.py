@@ -204,7 +204,9 @@ def _contact_from_mask(
         v = float(rows_abs[use].max()) + 0.5
         u = float(x0 + mask.shape[1] / 2.0)
     elif trunk:
-        foot = use & band if (use & band).any() else use
+        # Where the trunk's or post's own foot is hidden, it is still the foot: not a
+        # lamp's arm or a crown's hem beside it, whose lower edge has nothing below.
+        foot = use & band if (use & band).any() else band
         u = float(np.median(cols_abs[foot])) + 0.5
         v = float(rows_abs[foot].max()) + 0.5
     else:

@@ -32,7 +32,7 @@ import numpy as np
 from scipy.signal import find_peaks
 
 #: A crown top must rise above its neighbouring dips by this fraction of the tree's height in its column.
-MIN_PROMINENCE_FRACTION = 0.1
+MIN_PROMINENCE_FRACTION = 0.07
 #: ... and by at least this many pixels (summits and feet).
 MIN_PROMINENCE_PX = 4.0
 #: A foot (trunk) must reach below its neighbourhood by this fraction of the height of

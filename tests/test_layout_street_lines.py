@@ -274,3 +274,41 @@ def test_a_hidden_post_is_found_on_its_row_below_its_post_a_crown_below_its_midd
     assert _line_pixel(tree, 1000).tolist() == [130.0, 119.5]  # a trunk stands below its crown
     lamp = ImageObject(**{**tree.__dict__, "class_name": "pole", "source_label": "pole"})
     assert _line_pixel(lamp, 1000).tolist() == [150.5, 119.5]  # a post where its lowest columns are
+
+
+def _wall(x0: float, x1: float, y: float, height: float, ref: int, hidden_by: int = -1) -> ImageObject:
+    """A facade piece from ``x0`` to ``x1`` metres ahead along the building line ``y``;
+    its base hidden (by ``hidden_by``) or seen, its contact below its middle column."""
+    near, far = (LEVEL.project(np.array([[x, y, 0.0], [x, y, height]]))[0] for x in (x0, x1))
+    u0, u1 = sorted((float(near[0, 0]), float(far[0, 0])))
+    box = (round(u0), round(float(near[1, 1])), round(u1), round(float(near[0, 1])))
+    xm = 0.5 * (x0 + x1)
+    base = LEVEL.project(np.array([[xm, y, 0.0]]))[0][0]
+    hidden = hidden_by >= 0
+    return ImageObject(
+        class_name="building",
+        source_label="building",
+        instance_id=-1,
+        box_px=np.array(box, dtype=np.int64),
+        mask=np.ones((box[3] - box[1], box[2] - box[0]), bool),
+        contact_px=np.array([float(base[0]), float(base[1]) - (20.0 if hidden else 0.0)]),
+        bottom_truncated=False,
+        bottom_occluded=hidden,
+        top_truncated=False,
+        occluded_by=hidden_by,
+        ref=ref,
+    )
+
+
+def test_a_facade_behind_a_tree_placed_too_far_still_stands_in_the_facades_row():
+    # Facades 10 m right, their bases seen from 20 to 50 m; the base of the one from 60 to
+    # 76 m is hidden by a street tree that was placed (from ground seen under its crown)
+    # at 100 m: the facades' row, not that tree, decides where the facade stands.
+    walls = [_wall(x, x + 12.0, -10.0, 15.0, ref) for ref, x in ((1, 20.0), (2, 32.0), (3, 44.0))]
+    tree = _obj(_box_at(100.0, -4.0, 1.5, 6.0), 9)
+    hidden = _wall(60.0, 76.0, -10.0, 15.0, 4, hidden_by=9)
+    placed, _ = _place([*walls, tree, hidden])
+    assert placed[9].position_world[0] > 90.0  # the tree, as wrong as it was
+    wall = placed[4]
+    assert wall.depth_method == "street_line"
+    assert 60.0 < wall.position_world[0] < 76.0

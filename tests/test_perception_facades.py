@@ -193,7 +193,9 @@ def test_a_facade_run_becomes_buildings_behind_their_fronts():
         # the footprint behind the wall takes the class's usual depth, whatever the
         # building's height: only its front is seen
         assert p.size_m[0] == pytest.approx(depth) and p.stretch[0] != 1.0
-        assert p.size_m[1:] == pytest.approx(p.size_m[1:] / p.stretch[1:])  # frontage and height: the uniform scale
+        assert p.size_m[1:] == pytest.approx(
+            p.size_m[1:] / p.stretch[1:]
+        )  # frontage and height: the uniform scale
         # the centre is half that depth behind the wall, away from the road
         assert p.position_world[1] == pytest.approx(LEFT_Y + depth / 2, abs=0.3)
         assert np.all(p.collision_displacement == 0.0)
@@ -216,7 +218,9 @@ def test_a_building_running_out_of_the_image_keeps_its_seen_end():
     assert placed.size_m[1] == pytest.approx(0.5 * (lo + hi), abs=0.3)
     assert placed.size_m[0] == pytest.approx(prior_for("building").facade_depth_m)
     assert placed.position_world[0] + placed.size_m[1] / 2 == pytest.approx(20.0, abs=0.7)
-    assert placed.position_world[0] == pytest.approx(20.0 - 16.5 / 2, abs=0.7)  # not the seen part's middle (16 m)
+    assert placed.position_world[0] == pytest.approx(
+        20.0 - 16.5 / 2, abs=0.7
+    )  # not the seen part's middle (16 m)
 
 
 def test_stretched_buildings_are_authored_with_their_footprint(tmp_path):
@@ -226,7 +230,11 @@ def test_stretched_buildings_are_authored_with_their_footprint(tmp_path):
     from usdworld.evaluation.world_objects import world_objects
 
     labels = _facade_labels([(14.0, 14.0 + 2 * FRONTAGE_M, 20.0)])
-    buildings = [o for o in objects_from_segmentation(Segmentation(labels, None, ()), VIEW) if o.class_name == "building"]
+    buildings = [
+        o
+        for o in objects_from_segmentation(Segmentation(labels, None, ()), VIEW)
+        if o.class_name == "building"
+    ]
     sizes = _asset_sizes(buildings, library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
     placements, _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
@@ -237,7 +245,9 @@ def test_stretched_buildings_are_authored_with_their_footprint(tmp_path):
     authored = {o.name: o for o in world_objects(stage)}
     for p in placements:
         prim = stage.GetPrimAtPath(f"/World/Objects/{p.name}")
-        assert tuple(prim.GetAttribute("xformOp:scale").Get()) == pytest.approx(tuple(p.scale * p.stretch), rel=1e-6)
+        assert tuple(prim.GetAttribute("xformOp:scale").Get()) == pytest.approx(
+            tuple(p.scale * p.stretch), rel=1e-6
+        )
         assert prim.GetAttribute("usdworld:scaleFactor").Get() == pytest.approx(p.scale, rel=1e-6)
         assert authored[p.name].size_lwh == pytest.approx(p.size_m, rel=1e-4)
 
@@ -296,7 +306,11 @@ def test_a_facade_whose_base_is_seen_is_not_placed_by_its_height():
     # A 20 m tall block 60-76 m ahead, roof in view: the class's usual height (12 m) would
     # put it far too near; its base says where it stands.
     labels = _facade_labels([(60.0, 76.0, 20.0)])
-    buildings = [o for o in objects_from_segmentation(Segmentation(labels, None, ()), VIEW) if o.class_name == "building"]
+    buildings = [
+        o
+        for o in objects_from_segmentation(Segmentation(labels, None, ()), VIEW)
+        if o.class_name == "building"
+    ]
     assert buildings and not any(b.top_truncated for b in buildings)
     sizes = _asset_sizes(buildings, library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")

@@ -52,7 +52,7 @@ from usdworld.layout.street_lines import (
 )
 from usdworld.layout.yaw import RoadAxis, choose_yaw, yaw_from_view_angle
 from usdworld.perception.depth.fusion import HEIGHT_MEAN_REL_SIGMA, DepthCue, fuse, object_depth_cues
-from usdworld.perception.objects import TRUNK_CLASSES, ImageObject
+from usdworld.perception.objects import CROWN_CLASSES, TRUNK_CLASSES, ImageObject
 from usdworld.perception.shape import top_shape_ratio
 
 #: Why a facade whose base is seen has no height cue.
@@ -542,6 +542,14 @@ def _line_pixel(obj: ImageObject, width: int) -> np.ndarray:
     return np.array([u, v])
 
 
+def _row_over_tree(obj: ImageObject, occ: dict) -> bool:
+    """True for a facade whose base a street tree hides: the facades' row, measured by many
+    points, is trusted over that one tree's depth (street trees stand in front of the
+    facades, so a row that puts the facade in front of the tree means the tree is placed
+    too far: its contact was ground seen past its crown)."""
+    return prior_for(obj.class_name).yaw == "face_road" and occ["obj"].class_name in CROWN_CLASSES
+
+
 def _onto_street_line(
     obj: ImageObject,
     name: str,
@@ -569,7 +577,8 @@ def _onto_street_line(
     if front > upper * (1.0 + LINE_BOUND_SLACK) + LINE_BOUND_SLACK_M:
         return None
     occ = _occluder(by_ref, obj)
-    if occ is not None and front < occ["depth_m"] - occ["back_m"] - LINE_BOUND_SLACK_M:
+    in_front_of_occluder = occ is not None and front < occ["depth_m"] - occ["back_m"] - LINE_BOUND_SLACK_M
+    if in_front_of_occluder and not _row_over_tree(obj, occ):
         return None
     moved = draft_of(replace(obj, contact_px=pixel), name, (front, "street_line"))
     if moved is None:

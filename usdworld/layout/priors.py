@@ -52,7 +52,9 @@ class ClassPrior:
         if self.facade_depth_m is not None and not self.facade_depth_m > 0:
             raise InputError(f"class_priors.json -> {self.name} -> facade_depth_m: must be > 0")
         if self.frontage_range_m is not None and not 0 < self.frontage_range_m[0] <= self.frontage_range_m[1]:
-            raise InputError(f"class_priors.json -> {self.name} -> frontage_range_m: must be [min, max] with 0 < min <= max")
+            raise InputError(
+                f"class_priors.json -> {self.name} -> frontage_range_m: must be [min, max] with 0 < min <= max"
+            )
 
 
 @lru_cache(maxsize=1)

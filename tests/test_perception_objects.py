@@ -188,6 +188,24 @@ def test_a_lamp_post_hidden_by_a_car_stands_below_its_post_not_its_arm():
     assert 300 <= pole.contact_px[0] <= 303 and pole.contact_px[1] == 119.5
 
 
+def test_a_sign_whose_post_a_car_hides_is_judged_by_its_post():
+    # A plate (rows 40-70) on a post down to row 120, where a parked car hides the rest;
+    # below the plate's right part the sidewalk far behind shows. The sign stands on its
+    # hidden post, not on that ground.
+    labels = np.full((200, 400), 23, dtype=np.uint8)
+    labels[100:, :] = SIDEWALK
+    labels[70:100, 130:141] = SIDEWALK
+    labels[40:70, 100:141] = TRAFFIC_SIGN
+    labels[70:120, 119:122] = TRAFFIC_SIGN
+    labels[120:150, 80:160] = CAR
+    instances = labels.astype(np.int32)
+    instances[labels == CAR] = CAR * 1000 + 1
+    seg = Segmentation(labels, instances, (FILE,))
+    (sign,) = [o for o in objects_from_segmentation(seg) if o.class_name == "traffic_sign"]
+    assert sign.bottom_occluded
+    assert 119 <= sign.contact_px[0] <= 122 and sign.contact_px[1] == 119.5
+
+
 def _crowns(tops: list[int], trunks: list[int]) -> Segmentation:
     """Vegetation whose upper outline follows ``tops`` (one row per column from column
     100) down to row 120, with 4-px trunks down to the sidewalk (row 150) at ``trunks``."""

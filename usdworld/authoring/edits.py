@@ -192,8 +192,8 @@ class ObjectState:
         scale: uniform scale (the height's, for a footprint stretched along its axes).
         size_lw: scaled footprint (length, width), metres.
         footprint_lw: scaled footprint the permissibility rules use: ``size_lw``, but the
-            trunk's for trees and poles (people stand under crowns and lamp arms, as the
-            build lets them).
+            trunk's or post's for trees, poles and signs (people stand under crowns, lamp
+            arms and sign plates, as the build lets them).
         active: False once deleted.
         status: ``base`` (untouched), ``edited``, ``added`` or ``deleted``.
         color: restyle colour ``#rrggbb`` or ''.
@@ -604,7 +604,8 @@ class WorldEditor:
         return self._sizes[key]
 
     def _footprint_size(self, class_name: str, variant: str) -> tuple[float, float]:
-        """Unscaled footprint for the rules: the trunk's for trees and poles (as the build's collisions)."""
+        """Unscaled footprint for the rules: the trunk's or post's for trees, poles and
+        signs (as the build's collisions)."""
         if class_name not in TRUNK_CLASSES:
             return self._size(class_name, variant)
         key = (class_name, variant)

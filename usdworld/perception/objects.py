@@ -27,8 +27,8 @@ CROWN_CLASSES = frozenset({"tree"})
 #: Stuff cut the same way, one object per top or post: signs one behind the other along
 #: the kerb run together in the image, each with its plate's top and its own post.
 TOPPED_CLASSES = CROWN_CLASSES | {"traffic_sign"}
-#: Stuff standing on a trunk or a post: its crown or arm may hang over ground far behind it.
-TRUNK_CLASSES = frozenset({"tree", "pole"})
+#: Stuff standing on a trunk or a post: its crown, arm or plate may hang over ground far behind it.
+TRUNK_CLASSES = frozenset({"tree", "pole", "traffic_sign"})
 #: Thin upright stuff whose pieces one above the other, split by what stands in front
 #: (a sign plate, a crown, a parked car), are one object.
 POST_CLASSES = frozenset({"pole", "traffic_sign", "traffic_light"})

@@ -244,10 +244,14 @@ def test_a_tree_whose_contact_lies_far_beyond_its_row_stands_in_the_row():
     tree = placed[4]
     assert tree.depth_method == "street_line"
     assert abs(tree.position_world[1] + 4.0) < 0.3 and abs(tree.position_world[0] - 20.0) < 1.0
-    # a tree 1.5 m off the row is a tree standing there
-    near = _obj(_box_at(40.0, -5.5, 1.5, 6.0), 5)
+    # a tree 1 m off the row, within twice a row's spread, is a tree standing there
+    near = _obj(_box_at(40.0, -5.0, 1.5, 6.0), 5)
     placed, _ = _place([*seen, near])
-    assert placed[5].depth_method == "contact" and abs(placed[5].position_world[1] + 5.5) < 0.5
+    assert placed[5].depth_method == "contact" and abs(placed[5].position_world[1] + 5.0) < 0.5
+    # 2 m off, it is ground seen past a crown
+    off = _obj(_box_at(40.0, -6.0, 1.5, 6.0), 6)
+    placed, _ = _place([*seen, off])
+    assert placed[6].depth_method == "street_line"
 
 
 def test_a_lone_tree_off_the_sidewalk_row_does_not_make_a_row_of_its_own():

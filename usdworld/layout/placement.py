@@ -511,8 +511,9 @@ def _parked_car_lines(
 
 
 #: A tree or pole whose seen contact lies further than this (metres) across the street
-#: from the row its class forms on that side is taken to stand in the row.
-ROW_OUTLIER_M = 2.5
+#: from the row its class forms on that side is taken to stand in the row: twice the
+#: spread a row's members may have (``street_lines.MAX_SPREAD_M``).
+ROW_OUTLIER_M = 1.5
 #: Classes found on their row below their contact's column, not their box's middle.
 POST_CONTACT_CLASSES = frozenset({"pole"})
 

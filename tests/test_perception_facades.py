@@ -320,3 +320,17 @@ def test_a_facade_whose_base_is_seen_is_not_placed_by_its_height():
         assert not height.available and height.note == FACADE_HEIGHT_NOTE
         assert p.depth_method == "contact"
         assert 60.0 < p.position_world[0] < 76.0
+
+
+def test_the_two_sides_joined_at_the_vanishing_point_are_cut_apart_there():
+    # Walls on both sides (8 m left and right, 14 to 200 m ahead) and a far block across
+    # the end of the street joining them in the labels: no building straddles the
+    # vanishing point (column 512), and each side keeps its own pieces.
+    lk = label_lookups()
+    left = _facade_labels([(14.0, 200.0, 14.0)])
+    labels = np.where(left[:, ::-1] == lk.id_of("building"), left[:, ::-1], left)
+    labels[230:256, 480:544] = lk.id_of("building")
+    seg = Segmentation(labels, None, ())
+    buildings = [o for o in objects_from_segmentation(seg, VIEW_VP) if o.class_name == "building"]
+    assert all(b.box_px[2] <= 512 or b.box_px[0] >= 512 for b in buildings)
+    assert sum(b.box_px[2] <= 512 for b in buildings) >= 3 and sum(b.box_px[0] >= 512 for b in buildings) >= 3

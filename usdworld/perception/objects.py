@@ -285,6 +285,45 @@ def _instance_groups(instance_ids: np.ndarray) -> list[tuple[int, np.ndarray]]:
     return [(int(v), b) for v, b in zip(vals[starts], boxes)]
 
 
+def _facade_sides(
+    crop: np.ndarray,
+    region: np.ndarray,
+    x: int,
+    y: int,
+    labels: np.ndarray,
+    view: StreetView,
+    piece_area: float,
+    width: int,
+) -> list[tuple[int, int]] | None:
+    """:func:`facade_ranges` of a facade crop, cut first at the street's vanishing point:
+    where the two sides' far ends meet there the labels make one region of them, but a
+    building never stands on both sides. A side whose base is not measurable is cut by
+    aspect (:data:`SPLIT_ASPECT`); None when neither side's is."""
+    split = int(round(view.vanishing_u)) - x if view.vanishing_u is not None else 0
+    sides = [(0, split), (split, crop.shape[1])] if 0 < split < crop.shape[1] else [(0, crop.shape[1])]
+    parts = [
+        facade_ranges(
+            crop[:, a:b],
+            x + a,
+            y,
+            _ground_below(crop[:, a:b], x + a, y, labels),
+            view,
+            piece_area,
+            roof_mask=region[:, a:b],
+            image_width=width,
+        )
+        for a, b in sides
+    ]
+    if all(part is None for part in parts):
+        return None
+    ranges: list[tuple[int, int]] = []
+    for (a, b), part in zip(sides, parts):
+        if part is None:
+            part = _split_columns(crop[:, a:b], SPLIT_ASPECT["building"])
+        ranges.extend((a + c0, a + c1) for c0, c1 in part)
+    return ranges
+
+
 def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None) -> list[ImageObject]:
     """Things from the instance map (or class components) and stuff from class masks.
 
@@ -383,16 +422,7 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
             piece_area = min_area
             if view is not None and class_name in FACADE_CLASSES:
                 piece_area = max(MIN_STUFF_AREA_PX, int(min_area * FACADE_PIECE_AREA))
-                ranges = facade_ranges(
-                    crop,
-                    x,
-                    y,
-                    _ground_below(crop, x, y, labels),
-                    view,
-                    piece_area,
-                    roof_mask=region,
-                    image_width=W,
-                )
+                ranges = _facade_sides(crop, region, x, y, labels, view, piece_area, W)
             if ranges is None and class_name in TOPPED_CLASSES:
                 ranges = crown_ranges(crop, _ground_below(crop, x, y, labels, or_things=True))
             if ranges is None:

@@ -299,7 +299,7 @@ def _facade_sides(
     where the two sides' far ends meet there the labels make one region of them, but a
     building never stands on both sides. A side whose base is not measurable is cut by
     aspect (:data:`SPLIT_ASPECT`); None when neither side's is."""
-    split = int(round(view.vanishing_u)) - x if view.vanishing_u is not None else 0
+    split = round(view.vanishing_u) - x if view.vanishing_u is not None else 0
     sides = [(0, split), (split, crop.shape[1])] if 0 < split < crop.shape[1] else [(0, crop.shape[1])]
     parts = [
         facade_ranges(

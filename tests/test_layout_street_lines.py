@@ -316,3 +316,17 @@ def test_a_facade_behind_a_tree_placed_too_far_still_stands_in_the_facades_row()
     wall = placed[4]
     assert wall.depth_method == "street_line"
     assert 60.0 < wall.position_world[0] < 76.0
+
+
+def test_an_occluder_known_only_from_above_does_not_bound_what_it_hides():
+    # The facades' row as before; the base of the one from 60 to 76 m is hidden by a
+    # sliver of car (6 px tall, its own bottom hidden too): its depth, hundreds of metres
+    # from so few pixels, is only a bound from above and says nothing of how near the
+    # facade is (the car itself is too far to place).
+    walls = [_wall(x, x + 12.0, -10.0, 15.0, ref) for ref, x in ((1, 20.0), (2, 32.0), (3, 44.0))]
+    car = _obj((600, 252, 640, 258), 9, hidden=True, class_name="car")
+    hidden = _wall(60.0, 76.0, -10.0, 15.0, 4, hidden_by=9)
+    placed, _ = _place([*walls, car, hidden])
+    wall = placed[4]
+    assert wall.depth_method == "street_line"
+    assert 60.0 < wall.position_world[0] < 76.0

@@ -564,8 +564,10 @@ def _onto_street_line(
     """The draft of an object whose contact is hidden or cut, placed on its class's row.
 
     The row's depth must agree with what the object's own evidence bounds: no nearer than
-    the front of the object hiding its bottom, no farther than its visible bottom's ground
-    point (:data:`LINE_BOUND_SLACK`). None when there is no such row or they disagree.
+    the front of the object hiding its bottom (unless that one's depth is itself only a
+    bound from above, or it is a street tree in front of a facade: :func:`_row_over_tree`),
+    no farther than its visible bottom's ground point (:data:`LINE_BOUND_SLACK`). None
+    when there is no such row or they disagree.
     """
     if obj.class_name not in LINE_CLASSES:
         return None
@@ -578,6 +580,8 @@ def _onto_street_line(
     if front > upper * (1.0 + LINE_BOUND_SLACK) + LINE_BOUND_SLACK_M:
         return None
     occ = _occluder(by_ref, obj)
+    if occ is not None and occ["depth_method"] in PARTIAL_METHODS:
+        occ = None  # its depth is itself a bound from above (its bottom hidden or cut)
     in_front_of_occluder = occ is not None and front < occ["depth_m"] - occ["back_m"] - LINE_BOUND_SLACK_M
     if in_front_of_occluder and not _row_over_tree(obj, occ):
         return None

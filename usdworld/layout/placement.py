@@ -822,7 +822,8 @@ def _draft(  # noqa: PLR0913
         "stretch": stretch,
         "scale_measured": scale_measured,
         "size": size,
-        # Trees and poles collide by their trunk: people stand under crowns and lamp arms.
+        # Trees, poles and signs collide by their trunk or post: people stand under crowns,
+        # lamp arms and sign plates.
         "footprint": 2.0 * sizes.contact_half(variant) * scale if obj.class_name in TRUNK_CLASSES else size[:2],
         "depth_m": depth,
         "depth_method": method,

@@ -171,6 +171,13 @@ def test_a_pole_split_by_a_sign_and_a_car_in_front_is_one_pole():
     assert poles[0].contact_px[1] == 149.5 and not poles[0].bottom_occluded
 
 
+def _with_one_car(labels: np.ndarray) -> Segmentation:
+    """The labels with their car pixels as one car instance (an object that hides what it covers)."""
+    instances = labels.astype(np.int32)
+    instances[labels == CAR] = CAR * 1000 + 1
+    return Segmentation(labels, instances, (FILE,))
+
+
 def test_a_lamp_post_hidden_by_a_car_stands_below_its_post_not_its_arm():
     # A post (columns 300-302) from row 30 down behind a parked car (rows 120-150), its
     # arm reaching 40 columns out over the road at rows 30-33 with sky below it: the
@@ -180,10 +187,7 @@ def test_a_lamp_post_hidden_by_a_car_stands_below_its_post_not_its_arm():
     labels[30:120, 300:303] = POLE
     labels[30:34, 260:300] = POLE
     labels[120:150, 250:350] = CAR
-    instances = labels.astype(np.int32)
-    instances[labels == CAR] = CAR * 1000 + 1  # the car is an object of its own
-    seg = Segmentation(labels, instances, (FILE,))
-    (pole,) = [o for o in objects_from_segmentation(seg) if o.class_name == "pole"]
+    (pole,) = [o for o in objects_from_segmentation(_with_one_car(labels)) if o.class_name == "pole"]
     assert pole.bottom_occluded
     assert 300 <= pole.contact_px[0] <= 303 and pole.contact_px[1] == 119.5
 
@@ -198,10 +202,7 @@ def test_a_sign_whose_post_a_car_hides_is_judged_by_its_post():
     labels[40:70, 100:141] = TRAFFIC_SIGN
     labels[70:120, 119:122] = TRAFFIC_SIGN
     labels[120:150, 80:160] = CAR
-    instances = labels.astype(np.int32)
-    instances[labels == CAR] = CAR * 1000 + 1
-    seg = Segmentation(labels, instances, (FILE,))
-    (sign,) = [o for o in objects_from_segmentation(seg) if o.class_name == "traffic_sign"]
+    (sign,) = [o for o in objects_from_segmentation(_with_one_car(labels)) if o.class_name == "traffic_sign"]
     assert sign.bottom_occluded
     assert 119 <= sign.contact_px[0] <= 122 and sign.contact_px[1] == 119.5
 

@@ -579,9 +579,7 @@ def _onto_street_line(
     upper = draft["upper_m"] if draft is not None else float("inf")
     if front > upper * (1.0 + LINE_BOUND_SLACK) + LINE_BOUND_SLACK_M:
         return None
-    occ = _occluder(by_ref, obj)
-    if occ is not None and occ["depth_method"] in PARTIAL_METHODS:
-        occ = None  # its depth is itself a bound from above (its bottom hidden or cut)
+    occ = _bounding_occluder(by_ref, obj)
     in_front_of_occluder = occ is not None and front < occ["depth_m"] - occ["back_m"] - LINE_BOUND_SLACK_M
     if in_front_of_occluder and not _row_over_tree(obj, occ):
         return None
@@ -622,6 +620,13 @@ def _occluder(by_ref: dict[int, dict], obj: ImageObject) -> dict | None:
     return occ
 
 
+def _bounding_occluder(by_ref: dict[int, dict], obj: ImageObject) -> dict | None:
+    """:func:`_occluder`, when its own depth can bound ``obj``'s from below: not when that
+    depth is itself only a bound from above (its bottom hidden or cut, :data:`PARTIAL_METHODS`)."""
+    occ = _occluder(by_ref, obj)
+    return None if occ is None or occ["depth_method"] in PARTIAL_METHODS else occ
+
+
 def _sliver_behind(draft: dict, camera: PinholeCamera) -> bool:
     """True for stuff placed just behind its occluder whose visible part, at that depth, is
     smaller in both width and height than the smallest allowed scale of its class: a
@@ -646,9 +651,9 @@ def _move_behind_occluders(drafts: list[dict], camera: PinholeCamera) -> None:
     """
     by_ref = {d["obj"].ref: d for d in drafts if d["obj"].ref >= 0}
     for d in drafts:
-        occ = _occluder(by_ref, d["obj"])
+        occ = _bounding_occluder(by_ref, d["obj"])
         method = d["depth_method"]
-        if occ is None or method not in PARTIAL_METHODS or occ["depth_method"] in PARTIAL_METHODS:
+        if occ is None or method not in PARTIAL_METHODS:
             continue
         behind = occ["depth_m"] + occ["back_m"] + BEHIND_GAP_M
         if method in ("contact_partial", "top_row") and d["front_depth_m"] >= behind:

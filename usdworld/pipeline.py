@@ -35,10 +35,10 @@ from usdworld.geometry.estimate import (
 from usdworld.geometry.homography import HomographyFit, apply_homography, estimate_homography
 from usdworld.geometry.vanishing import VanishingPoint, street_vanishing_point
 from usdworld.io.camera_files import read_camera
+from usdworld.io.class_table import load_class_table
 from usdworld.io.correspondences import read_correspondences
 from usdworld.io.detections import read_detections_json, read_kitti_labels
 from usdworld.io.hashing import read_input
-from usdworld.io.class_table import load_class_table
 from usdworld.io.images import read_image
 from usdworld.io.label_table import label_lookups
 from usdworld.io.labels import read_polygons, read_segmentation

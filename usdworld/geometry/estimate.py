@@ -25,7 +25,7 @@ import numpy as np
 from usdworld.errors import CalibrationError
 from usdworld.geometry.camera import PinholeCamera, intrinsics_from_fov
 from usdworld.geometry.vanishing import VanishingPoint, horizon_measurement
-from usdworld.parameters.camera import CameraParams
+from usdworld.parameters.camera import DEFAULT_CAMERA, CameraParams
 
 #: Transitional: removed when the pipeline takes CameraParams (it imports these names).
 DEFAULT_HFOV_DEG = CameraParams().default_hfov_deg
@@ -261,7 +261,7 @@ def estimate_camera(
     observations: HeightObservations,
     road_top_v: float | None = None,
     vanishing: VanishingPoint | None = None,
-    params: CameraParams = CameraParams(),
+    params: CameraParams = DEFAULT_CAMERA,
 ) -> CameraEstimate:
     """Complete a partially known camera.
 

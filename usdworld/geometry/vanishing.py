@@ -7,7 +7,8 @@ camera that objects of known height constrain worst when there are few of them.
 
 Line segments come from OpenCV's LSD detector. A deterministic RANSAC over pairs of
 segments finds the point most segments point at (within ``vp_angle_tol_deg`` of
-:class:`~usdworld.parameters.CameraParams`, weighted by length); a weighted least-squares fit over its inliers refines it. The estimate is
+:class:`~usdworld.parameters.CameraParams`, weighted by length); a weighted least-squares
+fit over its inliers refines it. The estimate is
 kept only when enough segments from both sides of the point agree, so a single facade
 or a fence does not decide it.
 
@@ -21,7 +22,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from usdworld.parameters.camera import CameraParams
+from usdworld.parameters.camera import DEFAULT_CAMERA, CameraParams
+
 
 @dataclass(frozen=True)
 class VanishingPoint:
@@ -42,7 +44,7 @@ class VanishingPoint:
     n_segments: int
 
 
-def detect_segments(rgb: np.ndarray, params: CameraParams = CameraParams()) -> np.ndarray:
+def detect_segments(rgb: np.ndarray, params: CameraParams = DEFAULT_CAMERA) -> np.ndarray:
     """Line segments of a photo (found at most ``params.vp_max_width_px`` wide, for speed).
 
     Args:
@@ -107,7 +109,7 @@ def _refine(segments: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, floa
 
 
 def find_vanishing_point(
-    segments: np.ndarray, width: int, height: int, params: CameraParams = CameraParams()
+    segments: np.ndarray, width: int, height: int, params: CameraParams = DEFAULT_CAMERA
 ) -> VanishingPoint | None:
     """The point the most (length-weighted) slanted segments converge on.
 
@@ -153,13 +155,13 @@ def find_vanishing_point(
     return VanishingPoint(float(best[0]), float(best[1]), sigma_v, int(inliers.sum()), n)
 
 
-def street_vanishing_point(rgb: np.ndarray, params: CameraParams = CameraParams()) -> VanishingPoint | None:
+def street_vanishing_point(rgb: np.ndarray, params: CameraParams = DEFAULT_CAMERA) -> VanishingPoint | None:
     """:func:`find_vanishing_point` of the photo's LSD segments."""
     return find_vanishing_point(detect_segments(rgb, params), rgb.shape[1], rgb.shape[0], params)
 
 
 def horizon_measurement(
-    vp: VanishingPoint, fy: float, params: CameraParams = CameraParams()
+    vp: VanishingPoint, fy: float, params: CameraParams = DEFAULT_CAMERA
 ) -> tuple[float, float]:
     """The horizon row the vanishing point measures and its standard error, pixels.
 

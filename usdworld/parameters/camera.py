@@ -128,3 +128,7 @@ class CameraParams:
     def height_prior_m(self) -> tuple[float, float]:
         """(mean, spread) of the camera-height prior, metres."""
         return (self.height_prior_mean_m, self.height_prior_std_m)
+
+
+#: The defaults (the default argument of the camera stage's public functions).
+DEFAULT_CAMERA = CameraParams()

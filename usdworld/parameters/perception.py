@@ -213,3 +213,7 @@ class PerceptionParams:
     def min_area_fraction(self, class_name: str) -> float:
         """Smallest region of ``class_name`` kept, as a fraction of the image area."""
         return dict(self.min_thin_area_fraction).get(class_name, self.min_stuff_area_fraction)
+
+
+#: The defaults (the default argument of perception's public functions).
+DEFAULT_PERCEPTION = PerceptionParams()

@@ -5,7 +5,8 @@ overlap in the image arrives as one region. Each crown rises to a top of its own
 conifer's tip, a broad crown's dome), so the region's upper outline has one clear
 summit per tree, with a dip where two crowns meet; the region is cut at the deepest dip
 between neighbouring summits. A summit counts when it rises above the dips on both its
-sides by ``crown_prominence_fraction`` (:class:`~usdworld.parameters.PerceptionParams`) of the tree's height in its column, the
+sides by ``crown_prominence_fraction`` (:class:`~usdworld.parameters.PerceptionParams`)
+of the tree's height in its column, the
 region's outline from top to bottom there (small bumps of one crown's outline do not;
 a small far crown beside a big near one counts by its own height, not the big one's).
 
@@ -30,7 +31,7 @@ import itertools
 
 import numpy as np
 
-from usdworld.parameters.perception import PerceptionParams
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
 from usdworld.perception.peaks import local_maxima, prominences
 
 
@@ -56,7 +57,7 @@ def _cut_at(profile: np.ndarray, peaks: np.ndarray, lowest: bool) -> list[int]:
 
 
 def crown_ranges(
-    mask: np.ndarray, on_ground: np.ndarray | None = None, params: PerceptionParams = PerceptionParams()
+    mask: np.ndarray, on_ground: np.ndarray | None = None, params: PerceptionParams = DEFAULT_PERCEPTION
 ) -> list[tuple[int, int]]:
     """Column ranges ``[c0, c1)`` of a vegetation crop, one per crown top or trunk.
 

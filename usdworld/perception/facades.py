@@ -31,7 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from usdworld.parameters.perception import PerceptionParams
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
+
 
 @dataclass(frozen=True)
 class StreetView:
@@ -124,7 +125,7 @@ def _base_line(u: np.ndarray, v: np.ndarray, view: StreetView) -> tuple[float, f
 
 
 def base_frontage_m(
-    u: np.ndarray, v_base: np.ndarray, view: StreetView, params: PerceptionParams = PerceptionParams()
+    u: np.ndarray, v_base: np.ndarray, view: StreetView, params: PerceptionParams = DEFAULT_PERCEPTION
 ) -> np.ndarray:
     """Ground length of the base line between neighbouring columns, metres.
 
@@ -183,7 +184,7 @@ def facade_ranges(
     min_area_px: float,
     roof_mask: np.ndarray | None = None,
     image_width: int | None = None,
-    params: PerceptionParams = PerceptionParams(),
+    params: PerceptionParams = DEFAULT_PERCEPTION,
 ) -> list[tuple[int, int]] | None:
     """Column ranges ``[c0, c1)`` of a facade crop, one per building-sized piece.
 

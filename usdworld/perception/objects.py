@@ -21,7 +21,7 @@ import numpy as np
 from usdworld.io.class_table import ClassTable, load_class_table
 from usdworld.io.label_table import LabelLookups
 from usdworld.io.types import Detections, Segmentation
-from usdworld.parameters.perception import PerceptionParams
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
 from usdworld.perception.classes import placed_class_for_label
 from usdworld.perception.crowns import crown_ranges
 from usdworld.perception.facades import StreetView, facade_ranges, fill_through_occluders
@@ -310,7 +310,7 @@ def objects_from_segmentation(
     view: StreetView | None,
     classes: ClassTable,
     lookups: LabelLookups,
-    params: PerceptionParams = PerceptionParams(),
+    params: PerceptionParams = DEFAULT_PERCEPTION,
 ) -> list[ImageObject]:
     """Things from the instance map (or class components) and stuff from class masks.
 
@@ -476,7 +476,7 @@ def objects_from_detections(
     segmentation: Segmentation | None = None,
     *,
     lookups: LabelLookups,
-    params: PerceptionParams = PerceptionParams(),
+    params: PerceptionParams = DEFAULT_PERCEPTION,
 ) -> list[ImageObject]:
     """Things from 2D detections (boxes, optionally masks).
 

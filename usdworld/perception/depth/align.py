@@ -36,7 +36,7 @@ import numpy as np
 from usdworld.errors import CalibrationError, InputError
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.types import DepthMap
-from usdworld.parameters.perception import PerceptionParams
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
 from usdworld.perception.depth.base import DepthPrediction
 from usdworld.perception.depth.ground import ground_plane_depth
 
@@ -177,7 +177,7 @@ def align_to_ground(
     threshold: float = 0.1,
     iterations: int = 200,
     max_samples: int = 20000,
-    params: PerceptionParams = PerceptionParams(),
+    params: PerceptionParams = DEFAULT_PERCEPTION,
 ) -> tuple[AlignmentFit, DepthMap]:
     """Fit a prediction's scale (and shift) to the ground plane and return metric depth.
 

@@ -46,7 +46,7 @@ import numpy as np
 
 from usdworld.errors import InputError, LayoutError
 from usdworld.io.types import DepthMap
-from usdworld.parameters.perception import PerceptionParams
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
 
 CUE_NAMES = ("contact", "cnn", "height")
 #: Transitional: removed when layout takes PerceptionParams (it imports this name).
@@ -140,7 +140,7 @@ def interquartile_mean(values: np.ndarray) -> float:
 
 
 def contact_sigma_m(
-    depth_m: float, fy: float, camera_height_m: float, params: PerceptionParams = PerceptionParams()
+    depth_m: float, fy: float, camera_height_m: float, params: PerceptionParams = DEFAULT_PERCEPTION
 ) -> float:
     """Sigma of the ground-contact cue at ``depth_m`` (module docstring), metres."""
     geometric = params.contact_row_error_px * depth_m**2 / (fy * camera_height_m)
@@ -180,7 +180,7 @@ def object_depth_cues(
     class_height_std_m: float | None = None,
     height_depth_m: float | None = None,
     class_mean_rel_sigma: float = 0.0,
-    params: PerceptionParams = PerceptionParams(),
+    params: PerceptionParams = DEFAULT_PERCEPTION,
 ) -> list[DepthCue]:
     """Every depth cue of one object (module docstring for the models and sigmas).
 
@@ -259,7 +259,7 @@ def object_depth_cues(
 
 
 def fuse(
-    cues: list[DepthCue] | tuple[DepthCue, ...], params: PerceptionParams = PerceptionParams()
+    cues: list[DepthCue] | tuple[DepthCue, ...], params: PerceptionParams = DEFAULT_PERCEPTION
 ) -> FusedDepth:
     """Inverse-variance weighted depth of the available cues.
 

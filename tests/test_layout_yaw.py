@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from usdworld.geometry.camera import PinholeCamera
+from usdworld.io.label_table import label_lookups
 from usdworld.io.types import Detection, Detections, InputFile
 from usdworld.layout.boxes import box_corners, fit_view_angle
 from usdworld.layout.yaw import view_angle_from_box, yaw_from_view_angle
@@ -45,7 +46,7 @@ def test_turn_recovered_from_a_projected_box(depth: float, lateral: float, turn_
     centre = np.array([depth, lateral])
     box = _box(centre, np.arctan2(lateral, depth) + np.radians(turn_deg), CAR, TELE)
     dets = Detections((Detection("Car", box, amodal=True),), InputFile("detections", "d.txt", "0" * 64))
-    (obj,) = objects_from_detections(dets, TELE.width, TELE.height)
+    (obj,) = objects_from_detections(dets, TELE.width, TELE.height, lookups=label_lookups())
     hidden = np.degrees(CAR[1] / depth)
     assert np.degrees(fit_view_angle(TELE, centre, np.array(CAR), obj)) == pytest.approx(
         turn_deg, abs=1.0 + hidden

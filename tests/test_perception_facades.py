@@ -11,19 +11,15 @@ from hypothesis import strategies as st
 
 from usdworld.authoring.asset_library import asset_path, library_dirs
 from usdworld.geometry.camera import PinholeCamera
+from usdworld.io.class_table import load_class_table
+from usdworld.io.label_table import label_lookups
 from usdworld.io.types import Segmentation
 from usdworld.layout.placement import CURB_HEIGHT_M, FACADE_HEIGHT_NOTE, out_of_view_frontage, place_objects
 from usdworld.layout.priors import prior_for
 from usdworld.layout.yaw import RoadAxis, choose_yaw
-from usdworld.perception.classes import label_lookups
-from usdworld.perception.facades import (
-    FRONTAGE_M,
-    ROOFLINE_FRONTAGE_M,
-    StreetView,
-    base_frontage_m,
-    facade_ranges,
-)
-from usdworld.perception.objects import objects_from_segmentation
+from usdworld.parameters import PerceptionParams
+from usdworld.perception.facades import StreetView, base_frontage_m, facade_ranges
+from usdworld.perception.objects import ImageObject, objects_from_segmentation
 from usdworld.pipeline import _asset_sizes
 
 W, H = 1024, 512
@@ -34,6 +30,13 @@ VIEW = StreetView(horizon_v=256.0, focal_px=800.0, principal_u=512.0, camera_hei
 #: stand on, and the street's vanishing point (straight ahead).
 VIEW_VP = StreetView(256.0, 800.0, 512.0, 1.5 - CURB_HEIGHT_M, vanishing_u=512.0)
 LEFT_Y = 8.0  # the left building line, metres left of the camera
+FRONTAGE_M = PerceptionParams().frontage_m
+ROOFLINE_FRONTAGE_M = PerceptionParams().roofline_frontage_m
+
+
+def _objects(seg: Segmentation, view: StreetView | None = None) -> list[ImageObject]:
+    """:func:`objects_from_segmentation` with the shipped class and label tables."""
+    return objects_from_segmentation(seg, view, load_class_table(), label_lookups())
 
 
 def _px(x: float, y: float, z: float) -> tuple[float, float]:
@@ -179,8 +182,8 @@ def test_buildings_face_the_road_from_either_side():
 def test_a_facade_run_becomes_buildings_behind_their_fronts():
     labels = _facade_labels([(14.0, 14.0 + 3 * FRONTAGE_M, 14.0)])
     seg = Segmentation(labels, None, ())
-    buildings = [o for o in objects_from_segmentation(seg, VIEW) if o.class_name == "building"]
-    unsplit = [o for o in objects_from_segmentation(seg) if o.class_name == "building"]
+    buildings = [o for o in _objects(seg, VIEW) if o.class_name == "building"]
+    unsplit = [o for o in _objects(seg) if o.class_name == "building"]
     assert len(buildings) == 3 and len(unsplit) < 3
     sizes = _asset_sizes(buildings, library_dirs(None))
     ground_from_px = np.linalg.inv(CAM.px_from_ground())
@@ -208,7 +211,7 @@ def test_a_building_running_out_of_the_image_keeps_its_seen_end():
     # is as likely, so it is given their middle, 16.5 m.
     labels = _facade_labels([(2.0, 20.0, 60.0)])
     seg = Segmentation(labels, None, ())
-    buildings = [o for o in objects_from_segmentation(seg, VIEW_VP) if o.class_name == "building"]
+    buildings = [o for o in _objects(seg, VIEW_VP) if o.class_name == "building"]
     assert len(buildings) == 1 and buildings[0].box_px[0] == 0
     sizes = _asset_sizes(buildings, library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
@@ -232,7 +235,7 @@ def test_stretched_buildings_are_authored_with_their_footprint(tmp_path):
     labels = _facade_labels([(14.0, 14.0 + 2 * FRONTAGE_M, 20.0)])
     buildings = [
         o
-        for o in objects_from_segmentation(Segmentation(labels, None, ()), VIEW)
+        for o in _objects(Segmentation(labels, None, ()), VIEW)
         if o.class_name == "building"
     ]
     sizes = _asset_sizes(buildings, library_dirs(None))
@@ -308,7 +311,7 @@ def test_a_facade_whose_base_is_seen_is_not_placed_by_its_height():
     labels = _facade_labels([(60.0, 76.0, 20.0)])
     buildings = [
         o
-        for o in objects_from_segmentation(Segmentation(labels, None, ()), VIEW)
+        for o in _objects(Segmentation(labels, None, ()), VIEW)
         if o.class_name == "building"
     ]
     assert buildings and not any(b.top_truncated for b in buildings)
@@ -331,6 +334,6 @@ def test_the_two_sides_joined_at_the_vanishing_point_are_cut_apart_there():
     labels = np.where(left[:, ::-1] == lk.id_of("building"), left[:, ::-1], left)
     labels[230:256, 480:544] = lk.id_of("building")
     seg = Segmentation(labels, None, ())
-    buildings = [o for o in objects_from_segmentation(seg, VIEW_VP) if o.class_name == "building"]
+    buildings = [o for o in _objects(seg, VIEW_VP) if o.class_name == "building"]
     assert all(b.box_px[2] <= 512 or b.box_px[0] >= 512 for b in buildings)
     assert sum(b.box_px[2] <= 512 for b in buildings) >= 3 and sum(b.box_px[0] >= 512 for b in buildings) >= 3

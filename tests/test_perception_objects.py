@@ -6,13 +6,20 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from usdworld.io.class_table import load_class_table
+from usdworld.io.label_table import label_lookups
 from usdworld.io.types import Detection, Detections, InputFile, Segmentation
 from usdworld.perception.crowns import crown_ranges
-from usdworld.perception.facades import fill_through_occluders
-from usdworld.perception.objects import objects_from_detections, objects_from_segmentation
+from usdworld.perception.facades import StreetView, fill_through_occluders
+from usdworld.perception.objects import ImageObject, objects_from_detections, objects_from_segmentation
 
 ROAD, SIDEWALK, BUILDING, PERSON, CAR = 7, 8, 11, 24, 26
 FILE = InputFile("labels", "x.png", "0" * 64)
+
+
+def _objects(seg: Segmentation, view: StreetView | None = None) -> list[ImageObject]:
+    """:func:`objects_from_segmentation` with the shipped class and label tables."""
+    return objects_from_segmentation(seg, view, load_class_table(), label_lookups())
 
 
 def _scene() -> Segmentation:
@@ -37,7 +44,7 @@ def _scene() -> Segmentation:
 
 
 def test_things_contacts_and_flags():
-    objects = {o.instance_id: o for o in objects_from_segmentation(_scene()) if o.is_thing}
+    objects = {o.instance_id: o for o in _objects(_scene()) if o.is_thing}
     assert set(objects) == {26000, 26001, 26002, 24000}
     visible = objects[26000]
     assert visible.class_name == "car" and visible.source_label == "car"
@@ -51,7 +58,7 @@ def test_things_contacts_and_flags():
 
 
 def test_wide_stuff_is_split_into_chunks():
-    buildings = [o for o in objects_from_segmentation(_scene()) if o.class_name == "building"]
+    buildings = [o for o in _objects(_scene()) if o.class_name == "building"]
     # 400 px wide, 40 px tall facade, aspect 1.0 -> about 10 chunks of ~40 px.
     assert 6 <= len(buildings) <= 12
     widths = [o.width_px for o in buildings]
@@ -60,7 +67,7 @@ def test_wide_stuff_is_split_into_chunks():
 
 
 def test_canonical_order():
-    objects = objects_from_segmentation(_scene())
+    objects = _objects(_scene())
     keys = [(o.class_name, o.instance_id if o.instance_id >= 0 else 1 << 30, float(o.contact_px[0])) for o in objects]
     assert keys == sorted(keys)
     assert [o.class_name for o in objects][:1] == ["building"]
@@ -76,7 +83,7 @@ def test_detections_boxes_occlusion_and_truncation():
         ),
         InputFile("detections", "d.txt", "0" * 64),
     )
-    objects = objects_from_detections(dets, 400, 200)
+    objects = objects_from_detections(dets, 400, 200, lookups=label_lookups())
     by_index = {o.instance_id: o for o in objects}
     assert set(by_index) == {0, 1, 2}
     assert by_index[0].bottom_occluded and not by_index[1].bottom_occluded
@@ -90,9 +97,15 @@ def test_amodal_box_bottom_is_its_contact_even_behind_another_box():
     near = np.array([100.0, 50.0, 260.0, 150.0])
     far = np.array([150.0, 55.0, 200.0, 90.0])
     file = InputFile("detections", "d.txt", "0" * 64)
-    modal = objects_from_detections(Detections((Detection("Car", near), Detection("Car", far)), file), 400, 200)
+    lookups = label_lookups()
+    modal = objects_from_detections(
+        Detections((Detection("Car", near), Detection("Car", far)), file), 400, 200, lookups=lookups
+    )
     amodal = objects_from_detections(
-        Detections((Detection("Car", near, amodal=True), Detection("Car", far, amodal=True)), file), 400, 200
+        Detections((Detection("Car", near, amodal=True), Detection("Car", far, amodal=True)), file),
+        400,
+        200,
+        lookups=lookups,
     )
     assert [o.bottom_occluded for o in sorted(modal, key=lambda o: o.instance_id)] == [False, True]
     assert not any(o.bottom_occluded for o in amodal)
@@ -117,14 +130,14 @@ def _tree_over_sidewalk(trunk_hidden: bool) -> Segmentation:
 
 
 def test_a_tree_stands_on_its_trunk_not_on_its_crown():
-    (tree,) = [o for o in objects_from_segmentation(_tree_over_sidewalk(False)) if o.class_name == "tree"]
+    (tree,) = [o for o in _objects(_tree_over_sidewalk(False)) if o.class_name == "tree"]
     # the crown's lower edge (row 119) hangs over sidewalk too; the trunk's foot is the contact
     np.testing.assert_allclose(tree.contact_px, [160.0, 149.5])
     assert not tree.bottom_occluded and tree.standing_on == "sidewalk"
 
 
 def test_a_tree_whose_trunk_a_car_hides_has_no_contact():
-    (tree,) = [o for o in objects_from_segmentation(_tree_over_sidewalk(True)) if o.class_name == "tree"]
+    (tree,) = [o for o in _objects(_tree_over_sidewalk(True)) if o.class_name == "tree"]
     assert tree.bottom_occluded  # the crown over the sidewalk does not count as standing there
 
 
@@ -148,7 +161,7 @@ def test_a_facade_split_by_a_pole_in_front_is_one_building():
     labels[60:100, 100:140] = BUILDING
     labels[30:110, 119:122] = POLE  # the pole stands in front, from above the roof to the sidewalk
     seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
-    objects = objects_from_segmentation(seg)
+    objects = _objects(seg)
     buildings = [o for o in objects if o.class_name == "building"]
     assert len(buildings) == 1
     assert buildings[0].mask_area == 40 * 40 - 3 * 40  # only the facade's own pixels
@@ -165,7 +178,7 @@ def test_a_pole_split_by_a_sign_and_a_car_in_front_is_one_pole():
     labels[70:80, 190:215] = TRAFFIC_SIGN
     labels[120:140, 150:260] = CAR
     seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
-    poles = [o for o in objects_from_segmentation(seg) if o.class_name == "pole"]
+    poles = [o for o in _objects(seg) if o.class_name == "pole"]
     assert len(poles) == 1
     assert poles[0].mask_area == 3 * (120 - 10 - 20)  # only the post's own pixels
     assert poles[0].contact_px[1] == 149.5 and not poles[0].bottom_occluded
@@ -187,7 +200,7 @@ def test_a_lamp_post_hidden_by_a_car_stands_below_its_post_not_its_arm():
     labels[30:120, 300:303] = POLE
     labels[30:34, 260:300] = POLE
     labels[120:150, 250:350] = CAR
-    (pole,) = [o for o in objects_from_segmentation(_with_one_car(labels)) if o.class_name == "pole"]
+    (pole,) = [o for o in _objects(_with_one_car(labels)) if o.class_name == "pole"]
     assert pole.bottom_occluded
     assert 300 <= pole.contact_px[0] <= 303 and pole.contact_px[1] == 119.5
 
@@ -202,7 +215,7 @@ def test_a_sign_whose_post_a_car_hides_is_judged_by_its_post():
     labels[40:70, 100:141] = TRAFFIC_SIGN
     labels[70:120, 119:122] = TRAFFIC_SIGN
     labels[120:150, 80:160] = CAR
-    (sign,) = [o for o in objects_from_segmentation(_with_one_car(labels)) if o.class_name == "traffic_sign"]
+    (sign,) = [o for o in _objects(_with_one_car(labels)) if o.class_name == "traffic_sign"]
     assert sign.bottom_occluded
     assert 119 <= sign.contact_px[0] <= 122 and sign.contact_px[1] == 119.5
 
@@ -226,7 +239,7 @@ def _cone(width: int, tip: int, base: int) -> list[int]:
 
 def test_merged_crowns_are_cut_at_the_dip_between_their_tops():
     tops = _cone(60, 30, 100) + _cone(50, 50, 100)  # a conifer and a lower one behind it
-    trees = [o for o in objects_from_segmentation(_crowns(tops, [128, 183])) if o.class_name == "tree"]
+    trees = [o for o in _objects(_crowns(tops, [128, 183])) if o.class_name == "tree"]
     assert len(trees) == 2
     assert trees[0].box_px[2] in (159, 160, 161) and trees[1].box_px[0] == trees[0].box_px[2]
     np.testing.assert_allclose([t.contact_px[0] for t in trees], [130.0, 185.0])  # the trunks' middles
@@ -244,14 +257,14 @@ def test_two_signs_one_behind_the_other_are_two_signs():
         post = left + width // 2
         labels[tip + 30 : post_bottom, post : post + 2] = TRAFFIC_SIGN
     seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
-    signs = [o for o in objects_from_segmentation(seg) if o.class_name == "traffic_sign"]
+    signs = [o for o in _objects(seg) if o.class_name == "traffic_sign"]
     assert len(signs) == 2
     assert sorted(float(s.contact_px[1]) for s in signs) == [139.5, 149.5]  # each post's lowest row's edge
 
 
 def test_one_crown_with_a_bumpy_outline_is_one_tree():
     tops = [40 + (3 if c % 7 < 3 else 0) + abs(c - 40) // 2 for c in range(80)]
-    trees = [o for o in objects_from_segmentation(_crowns(tops, [138])) if o.class_name == "tree"]
+    trees = [o for o in _objects(_crowns(tops, [138])) if o.class_name == "tree"]
     assert len(trees) == 1
 
 
@@ -260,7 +273,7 @@ def test_a_crown_split_by_a_pole_in_front_is_one_tree():
     labels = np.asarray(seg.label_ids).copy()
     labels[20:150, 150:153] = POLE
     seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
-    assert [o.class_name for o in objects_from_segmentation(seg)].count("tree") == 1
+    assert [o.class_name for o in _objects(seg)].count("tree") == 1
 
 
 def test_a_trunk_beside_a_low_hanging_crown_is_a_foot():
@@ -275,7 +288,7 @@ def test_a_trunk_beside_a_low_hanging_crown_is_a_foot():
     labels[50:128, 160:200] = VEGETATION
     labels[128:136, 180:183] = VEGETATION
     seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
-    trees = [o for o in objects_from_segmentation(seg) if o.class_name == "tree"]
+    trees = [o for o in _objects(seg) if o.class_name == "tree"]
     assert len(trees) == 2
     assert 132 <= trees[0].box_px[2] == trees[1].box_px[0] <= 180  # cut between the trunks
 
@@ -290,7 +303,7 @@ def test_two_crowns_with_a_facade_between_them_are_two_trees():
     for c0 in (100, 200):
         labels[60:110, c0 : c0 + 50] = VEGETATION
     seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
-    trees = [o for o in objects_from_segmentation(seg) if o.class_name == "tree"]
+    trees = [o for o in _objects(seg) if o.class_name == "tree"]
     assert [(int(t.box_px[0]), int(t.box_px[2])) for t in trees] == [(100, 150), (200, 250)]
 
 
@@ -356,7 +369,7 @@ def test_a_tree_whose_top_hides_behind_a_nearer_crown_is_found_by_its_trunk():
     labels = np.asarray(seg.label_ids).copy()
     labels[120:135, 104:107] = VEGETATION
     seg = Segmentation(labels, labels.astype(np.int32), (FILE,))
-    trees = [o for o in objects_from_segmentation(seg) if o.class_name == "tree"]
+    trees = [o for o in _objects(seg) if o.class_name == "tree"]
     assert len(trees) == 2
     np.testing.assert_allclose(sorted(t.contact_px[1] for t in trees), [134.5, 149.5])
     assert trees[0].box_px[2] == trees[1].box_px[0]
@@ -374,7 +387,7 @@ def test_two_crowns_over_a_parked_car_are_two_trees():
     labels[115:170, 90:230] = CAR
     inst = labels.astype(np.int32)
     inst[115:170, 90:230] = 26000
-    trees = [o for o in objects_from_segmentation(Segmentation(labels, inst, (FILE,))) if o.class_name == "tree"]
+    trees = [o for o in _objects(Segmentation(labels, inst, (FILE,))) if o.class_name == "tree"]
     assert len(trees) == 2
     assert 132 <= trees[0].box_px[2] == trees[1].box_px[0] <= 188
     assert all(t.bottom_occluded for t in trees)

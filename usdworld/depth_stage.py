@@ -21,7 +21,7 @@ from usdworld.errors import CalibrationError, InputError
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.depth_files import read_depth
 from usdworld.io.types import DepthMap, Segmentation, SourceImage
-from usdworld.perception.classes import label_lookups
+from usdworld.io.label_table import label_lookups
 from usdworld.perception.depth import BACKEND_NAMES, align_to_ground, make_backend
 from usdworld.perception.objects import ImageObject
 

@@ -35,10 +35,12 @@ from usdworld.geometry.estimate import (
 from usdworld.geometry.homography import HomographyFit, apply_homography, estimate_homography
 from usdworld.geometry.vanishing import VanishingPoint, street_vanishing_point
 from usdworld.io.camera_files import read_camera
+from usdworld.io.class_table import load_class_table
 from usdworld.io.correspondences import read_correspondences
 from usdworld.io.detections import read_detections_json, read_kitti_labels
 from usdworld.io.hashing import read_input
 from usdworld.io.images import read_image
+from usdworld.io.label_table import label_lookups
 from usdworld.io.labels import read_polygons, read_segmentation
 from usdworld.io.types import CameraSpec, Segmentation, SourceImage
 from usdworld.layout.boxes import box_view_angle
@@ -47,7 +49,6 @@ from usdworld.layout.placement import CURB_HEIGHT_M, AssetSizes, place_objects
 from usdworld.layout.priors import prior_for
 from usdworld.layout.surfaces import MAX_RANGE_M, build_surfaces, fill_behind_occluders, occluded_ground_mask
 from usdworld.layout.yaw import road_axis
-from usdworld.perception.classes import label_lookups
 from usdworld.perception.facades import StreetView
 from usdworld.perception.objects import (
     ImageObject,
@@ -173,13 +174,17 @@ def _objects(
     request: BuildRequest, image: SourceImage, seg: Segmentation | None, view: StreetView | None
 ) -> list[ImageObject]:
     if request.detections is None:
-        return objects_from_segmentation(seg, view) if seg is not None else []
+        return objects_from_segmentation(seg, view, load_class_table(), label_lookups()) if seg is not None else []
     if request.detections.suffix.lower() == ".json":
         dets = read_detections_json(request.detections, image)
     else:
         dets = read_kitti_labels(request.detections, image)
-    things = objects_from_detections(dets, image.width, image.height, seg)
-    stuff = [o for o in objects_from_segmentation(seg, view) if not o.is_thing] if seg is not None else []
+    things = objects_from_detections(dets, image.width, image.height, seg, lookups=label_lookups())
+    stuff = (
+        [o for o in objects_from_segmentation(seg, view, load_class_table(), label_lookups()) if not o.is_thing]
+        if seg is not None
+        else []
+    )
     return sort_objects(things + stuff)
 
 

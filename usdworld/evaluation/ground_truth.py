@@ -36,6 +36,7 @@ import numpy as np
 from usdworld.errors import InputError
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.camera_files import cam2_offset_from_projection, read_kitti_projection
+from usdworld.io.label_table import label_lookups
 from usdworld.perception.classes import placed_class_for_label
 
 log = logging.getLogger(__name__)
@@ -203,7 +204,7 @@ def read_kitti_ground_truth(label_path: Path, calib_path: Path | None = None) ->
             h, w, l, x, y, z, ry = (float(v) for v in f[8:15])
         except ValueError:
             raise InputError(f"{label_path.name}: line {line_no}: a 3D field is not a number") from None
-        cls = placed_class_for_label(f[0])
+        cls = placed_class_for_label(f[0], label_lookups())
         if cls is not None:
             objects.append(
                 GtObject(

@@ -13,6 +13,7 @@ do the mode (measured on the 10 KITTI frames: median depth error 4.5 % with the 
 3.4 % with the mean). Far from the prior's mean the prior pulls the estimate by a few per cent. The top row of the road
 region bounds the horizon from below when it is known, and the street's vanishing point
 (:mod:`usdworld.geometry.vanishing`) is a robust (Cauchy) measurement of the horizon row.
+The priors, noise levels and grids are fields of :class:`~usdworld.parameters.CameraParams`.
 """
 
 from __future__ import annotations
@@ -24,19 +25,11 @@ import numpy as np
 from usdworld.errors import CalibrationError
 from usdworld.geometry.camera import PinholeCamera, intrinsics_from_fov
 from usdworld.geometry.vanishing import VanishingPoint, horizon_measurement
+from usdworld.parameters.camera import DEFAULT_CAMERA, CameraParams
 
-#: Horizontal field of view assumed when no intrinsics are given (degrees).
-DEFAULT_HFOV_DEG = 60.0
-#: Prior mean and spread of a vehicle camera's height above the road (metres):
-#: KITTI 1.65, nuScenes about 1.5, Cityscapes 1.22.
-CAMERA_HEIGHT_PRIOR_M = (1.5, 0.3)
-#: Prior spread of the camera pitch around level (degrees).
-PITCH_PRIOR_STD_DEG = 3.0
-#: Pixel noise of a box edge (pixels).
-EDGE_NOISE_PX = 1.5
-
-_HEIGHT_RANGE_M = (0.5, 4.0)
-_PITCH_RANGE_DEG = (-15.0, 15.0)
+#: Transitional: removed when the pipeline takes CameraParams (it imports these names).
+DEFAULT_HFOV_DEG = CameraParams().default_hfov_deg
+CAMERA_HEIGHT_PRIOR_M = CameraParams().height_prior_m
 
 
 @dataclass(frozen=True)
@@ -170,19 +163,20 @@ def _cost(
     K: np.ndarray,
     obs: HeightObservations,
     evidence: HorizonEvidence,
+    params: CameraParams,
 ) -> np.ndarray:
     """Negative log posterior (up to a constant) of each candidate; (G,) float64."""
-    mean_h, std_h = CAMERA_HEIGHT_PRIOR_M
-    cost = 0.5 * ((h - mean_h) / std_h) ** 2 + 0.5 * (np.degrees(pitch) / PITCH_PRIOR_STD_DEG) ** 2
+    mean_h, std_h = params.height_prior_m
+    cost = 0.5 * ((h - mean_h) / std_h) ** 2 + 0.5 * (np.degrees(pitch) / params.pitch_prior_std_deg) ** 2
     if len(obs):
         v_top, z = predicted_top_rows(h, pitch, K, obs)
-        sigma = np.sqrt((K[1, 1] * obs.height_std_m[None, :] / np.maximum(z, 0.1)) ** 2 + EDGE_NOISE_PX**2)
+        sigma = np.sqrt((K[1, 1] * obs.height_std_m[None, :] / np.maximum(z, 0.1)) ** 2 + params.edge_noise_px**2)
         r = (v_top - obs.v_top[None, :]) / sigma
-        cost = cost + np.where(np.isfinite(r), np.log1p(r**2), 10.0).sum(axis=1)
+        cost = cost + np.where(np.isfinite(r), np.log1p(r**2), params.unprojectable_cost).sum(axis=1)
     horizon = K[1, 2] - K[1, 1] * np.tan(pitch)
     if evidence.road_top_v is not None:
         excess = np.maximum(horizon - evidence.road_top_v, 0.0)
-        cost = cost + 0.5 * (excess / 2.0) ** 2
+        cost = cost + 0.5 * (excess / params.road_top_sigma_px) ** 2
     if evidence.vanishing_v is not None:
         cost = cost + np.log1p(((horizon - evidence.vanishing_v) / evidence.vanishing_sigma_px) ** 2)
     return cost
@@ -194,17 +188,18 @@ def _search(
     evidence: HorizonEvidence,
     fixed_h: float | None,
     fixed_pitch: float | None,
+    params: CameraParams,
 ) -> tuple[float, float]:
     """Coarse-to-fine grid search of the (height, pitch) posterior."""
-    h_lo, h_hi = _HEIGHT_RANGE_M
-    p_lo, p_hi = np.radians(_PITCH_RANGE_DEG)
-    h_step, p_step = 0.05, np.radians(0.25)
+    h_lo, h_hi = params.height_range_m
+    p_lo, p_hi = np.radians(params.pitch_range_deg)
+    h_step, p_step = params.search_step_height_m, np.radians(params.search_step_pitch_deg)
     best_h, best_p = fixed_h, fixed_pitch
     for _ in range(3):
         hs = np.array([fixed_h]) if fixed_h is not None else np.arange(h_lo, h_hi + 1e-9, h_step)
         ps = np.array([fixed_pitch]) if fixed_pitch is not None else np.arange(p_lo, p_hi + 1e-12, p_step)
         H, P = np.meshgrid(hs, ps, indexing="ij")
-        cost = _cost(H.ravel(), P.ravel(), K, obs, evidence)
+        cost = _cost(H.ravel(), P.ravel(), K, obs, evidence, params)
         k = int(np.argmin(cost))
         best_h, best_p = float(H.ravel()[k]), float(P.ravel()[k])
         h_lo, h_hi = best_h - 2 * h_step, best_h + 2 * h_step
@@ -214,17 +209,13 @@ def _search(
     return best_h, best_p
 
 
-#: Half widths and steps of the grid the posterior moments are summed over.
-_MOMENT_HALF_H_M, _MOMENT_STEP_H_M = 0.8, 0.01
-_MOMENT_HALF_P_DEG, _MOMENT_STEP_P_DEG = 4.0, 0.05
-
-
 def _posterior_moments(
     K: np.ndarray,
     obs: HeightObservations,
     evidence: HorizonEvidence,
     mode: tuple[float, float],
     free: tuple[bool, bool],
+    params: CameraParams,
 ) -> tuple[float, float, float, float]:
     """Posterior mean and standard deviation of height and pitch, summed on a grid round the mode.
 
@@ -238,18 +229,19 @@ def _posterior_moments(
         value with sigma 0.
     """
     h0, p0 = mode
-    h_lo, h_hi = _HEIGHT_RANGE_M
+    h_lo, h_hi = params.height_range_m
+    half_h, step_h = params.moment_half_height_m, params.moment_step_height_m
     if free[0]:
-        hs = np.arange(max(h_lo, h0 - _MOMENT_HALF_H_M), min(h_hi, h0 + _MOMENT_HALF_H_M) + 1e-9, _MOMENT_STEP_H_M)
+        hs = np.arange(max(h_lo, h0 - half_h), min(h_hi, h0 + half_h) + 1e-9, step_h)
     else:
         hs = np.array([h0])
     if free[1]:
-        half, step = np.radians(_MOMENT_HALF_P_DEG), np.radians(_MOMENT_STEP_P_DEG)
+        half, step = np.radians(params.moment_half_pitch_deg), np.radians(params.moment_step_pitch_deg)
         ps = np.arange(p0 - half, p0 + half + 1e-12, step)
     else:
         ps = np.array([p0])
     H, P = np.meshgrid(hs, ps, indexing="ij")
-    cost = _cost(H.ravel(), P.ravel(), K, obs, evidence)
+    cost = _cost(H.ravel(), P.ravel(), K, obs, evidence, params)
     w = np.exp(-(cost - cost.min()))
     w /= w.sum()
     mean_h, mean_p = float(w @ H.ravel()), float(w @ P.ravel())
@@ -269,13 +261,14 @@ def estimate_camera(
     observations: HeightObservations,
     road_top_v: float | None = None,
     vanishing: VanishingPoint | None = None,
+    params: CameraParams = DEFAULT_CAMERA,
 ) -> CameraEstimate:
     """Complete a partially known camera.
 
     Args:
         width: image width in pixels.
         height: image height in pixels.
-        K: (3, 3) float64 camera matrix, or None to assume :data:`DEFAULT_HFOV_DEG`.
+        K: (3, 3) float64 camera matrix, or None to assume ``params.default_hfov_deg``.
         height_m: camera height in metres, or None to estimate.
         pitch: radians (positive looking down), or None to estimate.
         roll: radians, or None (then 0 is assumed).
@@ -283,6 +276,7 @@ def estimate_camera(
         observations: upright objects with visible bottom and top.
         road_top_v: highest image row (smallest v) of the road region, or None.
         vanishing: the street's vanishing point, or None.
+        params: the priors, noise levels and search grids.
 
     Returns:
         The camera and a record of what was estimated and how.
@@ -290,9 +284,9 @@ def estimate_camera(
     estimated = []
     notes = []
     if K is None:
-        K = intrinsics_from_fov(width, height, DEFAULT_HFOV_DEG)
+        K = intrinsics_from_fov(width, height, params.default_hfov_deg)
         estimated.append("K")
-        notes.append(f"intrinsics assumed: {DEFAULT_HFOV_DEG:g} deg horizontal FOV, centred principal point")
+        notes.append(f"intrinsics assumed: {params.default_hfov_deg:g} deg horizontal FOV, centred principal point")
     if roll is None:
         estimated.append("roll")
         notes.append("roll assumed level (0)")
@@ -308,11 +302,11 @@ def estimate_camera(
         if pitch is None:
             estimated.append("pitch")
         usable = observations
-        v_vp = horizon_measurement(vanishing, float(np.asarray(K)[1, 1])) if vanishing is not None else None
+        v_vp = horizon_measurement(vanishing, float(np.asarray(K)[1, 1]), params) if vanishing is not None else None
         evidence = HorizonEvidence(road_top_v, *(v_vp or (None, 1.0)))
-        mode = _search(np.asarray(K), usable, evidence, height_m, pitch)
+        mode = _search(np.asarray(K), usable, evidence, height_m, pitch, params)
         h_est, p_est, sigma_h, sigma_p = _posterior_moments(
-            np.asarray(K), usable, evidence, mode, (height_m is None, pitch is None)
+            np.asarray(K), usable, evidence, mode, (height_m is None, pitch is None), params
         )
         n_used = len(usable)
         if n_used:
@@ -331,7 +325,7 @@ def estimate_camera(
             notes.append("no usable objects: height from the prior, pitch bounded by the road's top row")
         else:
             notes.append(
-                f"nothing to go on: default camera height {CAMERA_HEIGHT_PRIOR_M[0]:g} m and level pitch"
+                f"nothing to go on: default camera height {params.height_prior_mean_m:g} m and level pitch"
             )
         height_m, pitch = h_est, p_est
     method = "; ".join(notes) if notes else "all camera parameters given"

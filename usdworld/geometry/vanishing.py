@@ -6,8 +6,9 @@ horizon row fixes the camera pitch (``v_h = c_y - f_y tan(pitch)``), the part of
 camera that objects of known height constrain worst when there are few of them.
 
 Line segments come from OpenCV's LSD detector. A deterministic RANSAC over pairs of
-segments finds the point most segments point at (within :data:`ANGLE_TOL_DEG`, weighted
-by length); a weighted least-squares fit over its inliers refines it. The estimate is
+segments finds the point most segments point at (within ``vp_angle_tol_deg`` of
+:class:`~usdworld.parameters.CameraParams`, weighted by length); a weighted least-squares
+fit over its inliers refines it. The estimate is
 kept only when enough segments from both sides of the point agree, so a single facade
 or a fence does not decide it.
 
@@ -21,23 +22,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-#: Wider photos are shrunk to this width before segment detection (pixels).
-MAX_WIDTH_PX = 1280
-#: Shortest segment used, as a fraction of the image width (and at least 15 px).
-MIN_LENGTH_FRACTION = 0.025
-#: Segments closer than this to horizontal or vertical are ignored (degrees): they
-#: belong to lateral or upright structure, not to lines along the street.
-MIN_SLANT_DEG = 8.0
-#: A segment supports a point when its direction is within this of the point's (degrees).
-ANGLE_TOL_DEG = 1.5
-#: RANSAC pairs tried.
-TRIALS = 600
-#: Spread of the road's slope against the camera's ground plane (degrees): a street that
-#: climbs or falls moves its vanishing point off the horizon of the ground under the car.
-ROAD_SLOPE_SIGMA_DEG = 1.0
-#: Fewest supporting segments, and fewest on each side of the point.
-MIN_INLIERS = 8
-MIN_PER_SIDE = 2
+from usdworld.parameters.camera import DEFAULT_CAMERA, CameraParams
 
 
 @dataclass(frozen=True)
@@ -59,17 +44,18 @@ class VanishingPoint:
     n_segments: int
 
 
-def detect_segments(rgb: np.ndarray) -> np.ndarray:
-    """Line segments of a photo (found at most :data:`MAX_WIDTH_PX` wide, for speed).
+def detect_segments(rgb: np.ndarray, params: CameraParams = DEFAULT_CAMERA) -> np.ndarray:
+    """Line segments of a photo (found at most ``params.vp_max_width_px`` wide, for speed).
 
     Args:
         rgb: (H, W, 3) uint8 image.
+        params: the detection width.
 
     Returns:
         (N, 4) float64 ``u0, v0, u1, v1`` in the photo's pixels.
     """
     gray = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY)
-    scale = min(1.0, MAX_WIDTH_PX / gray.shape[1])
+    scale = min(1.0, params.vp_max_width_px / gray.shape[1])
     if scale < 1.0:
         size = (round(gray.shape[1] * scale), round(gray.shape[0] * scale))
         gray = cv2.resize(gray, size, interpolation=cv2.INTER_AREA)
@@ -79,14 +65,14 @@ def detect_segments(rgb: np.ndarray) -> np.ndarray:
     return lines.reshape(-1, 4).astype(np.float64) / scale
 
 
-def _slanted(segments: np.ndarray, width: int) -> np.ndarray:
+def _slanted(segments: np.ndarray, width: int, params: CameraParams) -> np.ndarray:
     d = segments[:, 2:] - segments[:, :2]
     length = np.hypot(d[:, 0], d[:, 1])
     angle = np.degrees(np.arctan2(np.abs(d[:, 1]), np.abs(d[:, 0])))
     keep = (
-        (length >= max(15.0, MIN_LENGTH_FRACTION * width))
-        & (angle >= MIN_SLANT_DEG)
-        & (angle <= 90 - MIN_SLANT_DEG)
+        (length >= max(params.vp_min_length_px, params.vp_min_length_fraction * width))
+        & (angle >= params.vp_min_slant_deg)
+        & (angle <= 90 - params.vp_min_slant_deg)
     )
     return segments[keep]
 
@@ -122,27 +108,31 @@ def _refine(segments: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, floa
     return sol, float(np.sqrt(max(cov[1, 1], 0.0)))
 
 
-def find_vanishing_point(segments: np.ndarray, width: int, height: int) -> VanishingPoint | None:
+def find_vanishing_point(
+    segments: np.ndarray, width: int, height: int, params: CameraParams = DEFAULT_CAMERA
+) -> VanishingPoint | None:
     """The point the most (length-weighted) slanted segments converge on.
 
     Args:
         segments: (N, 4) ``u0, v0, u1, v1`` pixels.
         width: image width, pixels.
         height: image height, pixels.
+        params: the segment filters and the RANSAC's tolerance, trials and support.
 
     Returns:
         The vanishing point, or None when too few segments agree (fewer than
-        :data:`MIN_INLIERS`, or fewer than :data:`MIN_PER_SIDE` on either side of it) or it
-        lies outside the image rows.
+        ``params.vp_min_inliers``, or fewer than ``params.vp_min_per_side`` on either side
+        of it) or it lies outside the image rows.
     """
-    seg = _slanted(np.asarray(segments, dtype=np.float64).reshape(-1, 4), width)
+    seg = _slanted(np.asarray(segments, dtype=np.float64).reshape(-1, 4), width, params)
     n = len(seg)
-    if n < MIN_INLIERS:
+    tol = params.vp_angle_tol_deg
+    if n < params.vp_min_inliers:
         return None
     lines = _lines(seg)
     length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
     rng = np.random.default_rng(0)
-    pairs = rng.integers(0, n, size=(TRIALS, 2))
+    pairs = rng.integers(0, n, size=(params.vp_trials, 2))
     pairs = pairs[pairs[:, 0] != pairs[:, 1]]
     points = np.cross(lines[pairs[:, 0]], lines[pairs[:, 1]])
     ok = np.abs(points[:, 2]) > 1e-9
@@ -151,28 +141,30 @@ def find_vanishing_point(segments: np.ndarray, width: int, height: int) -> Vanis
     points = points[inside]
     if not len(points):
         return None
-    scores = np.array([length[_support(seg, p) < ANGLE_TOL_DEG].sum() for p in points])
+    scores = np.array([length[_support(seg, p) < tol].sum() for p in points])
     best = points[int(np.argmax(scores))]
-    inliers = _support(seg, best) < ANGLE_TOL_DEG
+    inliers = _support(seg, best) < tol
     for _ in range(2):
-        if inliers.sum() < MIN_INLIERS:
+        if inliers.sum() < params.vp_min_inliers:
             return None
         best, sigma_v = _refine(seg[inliers], length[inliers])
-        inliers = _support(seg, best) < ANGLE_TOL_DEG
+        inliers = _support(seg, best) < tol
     mid_u = 0.5 * (seg[inliers, 0] + seg[inliers, 2])
-    if min((mid_u < best[0]).sum(), (mid_u > best[0]).sum()) < MIN_PER_SIDE or not (0 <= best[1] < height):
+    if min((mid_u < best[0]).sum(), (mid_u > best[0]).sum()) < params.vp_min_per_side or not (0 <= best[1] < height):
         return None
     return VanishingPoint(float(best[0]), float(best[1]), sigma_v, int(inliers.sum()), n)
 
 
-def street_vanishing_point(rgb: np.ndarray) -> VanishingPoint | None:
+def street_vanishing_point(rgb: np.ndarray, params: CameraParams = DEFAULT_CAMERA) -> VanishingPoint | None:
     """:func:`find_vanishing_point` of the photo's LSD segments."""
-    return find_vanishing_point(detect_segments(rgb), rgb.shape[1], rgb.shape[0])
+    return find_vanishing_point(detect_segments(rgb, params), rgb.shape[1], rgb.shape[0], params)
 
 
-def horizon_measurement(vp: VanishingPoint, fy: float) -> tuple[float, float]:
+def horizon_measurement(
+    vp: VanishingPoint, fy: float, params: CameraParams = DEFAULT_CAMERA
+) -> tuple[float, float]:
     """The horizon row the vanishing point measures and its standard error, pixels.
 
-    The error adds the point's own scatter and :data:`ROAD_SLOPE_SIGMA_DEG` of road slope.
+    The error adds the point's own scatter and ``params.road_slope_sigma_deg`` of road slope.
     """
-    return vp.v, float(np.hypot(vp.sigma_v_px, fy * np.tan(np.radians(ROAD_SLOPE_SIGMA_DEG))))
+    return vp.v, float(np.hypot(vp.sigma_v_px, fy * np.tan(np.radians(params.road_slope_sigma_deg))))

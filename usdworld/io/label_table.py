@@ -3,6 +3,9 @@
 Columns: ``id, name, category, has_instances, r, g, b, placed_as``. ``placed_as`` is
 the usdworld asset class an object of this class becomes (empty: not placed).
 
+:func:`label_lookups` derives the arrays perception indexes by label id from it; it is
+read once, here at the edge, and passed into perception (which reads no files).
+
 Example:
     >>> by_name("car").id
     26
@@ -17,11 +20,16 @@ import functools
 import io
 from dataclasses import dataclass
 
+import numpy as np
+
 from usdworld.errors import InputError
 from usdworld.resources import data_dir
 
 TABLE_NAME = "cityscapes_labels.csv"
 _COLUMNS = ("id", "name", "category", "has_instances", "r", "g", "b", "placed_as")
+#: Cityscapes names on which an object can stand (a column whose next pixel below
+#: is one of these counts as visible ground contact).
+GROUND_NAMES = ("road", "sidewalk", "parking", "rail track", "ground", "terrain")
 
 
 @dataclass(frozen=True)
@@ -136,3 +144,53 @@ def by_name(name: str) -> LabelClass:
             f"class name '{name}' is not in the Cityscapes class table ({TABLE_NAME}); "
             "use a Cityscapes class name such as 'car' or 'traffic sign'"
         ) from None
+
+
+@dataclass(frozen=True)
+class LabelLookups:
+    """Arrays indexed by Cityscapes label id (0..255).
+
+    Attributes:
+        placed: (256,) object array, placed class name or '' when the id is not placed.
+        is_thing: (256,) bool, the id has instances.
+        is_ground: (256,) bool, objects can stand on this id (:data:`GROUND_NAMES`).
+        names: (256,) object array of Cityscapes names ('' for unknown ids).
+    """
+
+    placed: np.ndarray
+    is_thing: np.ndarray
+    is_ground: np.ndarray
+    names: np.ndarray
+
+    def id_of(self, name: str) -> int:
+        """Label id of a Cityscapes name.
+
+        Raises:
+            KeyError: no class has that name.
+        """
+        hits = np.nonzero(self.names == name)[0]
+        if len(hits) == 0:
+            raise KeyError(name)
+        return int(hits[0])
+
+
+def lookups_from_table(table: tuple[LabelClass, ...]) -> LabelLookups:
+    """The lookup arrays of a class table (read-only arrays)."""
+    placed = np.full(256, "", dtype=object)
+    names = np.full(256, "", dtype=object)
+    is_thing = np.zeros(256, dtype=bool)
+    is_ground = np.zeros(256, dtype=bool)
+    for cls in table:
+        names[cls.id] = cls.name
+        placed[cls.id] = cls.placed_as or ""
+        is_thing[cls.id] = bool(cls.has_instances)
+        is_ground[cls.id] = cls.name in GROUND_NAMES
+    for arr in (placed, names, is_thing, is_ground):
+        arr.setflags(write=False)
+    return LabelLookups(placed, is_thing, is_ground, names)
+
+
+@functools.cache
+def label_lookups() -> LabelLookups:
+    """The lookup arrays of the shipped table (built once per process)."""
+    return lookups_from_table(label_table())

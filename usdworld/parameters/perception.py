@@ -1,12 +1,219 @@
-"""Tuned numbers of the perception stage (see :mod:`usdworld.parameters.base` for the field conventions)."""
+"""Tuned numbers of the perception stage (see :mod:`usdworld.parameters.base` for the field conventions).
+
+Per-class numbers (:attr:`PerceptionParams.split_aspect`, :attr:`PerceptionParams.min_thin_area_fraction`)
+are tuples of ``(class name, value)`` pairs here rather than fields of the class table: they are
+thresholds tuned on data like every other field of this section (the class table holds what a class
+*is* and measures), and keeping them here puts them in ``report.json`` with the rest of the tuning.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from usdworld.parameters.base import param  # noqa: F401  (used as fields are added)
+from usdworld.parameters.base import param
+
+_SYNTH = "tuned: synthetic set"
 
 
 @dataclass(frozen=True)
 class PerceptionParams:
     """Thresholds of the perception stage; each field documents its unit, meaning and origin."""
+
+    # --- objects from masks and boxes (perception/objects.py) ---
+    split_aspect: tuple[tuple[str, float], ...] = param(
+        (("building", 1.0), ("fence", 2.5)),
+        "1",
+        "Stuff classes split into chunks of about this width/height aspect, by class; classes not "
+        "listed are never split (crowns are cut by their tops, facades by perspective when it is known).",
+        f"{_SYNTH} (core pipeline, commit 07357ff)",
+    )
+    min_stuff_area_fraction: float = param(
+        4e-4,
+        "fraction",
+        "Smallest stuff region kept, as a fraction of the image area (never below min_stuff_area_px).",
+        f"{_SYNTH} (core pipeline, commit 07357ff)",
+    )
+    min_stuff_area_px: int = param(
+        30, "px", "Floor of the smallest stuff region (and of a facade piece), pixels.", f"{_SYNTH} (commit 07357ff)"
+    )
+    min_thin_area_fraction: tuple[tuple[str, float], ...] = param(
+        (("pole", 5e-5), ("traffic_sign", 1e-4), ("traffic_light", 1e-4)),
+        "fraction",
+        "min_stuff_area_fraction for thin street furniture, by class (a pole 40 m away is a few pixels "
+        "wide; poles lowest, as their pieces are joined through what stands in front).",
+        f"{_SYNTH}: thin street furniture kept down to 0.01 % of the image (commit 44ebbee)",
+    )
+    facade_piece_area: float = param(
+        0.25,
+        "fraction",
+        "A facade region is cut into pieces of at least this fraction of the smallest stuff area each "
+        "(far down the street a building is a few columns wide).",
+        f"{_SYNTH} (commit 12d4ae2)",
+    )
+    min_thing_area_px: int = param(10, "px", "Smallest thing instance kept, pixels.", f"{_SYNTH} (commit 07357ff)")
+    occluded_fraction: float = param(
+        0.5,
+        "fraction",
+        "A detection box's bottom counts as occluded when a lower box covers this fraction of its bottom edge.",
+        "convention: a majority of the edge (commit 07357ff)",
+    )
+    bottom_band_fraction: float = param(
+        0.15,
+        "fraction",
+        "A thing's lowest columns are those whose bottom lies within this fraction of its height of "
+        "its lowest pixel (tyres, feet, a trunk).",
+        f"{_SYNTH} (commit 87db2ec)",
+    )
+    bottom_band_min_px: float = param(
+        2.0, "px", "The lowest columns' band is at least this many pixels tall.", f"{_SYNTH} (commit 87db2ec)"
+    )
+    contact_fraction: float = param(
+        0.3,
+        "fraction",
+        "Fraction of a thing's lowest columns that must stand on ground for its contact to count.",
+        f"{_SYNTH} (commit 87db2ec)",
+    )
+    split_min_width_px: int = param(
+        4, "px", "A stuff chunk cut by aspect is at least this many columns wide.", f"{_SYNTH} (commit 07357ff)"
+    )
+    # --- crowns (perception/crowns.py) ---
+    crown_prominence_fraction: float = param(
+        0.07,
+        "fraction",
+        "A crown top must rise above its neighbouring dips by this fraction of the tree's height in its column.",
+        f"{_SYNTH}: merged crowns cut at the dips between their tops (commit 0f9489c)",
+    )
+    crown_prominence_px: float = param(
+        4.0,
+        "px",
+        "... and by at least this many pixels (crown tops and feet alike).",
+        f"{_SYNTH} (commit 0f9489c)",
+    )
+    crown_foot_fraction: float = param(
+        0.04,
+        "fraction",
+        "A foot (trunk) must reach below its neighbourhood by this fraction of its column's height "
+        "(small: a trunk beside a nearer crown hanging almost to the ground shows only a few pixels).",
+        f"{_SYNTH}: trees 190 -> 209 of 283 in the synthetic round trip (commit d156229)",
+    )
+    # --- facades (perception/facades.py) ---
+    frontage_m: float = param(
+        12.0,
+        "m",
+        "A facade whose roofline is out of view is cut into pieces of about this much frontage (a town house).",
+        f"{_SYNTH} (commit 44ebbee)",
+    )
+    roofline_frontage_m: float = param(
+        16.0,
+        "m",
+        "A run of one roofline (its top in view) is cut into pieces of about this frontage: where "
+        "buildings' heights differ the roofline has cut them already.",
+        f"{_SYNTH} (commit 12d4ae2)",
+    )
+    roof_step_fraction: float = param(
+        0.12,
+        "fraction",
+        "The roofline steps between neighbouring columns by more than this fraction of the lower "
+        "column's height (and at least roof_step_min_px): a new building.",
+        f"{_SYNTH} (commit 44ebbee)",
+    )
+    roof_step_min_px: int = param(
+        3, "px", "Smallest roofline step that starts a new building, pixels.", f"{_SYNTH} (commit 44ebbee)"
+    )
+    min_piece_m: float = param(
+        3.0,
+        "m",
+        "A roofline piece with less frontage than this joins its left neighbour; no piece cut from a "
+        "building's seen end is shorter.",
+        f"{_SYNTH} (commit 44ebbee)",
+    )
+    min_below_horizon_px: float = param(
+        1.0,
+        "px",
+        "Base points closer to the horizon than this are too far to measure.",
+        "geometry: within a pixel of the horizon the ground distance f*h/(v - v_h) is unbounded",
+    )
+    # --- depth cues (perception/depth/fusion.py) ---
+    contact_row_error_px: float = param(
+        1.0,
+        "px",
+        "Error of the ground-contact row (e_v): one pixel of a mask's lowest row.",
+        "geometry: the contact row is quantised to whole pixels",
+    )
+    contact_rel_sigma: float = param(
+        0.01,
+        "fraction",
+        "Relative floor of the contact cue's sigma (r_c), for road camber and pitch error.",
+        "convention: an allowance for road camber and pitch error, not measured (commit 2eabc1f)",
+    )
+    cnn_rel_sigma: float = param(
+        0.10,
+        "fraction",
+        "Relative sigma of the depth-map cue (r_n).",
+        "published: typical AbsRel of aligned monocular depth networks on KITTI, about 0.1 "
+        "(Godard et al. 2019, 'Digging Into Self-Supervised Monocular Depth Estimation', Table 1)",
+    )
+    height_rel_std: float = param(
+        0.10,
+        "fraction",
+        "Spread of a class's heights, as a fraction of the height, when none is given.",
+        "convention: fallback where the class table gives no spread (commit 2eabc1f)",
+    )
+    height_mean_rel_sigma: float = param(
+        0.10,
+        "fraction",
+        "Uncertainty of a class's mean height itself (fleets and populations differ), added to the "
+        "height cue when the camera height was given.",
+        "convention: an allowance for differing fleets and populations, not measured (commit 60b8416)",
+    )
+    erosion_px: int = param(
+        2,
+        "px",
+        "Erosion of an object's mask before averaging the depth map (mask edges mix foreground and background).",
+        "convention: network depth edges blur over a pixel or two (commit 2eabc1f)",
+    )
+    min_cnn_pixels: int = param(
+        10, "count", "Fewest depth pixels for the depth-map cue.", "convention: chosen with the code (commit 2eabc1f)"
+    )
+    dominant_share: float = param(
+        0.8,
+        "fraction",
+        "A cue holding at least this share of the fused weight names the depth method.",
+        "convention: provenance wording only, no effect on positions",
+    )
+    # --- alignment of network depth to the ground (perception/depth/align.py, ground.py) ---
+    align_max_ground_depth_m: float = param(
+        80.0,
+        "m",
+        "Ground pixels farther than this are not used to align a depth map: their depth is too "
+        "sensitive to pitch and to the road not being flat.",
+        "convention: the range placement works within (commit 2eabc1f)",
+    )
+    align_max_depth_m: float = param(
+        1000.0,
+        "m",
+        "Aligned depths beyond this are marked invalid (inverse-depth fits explode near 0).",
+        "convention: far beyond any placed object",
+    )
+    align_min_ground_pixels: int = param(
+        50, "count", "Fewest usable ground pixels for an alignment fit.", "convention: chosen with the code (commit 2eabc1f)"
+    )
+    align_min_inlier_ratio: float = param(
+        0.3,
+        "fraction",
+        "Fewest inliers, as a fraction of the ground pixels, for an alignment fit to be accepted.",
+        "convention: chosen with the code (commit 2eabc1f)",
+    )
+
+    @property
+    def split_aspect_by_class(self) -> dict[str, float]:
+        """:attr:`split_aspect` as a mapping."""
+        return dict(self.split_aspect)
+
+    def min_area_fraction(self, class_name: str) -> float:
+        """Smallest region of ``class_name`` kept, as a fraction of the image area."""
+        return dict(self.min_thin_area_fraction).get(class_name, self.min_stuff_area_fraction)
+
+
+#: The defaults (the default argument of perception's public functions).
+DEFAULT_PERCEPTION = PerceptionParams()

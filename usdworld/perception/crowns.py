@@ -5,7 +5,8 @@ overlap in the image arrives as one region. Each crown rises to a top of its own
 conifer's tip, a broad crown's dome), so the region's upper outline has one clear
 summit per tree, with a dip where two crowns meet; the region is cut at the deepest dip
 between neighbouring summits. A summit counts when it rises above the dips on both its
-sides by :data:`MIN_PROMINENCE_FRACTION` of the tree's height in its column, the
+sides by ``crown_prominence_fraction`` (:class:`~usdworld.parameters.PerceptionParams`)
+of the tree's height in its column, the
 region's outline from top to bottom there (small bumps of one crown's outline do not;
 a small far crown beside a big near one counts by its own height, not the big one's).
 
@@ -15,9 +16,9 @@ foot). When there are more feet than summits, the region is cut between neighbou
 feet where the lower outline is highest, where two crowns meet above the ground. A
 foot counts when it stands on the ground, or on a thing that hides the trunk below it
 (behind a parked car a crown's lowest point is right above its trunk), and reaches down
-below its neighbourhood by :data:`MIN_FOOT_FRACTION` of the tree's height there.
+below its neighbourhood by ``crown_foot_fraction`` of the tree's height there.
 
-Traffic signs are cut the same way (``perception.objects.TOPPED_CLASSES``): two signs
+Traffic signs are cut the same way (the class table's ``topped`` role): two signs
 one behind the other along the kerb run together in the image, each with its plate's
 top and its own post down to the ground.
 
@@ -29,25 +30,18 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-from scipy.signal import find_peaks
 
-#: A crown top must rise above its neighbouring dips by this fraction of the tree's height in its column.
-MIN_PROMINENCE_FRACTION = 0.07
-#: ... and by at least this many pixels (summits and feet).
-MIN_PROMINENCE_PX = 4.0
-#: A foot (trunk) must reach below its neighbourhood by this fraction of the height of
-#: its column (small: a trunk beside a nearer crown hanging almost to the ground reaches
-#: only a few pixels below its hem).
-MIN_FOOT_FRACTION = 0.04
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
+from usdworld.perception.peaks import local_maxima, prominences
 
 
 def _summits(profile: np.ndarray, prominence: np.ndarray | float) -> np.ndarray:
     """Columns of the peaks of a profile that rise by ``prominence`` above their dips
     (an edge counts as a dip to zero, so a peak at the crop's side is one)."""
     padded = np.concatenate([[0.0], profile, [0.0]])
-    peaks, props = find_peaks(padded, prominence=0.0)
+    peaks = local_maxima(padded)
     limit = np.broadcast_to(np.asarray(prominence, dtype=np.float64), profile.shape)
-    return peaks[props["prominences"] >= limit[peaks - 1]] - 1
+    return peaks[prominences(padded, peaks) >= limit[peaks - 1]] - 1
 
 
 def _cut_at(profile: np.ndarray, peaks: np.ndarray, lowest: bool) -> list[int]:
@@ -62,7 +56,9 @@ def _cut_at(profile: np.ndarray, peaks: np.ndarray, lowest: bool) -> list[int]:
     return cuts
 
 
-def crown_ranges(mask: np.ndarray, on_ground: np.ndarray | None = None) -> list[tuple[int, int]]:
+def crown_ranges(
+    mask: np.ndarray, on_ground: np.ndarray | None = None, params: PerceptionParams = DEFAULT_PERCEPTION
+) -> list[tuple[int, int]]:
     """Column ranges ``[c0, c1)`` of a vegetation crop, one per crown top or trunk.
 
     Args:
@@ -70,6 +66,8 @@ def crown_ranges(mask: np.ndarray, on_ground: np.ndarray | None = None) -> list[
         on_ground: (w,) bool, the pixel below each column's lowest pixel is ground or a
             thing standing on it; feet are looked for only there (default: no feet,
             summits alone).
+        params: the prominence thresholds (``crown_prominence_fraction``,
+            ``crown_prominence_px``, ``crown_foot_fraction``).
 
     Returns:
         Ranges covering every column of the crop, left to right (one range when the
@@ -91,12 +89,14 @@ def crown_ranges(mask: np.ndarray, on_ground: np.ndarray | None = None) -> list[
     # take their neighbours' (a gap is neither a summit nor a foot).
     top = np.interp(np.arange(w), cols, h - np.argmax(mask[:, cols], axis=0))
     bottom = np.interp(np.arange(w), cols, np.argmax(mask[::-1, cols], axis=0).astype(np.float64))
-    summits = _summits(top, np.maximum(MIN_PROMINENCE_PX, MIN_PROMINENCE_FRACTION * (top - bottom)))
+    summits = _summits(
+        top, np.maximum(params.crown_prominence_px, params.crown_prominence_fraction * (top - bottom))
+    )
     cuts = _cut_at(top, summits, lowest=True)
     if on_ground is not None:
         # Feet are the lower outline's lowest points: peaks of its depth below the top.
         depth_below = h - bottom
-        local = np.maximum(MIN_PROMINENCE_PX, MIN_FOOT_FRACTION * (top - bottom))
+        local = np.maximum(params.crown_prominence_px, params.crown_foot_fraction * (top - bottom))
         feet = _summits(depth_below, local)
         feet = feet[np.asarray(on_ground, dtype=bool)[feet]]
         if len(feet) > max(len(summits), 1):

@@ -2,8 +2,8 @@
 
 Cityscapes labels give buildings no instances: a street's facades arrive as one region.
 It is cut where the roofline steps (neighbouring buildings rarely share a height) and
-then into pieces of about :data:`ROOFLINE_FRONTAGE_M` of frontage each where the roofline
-is seen, :data:`FRONTAGE_M` where the image's top cuts it off (near the camera, where
+then into pieces of about ``roofline_frontage_m`` of frontage each where the roofline
+is seen, ``frontage_m`` where the image's top cuts it off (near the camera, where
 nothing tells one building from the next).
 
 Frontage is foreshortened: a facade running along the street towards its vanishing point
@@ -20,7 +20,8 @@ horizon. A facade's height does not enter, so a facade cut by the top of the ima
 measured as well as one seen whole.
 
 Everything here is in pixels plus the camera height; :class:`StreetView` carries what the
-photo's perspective needs (no camera pose).
+photo's perspective needs (no camera pose). The thresholds are fields of
+:class:`~usdworld.parameters.PerceptionParams`.
 """
 
 from __future__ import annotations
@@ -30,21 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: A facade whose roofline is out of view is cut into pieces of about this much frontage,
-#: metres (a town house).
-FRONTAGE_M = 12.0
-#: A run of one roofline (its top in view) is cut into pieces of about this frontage:
-#: where buildings' heights differ the roofline has cut them already, so what is left is
-#: one long building or a few of one height.
-ROOFLINE_FRONTAGE_M = 16.0
-#: The roofline steps between neighbouring columns by more than this fraction of the
-#: lower column's height (and at least :data:`ROOF_STEP_MIN_PX`): a new building.
-ROOF_STEP_FRACTION = 0.12
-ROOF_STEP_MIN_PX = 3
-#: A roofline piece with less frontage than this (metres) joins its left neighbour.
-MIN_PIECE_M = 3.0
-#: Base points closer to the horizon than this (pixels) are too far to measure.
-MIN_BELOW_HORIZON_PX = 1.0
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
 
 
 @dataclass(frozen=True)
@@ -109,13 +96,13 @@ def fill_through_occluders(mask: np.ndarray, occluders: np.ndarray) -> np.ndarra
     return mask | filled.reshape(h, w + 2)[:, 1:-1]
 
 
-def _roofline_cuts(tops: np.ndarray, heights: np.ndarray) -> list[int]:
-    """Indices ``i`` (into the occupied columns) where a new building starts: the roofline steps."""
+def _roofline_cuts(tops: np.ndarray, heights: np.ndarray, params: PerceptionParams) -> list[int]:
+    """Indices ``i`` (into the occupied columns) where a new building starts: the roofline
+    steps by more than ``roof_step_fraction`` of the lower column (and ``roof_step_min_px``)."""
     step = np.abs(np.diff(tops))
     lower = np.minimum(heights[:-1], heights[1:])
-    return [
-        int(i) + 1 for i in np.nonzero(step > np.maximum(ROOF_STEP_MIN_PX, ROOF_STEP_FRACTION * lower))[0]
-    ]
+    limit = np.maximum(params.roof_step_min_px, params.roof_step_fraction * lower)
+    return [int(i) + 1 for i in np.nonzero(step > limit)[0]]
 
 
 def _base_line(u: np.ndarray, v: np.ndarray, view: StreetView) -> tuple[float, float] | None:
@@ -137,13 +124,17 @@ def _base_line(u: np.ndarray, v: np.ndarray, view: StreetView) -> tuple[float, f
     return float(slope), float(intercept)
 
 
-def base_frontage_m(u: np.ndarray, v_base: np.ndarray, view: StreetView) -> np.ndarray:
+def base_frontage_m(
+    u: np.ndarray, v_base: np.ndarray, view: StreetView, params: PerceptionParams = DEFAULT_PERCEPTION
+) -> np.ndarray:
     """Ground length of the base line between neighbouring columns, metres.
 
     Args:
         u: (k,) float64 column centres, increasing.
         v_base: (k,) float64 row of the base (ground contact edge) in each column.
         view: the photo's perspective.
+        params: base points closer to the horizon than ``params.min_below_horizon_px`` are
+            too far to measure.
 
     Returns:
         (k,) float64: the length from each column to the next (the last column repeats
@@ -151,7 +142,7 @@ def base_frontage_m(u: np.ndarray, v_base: np.ndarray, view: StreetView) -> np.n
     """
     below = v_base - view.horizon_v
     with np.errstate(divide="ignore", invalid="ignore"):
-        z = np.where(below >= MIN_BELOW_HORIZON_PX, view.focal_px * view.camera_height_m / below, np.inf)
+        z = np.where(below >= params.min_below_horizon_px, view.focal_px * view.camera_height_m / below, np.inf)
         x = (u - view.principal_u) * z / view.focal_px
         step = np.hypot(np.diff(x), np.diff(z))
     step = np.where(np.isfinite(step), step, np.inf)
@@ -159,26 +150,26 @@ def base_frontage_m(u: np.ndarray, v_base: np.ndarray, view: StreetView) -> np.n
 
 
 def _cut_lengths(
-    total: float, max_pieces: int, cut_left: bool, cut_right: bool, frontage: float = FRONTAGE_M
+    total: float, max_pieces: int, cut_left: bool, cut_right: bool, frontage: float, min_piece_m: float
 ) -> np.ndarray:
     """Where to cut one building's run of facade: metres of frontage from its left end.
 
     A run seen whole is cut into equal pieces of about ``frontage``. A run that goes on
     out of the image at one side is seen from its far end, which is a building's end: it
     is cut every ``frontage`` from that end, and what is left at the image's edge
-    is the seen part of one more building (no piece shorter than :data:`MIN_PIECE_M`).
+    is the seen part of one more building (no piece shorter than ``min_piece_m``).
     At most ``max_pieces`` pieces; equal pieces when that is fewer.
 
     Example:
-        >>> _cut_lengths(30.0, 10, False, False).round(1).tolist()
+        >>> _cut_lengths(30.0, 10, False, False, 12.0, 3.0).round(1).tolist()
         [15.0]
-        >>> _cut_lengths(30.0, 10, True, False).round(1).tolist()
+        >>> _cut_lengths(30.0, 10, True, False, 12.0, 3.0).round(1).tolist()
         [6.0, 18.0]
     """
     n = max(1, min(round(total / frontage), max_pieces))
     if cut_left != cut_right:
         from_end = frontage * np.arange(1, int(np.ceil(total / frontage)))
-        from_end = from_end[total - from_end >= MIN_PIECE_M]
+        from_end = from_end[total - from_end >= min_piece_m]
         if 0 < len(from_end) < max_pieces:
             return np.sort(total - from_end) if cut_left else from_end
     return total * np.arange(1, n) / n
@@ -193,6 +184,7 @@ def facade_ranges(
     min_area_px: float,
     roof_mask: np.ndarray | None = None,
     image_width: int | None = None,
+    params: PerceptionParams = DEFAULT_PERCEPTION,
 ) -> list[tuple[int, int]] | None:
     """Column ranges ``[c0, c1)`` of a facade crop, one per building-sized piece.
 
@@ -206,6 +198,7 @@ def facade_ranges(
             in (:func:`fill_through_occluders`), whose top is the roofline; default ``mask``.
         image_width: the image's width; with it, a building running out of the image at
             one side is cut from its seen end (:func:`_cut_lengths`).
+        params: the facade thresholds (frontages, roofline step, shortest piece).
 
     Returns:
         Ranges covering every column of the crop, left to right; None when the base is
@@ -222,14 +215,14 @@ def facade_ranges(
     heights = (bottoms - tops + 1).astype(np.float64)
     u = x0 + cols + 0.5
     v_edge = y0 + bottoms + 1.0
-    ground = np.asarray(on_ground, dtype=bool)[cols] & (v_edge - view.horizon_v >= MIN_BELOW_HORIZON_PX)
+    ground = np.asarray(on_ground, dtype=bool)[cols] & (v_edge - view.horizon_v >= params.min_below_horizon_px)
     if ground.sum() < (1 if view.vanishing_u is not None else 2):
         return None
     # Each building's base is a straight line in the image (through the street's
     # vanishing point when it is known): fitted to its columns on the ground (pixel rows
     # are too coarse to measure depth column by column), or to the whole run's when too
     # few of its own are on the ground (parked cars hide them).
-    starts = [0, *_roofline_cuts(tops, heights), len(cols)]
+    starts = [0, *_roofline_cuts(tops, heights, params), len(cols)]
     run_line = _base_line(u[ground], v_edge[ground], view)
     v_base = np.empty_like(u)
     for a, b in itertools.pairwise(starts):
@@ -238,14 +231,14 @@ def facade_ranges(
             v_base[a:b] = np.interp(u[a:b], u[ground], v_edge[ground])
         else:
             v_base[a:b] = line[0] * u[a:b] + line[1]
-    length = base_frontage_m(u, v_base, view)
+    length = base_frontage_m(u, v_base, view, params)
     # Beyond the measurable range the pieces' lengths are not known: one piece there.
     length = np.where(np.isfinite(length), length, 0.0)
 
     buildings: list[tuple[int, int]] = []
     for a, b in itertools.pairwise(starts):
         if buildings and (
-            length[a:b].sum() < MIN_PIECE_M or length[buildings[-1][0] : a].sum() < MIN_PIECE_M
+            length[a:b].sum() < params.min_piece_m or length[buildings[-1][0] : a].sum() < params.min_piece_m
         ):
             buildings[-1] = (buildings[-1][0], b)
         else:
@@ -260,8 +253,8 @@ def facade_ranges(
         w = length[a:b]
         max_pieces = max(1, int(heights[a:b].sum() // max(min_area_px, 1.0)))
         roof_seen = np.mean(y0 + tops[a:b] > 0) > 0.5
-        frontage = ROOFLINE_FRONTAGE_M if roof_seen else FRONTAGE_M
-        edges = _cut_lengths(float(w.sum()), max_pieces, cut_left, cut_right, frontage)
+        frontage = params.roofline_frontage_m if roof_seen else params.frontage_m
+        edges = _cut_lengths(float(w.sum()), max_pieces, cut_left, cut_right, frontage, params.min_piece_m)
         cuts = np.searchsorted(np.cumsum(w), edges)
         bounds = sorted({a, *(a + int(e) + 1 for e in cuts), b})
         ranges.extend((int(cols[s]), int(cols[e - 1]) + 1) for s, e in itertools.pairwise(bounds) if e > s)

@@ -3,6 +3,12 @@
 Everything here is in pixel space. An object knows its class, its box, its mask (as a
 crop aligned to the box), the pixel where it meets the ground and whether that
 contact is cut by the image border or hidden by another object.
+
+What a class does comes from the class table's roles (:mod:`usdworld.io.class_table`):
+``facade`` regions are cut by perspective (:mod:`usdworld.perception.facades`), ``crown``
+and ``topped`` ones by their tops and feet (:mod:`usdworld.perception.crowns`), ``post``
+pieces are joined down through what stands in front, and ``trunk`` classes stand on
+their lowest columns. The thresholds are :class:`~usdworld.parameters.PerceptionParams`.
 """
 
 from __future__ import annotations
@@ -12,48 +18,18 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from usdworld.io.class_table import ClassTable, load_class_table
+from usdworld.io.label_table import LabelLookups
 from usdworld.io.types import Detections, Segmentation
-from usdworld.perception.classes import label_lookups, placed_class_for_label
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
+from usdworld.perception.classes import placed_class_for_label
 from usdworld.perception.crowns import crown_ranges
 from usdworld.perception.facades import StreetView, facade_ranges, fill_through_occluders
 
-#: Stuff classes split into chunks of this width/height aspect (metres of the class
-#: prior); classes not listed are never split (trees are cut by crown, below). With the
-#: photo's perspective known, facades are cut by
-#: :func:`usdworld.perception.facades.facade_ranges` instead.
-SPLIT_ASPECT: dict[str, float] = {"building": 1.0, "fence": 2.5}
-#: Stuff cut into one object per crown top (:func:`usdworld.perception.crowns.crown_ranges`).
-CROWN_CLASSES = frozenset({"tree"})
-#: Stuff cut the same way, one object per top or post: signs one behind the other along
-#: the kerb run together in the image, each with its plate's top and its own post.
-TOPPED_CLASSES = CROWN_CLASSES | {"traffic_sign"}
-#: Stuff standing on a trunk or a post: its crown, arm or plate may hang over ground far behind it.
-TRUNK_CLASSES = frozenset({"tree", "pole", "traffic_sign"})
-#: Thin upright stuff whose pieces one above the other, split by what stands in front
-#: (a sign plate, a crown, a parked car), are one object.
-POST_CLASSES = frozenset({"pole", "traffic_sign", "traffic_light"})
-#: Classes cut like facades when the perspective is known.
-FACADE_CLASSES = frozenset({"building"})
-#: Smallest stuff region kept, as a fraction of the image area (and never below
-#: :data:`MIN_STUFF_AREA_PX`).
-MIN_STUFF_AREA_FRACTION = 4e-4
-MIN_STUFF_AREA_PX = 30
-#: The same for thin street furniture, whose whole area is small (a pole 40 m away is a
-#: few pixels wide; poles lowest, as their pieces are joined through what stands in
-#: front, :data:`POST_CLASSES`, and a far one's pieces no longer count as poles).
-MIN_THIN_AREA_FRACTION: dict[str, float] = {"pole": 5e-5, "traffic_sign": 1e-4, "traffic_light": 1e-4}
-#: A facade region (itself at least the smallest stuff area) is cut into pieces of at least
-#: this fraction of that area each: far down the street a building is a few columns wide.
-FACADE_PIECE_AREA = 0.25
-#: Smallest thing instance kept, in pixels.
-MIN_THING_AREA_PX = 10
-#: A detection box counts as occluded when a lower box covers this fraction of its bottom edge.
-OCCLUDED_FRACTION = 0.5
-#: A thing's lowest columns: those whose bottom lies within this fraction of its height
-#: of its lowest pixel.
-BOTTOM_BAND_FRACTION = 0.15
-#: Fraction of a thing's lowest columns that must stand on ground for its contact to count.
-CONTACT_FRACTION = 0.3
+#: Transitional: removed when layout/authoring take the class table (perception itself takes
+#: a ``ClassTable`` argument and reads no roles from here).
+CROWN_CLASSES = load_class_table().with_role("crown")
+TRUNK_CLASSES = load_class_table().with_role("trunk")
 
 
 @dataclass(frozen=True)
@@ -158,7 +134,9 @@ def _contact_from_mask(
     owner: np.ndarray | None,
     own_value: int,
     thing: bool,
-    trunk: bool = False,
+    trunk: bool,
+    lookups: LabelLookups,
+    params: PerceptionParams,
 ) -> _Contact:
     """Ground contact of a mask crop placed at (x0, y0) in an image.
 
@@ -166,7 +144,7 @@ def _contact_from_mask(
     ground class; it is hidden when that pixel belongs to another placed object
     (``owner`` differs and is not 0); it is cut when the column reaches the border.
     Things and stuff on a ``trunk`` (trees, poles) are judged by their lowest columns
-    only; a trunk's contact is where those columns stand.
+    only (``params.bottom_band_fraction``); a trunk's contact is where those columns stand.
     """
     H = label_ids.shape[0] if label_ids is not None else (owner.shape[0] if owner is not None else 0)
     cols, bottoms = _column_bottoms(mask)
@@ -176,7 +154,6 @@ def _contact_from_mask(
     truncated = H > 0 and lowest >= H - 1
     below = np.minimum(rows_abs + 1, max(H - 1, 0))
     at_border = rows_abs >= H - 1
-    lookups = label_lookups()
     if label_ids is not None:
         below_labels = label_ids[below, cols_abs]
         on_ground = lookups.is_ground[below_labels] & ~at_border
@@ -193,8 +170,8 @@ def _contact_from_mask(
         # Judge a thing by its lowest columns (feet, tyres), not by arms or bumpers, and a
         # tree by its trunk, not by its crown: the pixels below those may be ground far
         # behind the object.
-        band = rows_abs >= lowest - max(2.0, BOTTOM_BAND_FRACTION * mask.shape[0])
-        occluded = (not truncated) and on_ground[band].mean() < CONTACT_FRACTION
+        band = rows_abs >= lowest - max(params.bottom_band_min_px, params.bottom_band_fraction * mask.shape[0])
+        occluded = (not truncated) and on_ground[band].mean() < params.contact_fraction
         support = on_ground & band
     else:
         occluded = (not truncated) and not on_ground.any()
@@ -225,8 +202,9 @@ def _contact_from_mask(
     return _Contact(np.array([u, v]), bool(truncated), bool(occluded), standing_on, occluder)
 
 
-def _split_columns(mask: np.ndarray, aspect: float) -> list[tuple[int, int]]:
-    """Split a wide stuff crop into column ranges of about ``aspect`` x their height."""
+def _split_columns(mask: np.ndarray, aspect: float, min_width_px: int) -> list[tuple[int, int]]:
+    """Split a wide stuff crop into column ranges of about ``aspect`` x their height (at
+    least ``min_width_px`` wide; no cut leaves less than half a piece to its right)."""
     cols, bottoms = _column_bottoms(mask)
     if len(cols) == 0:
         return []
@@ -241,7 +219,7 @@ def _split_columns(mask: np.ndarray, aspect: float) -> list[tuple[int, int]]:
         tallest = heights[start]
         while end < w:
             tallest = max(tallest, heights[end])
-            if end - start >= max(aspect * tallest, 4) and (w - end) >= 0.5 * aspect * tallest:
+            if end - start >= max(aspect * tallest, min_width_px) and (w - end) >= 0.5 * aspect * tallest:
                 break
             end += 1
         ranges.append((start, end))
@@ -250,14 +228,13 @@ def _split_columns(mask: np.ndarray, aspect: float) -> list[tuple[int, int]]:
 
 
 def _ground_below(
-    crop: np.ndarray, x0: int, y0: int, labels: np.ndarray, or_things: bool = False
+    crop: np.ndarray, x0: int, y0: int, labels: np.ndarray, lookups: LabelLookups, or_things: bool = False
 ) -> np.ndarray:
     """(w,) bool: the pixel below each column's lowest pixel of the crop is a ground class
     (or, with ``or_things``, a thing that may hide the ground there)."""
     cols, bottoms = _column_bottoms(crop)
     rows = y0 + bottoms + 1
     inside = rows < labels.shape[0]
-    lookups = label_lookups()
     below = labels[rows[inside], x0 + cols[inside]]
     out = np.zeros(crop.shape[1], dtype=bool)
     out[cols[inside]] = lookups.is_ground[below] | (or_things & lookups.is_thing[below])
@@ -294,11 +271,14 @@ def _facade_sides(
     view: StreetView,
     piece_area: float,
     width: int,
+    aspect: float,
+    lookups: LabelLookups,
+    params: PerceptionParams,
 ) -> list[tuple[int, int]] | None:
     """:func:`facade_ranges` of a facade crop, cut first at the street's vanishing point:
     where the two sides' far ends meet there the labels make one region of them, but a
     building never stands on both sides. A side whose base is not measurable is cut by
-    aspect (:data:`SPLIT_ASPECT`); None when neither side's is."""
+    ``aspect`` (the class's ``split_aspect``); None when neither side's is."""
     split = round(view.vanishing_u) - x if view.vanishing_u is not None else 0
     sides = [(0, split), (split, crop.shape[1])] if 0 < split < crop.shape[1] else [(0, crop.shape[1])]
     parts = [
@@ -306,11 +286,12 @@ def _facade_sides(
             crop[:, a:b],
             x + a,
             y,
-            _ground_below(crop[:, a:b], x + a, y, labels),
+            _ground_below(crop[:, a:b], x + a, y, labels, lookups),
             view,
             piece_area,
             roof_mask=region[:, a:b],
             image_width=width,
+            params=params,
         )
         for a, b in sides
     ]
@@ -319,12 +300,18 @@ def _facade_sides(
     ranges: list[tuple[int, int]] = []
     for (a, b), part in zip(sides, parts):
         if part is None:
-            part = _split_columns(crop[:, a:b], SPLIT_ASPECT["building"])
+            part = _split_columns(crop[:, a:b], aspect, params.split_min_width_px)
         ranges.extend((a + c0, a + c1) for c0, c1 in part)
     return ranges
 
 
-def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None) -> list[ImageObject]:
+def objects_from_segmentation(
+    seg: Segmentation,
+    view: StreetView | None,
+    classes: ClassTable,
+    lookups: LabelLookups,
+    params: PerceptionParams = DEFAULT_PERCEPTION,
+) -> list[ImageObject]:
     """Things from the instance map (or class components) and stuff from class masks.
 
     Args:
@@ -332,13 +319,16 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
         view: the photo's perspective; with it, runs of facades are cut into buildings
             (:mod:`usdworld.perception.facades`), else (or when a facade's base is not in
             view) into chunks of a fixed pixel aspect.
+        classes: the class table; its roles say how each class's regions are cut and joined.
+        lookups: the Cityscapes table's arrays (:func:`usdworld.io.label_table.label_lookups`).
+        params: the perception thresholds.
 
     Returns:
         Objects sorted by (class, instance id, contact u).
     """
     labels = np.asarray(seg.label_ids)
     H, W = labels.shape
-    lookups = label_lookups()
+    split_aspect = params.split_aspect_by_class
     owner = np.zeros((H, W), dtype=np.int32)
     objects: list[ImageObject] = []
     pending: list[tuple[str, str, int, np.ndarray, np.ndarray, bool]] = []
@@ -352,7 +342,7 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
                 continue
             x0, y0, x1, y1 = (int(b) for b in box)
             crop = inst[y0:y1, x0:x1] == iid
-            if crop.sum() < MIN_THING_AREA_PX:
+            if crop.sum() < params.min_thing_area_px:
                 continue
             pending.append((str(lookups.placed[label_id]), str(lookups.names[label_id]), iid, box, crop, True))
         is_thing_id = np.zeros(256, dtype=bool)
@@ -380,9 +370,7 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
                 class_map[(class_map == k) & ~group_mask] = 0
     present = np.bincount(class_map.ravel(), minlength=len(class_names) + 1)
     for k, class_name in enumerate(class_names, start=1):
-        min_area = max(
-            MIN_STUFF_AREA_PX, int(MIN_THIN_AREA_FRACTION.get(class_name, MIN_STUFF_AREA_FRACTION) * H * W)
-        )
+        min_area = max(params.min_stuff_area_px, int(params.min_area_fraction(class_name) * H * W))
         if present[k] < min_area:
             continue
         class_mask = class_map == k
@@ -392,18 +380,18 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
         oy, ox = int(rows_any[0]), int(cols_any[0])
         own = class_mask[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
         window = own
-        if class_name in FACADE_CLASSES | CROWN_CLASSES:
+        if classes.has(class_name, "facade") or classes.has(class_name, "crown"):
             # A facade or a crown split by a pole or a tree in front of it is one object:
             # its pieces are joined through what stands in front before components are
             # labelled (and cut again by roofline, frontage or crown tops below).
             window_labels = labels[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
             stands_in_front = lookups.placed != ""
-            if class_name in CROWN_CLASSES:
+            if classes.has(class_name, "crown"):
                 # Facades stand behind street trees: two crowns with a wall between them are two.
-                stands_in_front &= ~np.isin(lookups.placed, list(FACADE_CLASSES))
+                stands_in_front &= ~np.isin(lookups.placed, sorted(classes.with_role("facade")))
             in_front = stands_in_front[window_labels]
             window = fill_through_occluders(own, in_front)
-        elif class_name in POST_CLASSES:
+        elif classes.has(class_name, "post"):
             # A post split by a sign, a crown or a car in front of it is one post: its
             # pieces are joined down each column through what stands in front.
             window_labels = labels[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
@@ -420,13 +408,18 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
             source = str(lookups.names[int(np.bincount(labels[y : y + h, x : x + w][crop]).argmax())])
             ranges = None
             piece_area = min_area
-            if view is not None and class_name in FACADE_CLASSES:
-                piece_area = max(MIN_STUFF_AREA_PX, int(min_area * FACADE_PIECE_AREA))
-                ranges = _facade_sides(crop, region, x, y, labels, view, piece_area, W)
-            if ranges is None and class_name in TOPPED_CLASSES:
-                ranges = crown_ranges(crop, _ground_below(crop, x, y, labels, or_things=True))
+            if view is not None and classes.has(class_name, "facade"):
+                piece_area = max(params.min_stuff_area_px, int(min_area * params.facade_piece_area))
+                ranges = _facade_sides(
+                    crop, region, x, y, labels, view, piece_area, W, split_aspect[class_name], lookups, params
+                )
+            if ranges is None and classes.has(class_name, "topped"):
+                ranges = crown_ranges(crop, _ground_below(crop, x, y, labels, lookups, or_things=True), params)
             if ranges is None:
-                ranges = _split_columns(crop, SPLIT_ASPECT[class_name]) if class_name in SPLIT_ASPECT else [(0, w)]
+                if class_name in split_aspect:
+                    ranges = _split_columns(crop, split_aspect[class_name], params.split_min_width_px)
+                else:
+                    ranges = [(0, w)]
             for c0, c1 in ranges:
                 sub = crop[:, c0:c1]
                 rows = np.nonzero(sub.any(axis=1))[0]
@@ -441,7 +434,9 @@ def objects_from_segmentation(seg: Segmentation, view: StreetView | None = None)
         owner[y0:y1, x0:x1][crop] = idx
     for idx, (class_name, source, iid, box, crop, thing) in enumerate(pending, start=1):
         x0, y0, x1, y1 = (int(b) for b in box)
-        contact = _contact_from_mask(crop, x0, y0, labels, owner, idx, thing, class_name in TRUNK_CLASSES)
+        contact = _contact_from_mask(
+            crop, x0, y0, labels, owner, idx, thing, classes.has(class_name, "trunk"), lookups, params
+        )
         objects.append(
             ImageObject(
                 class_name=class_name,
@@ -475,12 +470,19 @@ def sort_objects(objects: list[ImageObject]) -> list[ImageObject]:
 
 
 def objects_from_detections(
-    detections: Detections, width: int, height: int, segmentation: Segmentation | None = None
+    detections: Detections,
+    width: int,
+    height: int,
+    segmentation: Segmentation | None = None,
+    *,
+    lookups: LabelLookups,
+    params: PerceptionParams = DEFAULT_PERCEPTION,
 ) -> list[ImageObject]:
     """Things from 2D detections (boxes, optionally masks).
 
     A box's contact is its bottom centre. Its bottom counts as occluded when another
-    box whose bottom is lower (closer) covers at least half of its bottom edge, unless
+    box whose bottom is lower (closer) covers at least ``params.occluded_fraction`` of its
+    bottom edge, unless
     the box is amodal (drawn around the whole object, hidden parts included): then its
     bottom edge is the contact row whatever hides it.
 
@@ -489,13 +491,15 @@ def objects_from_detections(
         width: image width in pixels.
         height: image height in pixels.
         segmentation: optional labels, used to tell what each object stands on.
+        lookups: the Cityscapes table's arrays (:func:`usdworld.io.label_table.label_lookups`).
+        params: the perception thresholds.
 
     Returns:
         Objects sorted canonically; ``instance_id`` is the detection's index in the file.
     """
     items = []
     for index, det in enumerate(detections.items):
-        class_name = placed_class_for_label(det.label)
+        class_name = placed_class_for_label(det.label, lookups)
         if class_name is None:
             continue
         x0, y0, x1, y1 = det.box_px
@@ -512,7 +516,6 @@ def objects_from_detections(
 
     objects = []
     labels = np.asarray(segmentation.label_ids) if segmentation is not None else None
-    lookups = label_lookups()
     for index, det, class_name, fbox, box, crop in items:
         bottom = float(fbox[3])
         occluders = 0.0
@@ -537,11 +540,11 @@ def objects_from_detections(
                 mask=crop,
                 contact_px=np.array([(fbox[0] + fbox[2]) / 2.0, bottom]),
                 bottom_truncated=bottom >= height - 1.0,
-                bottom_occluded=occluders >= OCCLUDED_FRACTION,
+                bottom_occluded=occluders >= params.occluded_fraction,
                 top_truncated=fbox[1] <= 1.0,
                 standing_on=standing_on,
                 score=float(det.score),
-                occluded_by=occluder if occluders >= OCCLUDED_FRACTION else -1,
+                occluded_by=occluder if occluders >= params.occluded_fraction else -1,
                 ref=index,
                 box_only=det.mask is None,
             )

@@ -36,23 +36,13 @@ import numpy as np
 from usdworld.errors import CalibrationError, InputError
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.types import DepthMap
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
 from usdworld.perception.depth.base import DepthPrediction
 from usdworld.perception.depth.ground import ground_plane_depth
 
 log = logging.getLogger(__name__)
 
 AlignmentSpace = Literal["depth", "inverse_depth"]
-
-#: Ground pixels farther than this are not used: their camera depth is too sensitive
-#: to pitch and to the road not being flat.
-MAX_GROUND_DEPTH_M = 80.0
-#: Aligned depths beyond this are marked invalid (inverse-depth fits explode near 0).
-MAX_ALIGNED_DEPTH_M = 1000.0
-#: Fewest usable ground pixels for a fit.
-MIN_GROUND_PIXELS = 50
-#: Fewest inliers, as a fraction of the ground pixels, for a fit to be accepted.
-MIN_INLIER_RATIO = 0.3
-
 
 @dataclass(frozen=True)
 class AlignmentFit:
@@ -187,6 +177,7 @@ def align_to_ground(
     threshold: float = 0.1,
     iterations: int = 200,
     max_samples: int = 20000,
+    params: PerceptionParams = DEFAULT_PERCEPTION,
 ) -> tuple[AlignmentFit, DepthMap]:
     """Fit a prediction's scale (and shift) to the ground plane and return metric depth.
 
@@ -200,15 +191,18 @@ def align_to_ground(
         threshold: inlier threshold on the relative residual (0.1 = 10 % of the depth).
         iterations: RANSAC samples.
         max_samples: ground pixels used at most (a random subset beyond that).
+        params: the alignment's limits (``align_max_ground_depth_m``, ``align_max_depth_m``,
+            ``align_min_ground_pixels``, ``align_min_inlier_ratio``).
 
     Returns:
         fit: the fitted model and its quality.
         depth_map: (H, W) metric depth, ``source = "<name>:ground-aligned"``; pixels where
-            the model gives a non-positive, non-finite or > 1000 m depth are invalid.
+            the model gives a non-positive, non-finite or too far (``align_max_depth_m``)
+            depth are invalid.
 
     Raises:
-        CalibrationError: no camera, fewer than 50 usable ground pixels, a degenerate
-            prediction, or fewer than 30 % inliers.
+        CalibrationError: no camera, too few usable ground pixels, a degenerate
+            prediction, or too few inliers.
         InputError: mask or camera size differs from the prediction's.
 
     Example:
@@ -232,13 +226,14 @@ def align_to_ground(
     if not (0 < threshold < 1):
         raise InputError(f"{where}: threshold must be in (0, 1), got {threshold}")
 
-    ground_m, ground_ok = ground_plane_depth(camera, MAX_GROUND_DEPTH_M)
+    ground_m, ground_ok = ground_plane_depth(camera, params.align_max_ground_depth_m)
     use = mask & ground_ok & prediction.valid
     rows, cols = np.nonzero(use)
-    if len(rows) < MIN_GROUND_PIXELS:
+    if len(rows) < params.align_min_ground_pixels:
         raise CalibrationError(
             f"{where}: only {len(rows)} usable ground pixels (road/sidewalk below the horizon, "
-            f"within {MAX_GROUND_DEPTH_M:g} m, with a valid prediction); need {MIN_GROUND_PIXELS}"
+            f"within {params.align_max_ground_depth_m:g} m, with a valid prediction); "
+            f"need {params.align_min_ground_pixels}"
         )
     if len(rows) > max_samples:
         pick = np.sort(rng.choice(len(rows), size=max_samples, replace=False))
@@ -253,10 +248,10 @@ def align_to_ground(
     scale, shift = float(p[0]), float(p[1]) if with_shift else 0.0
     n = len(v)
     ratio = float(inliers.sum()) / n
-    if not (np.isfinite(scale) and scale > 0) or ratio < MIN_INLIER_RATIO:
+    if not (np.isfinite(scale) and scale > 0) or ratio < params.align_min_inlier_ratio:
         raise CalibrationError(
             f"{where}: the ground explains only {100 * ratio:.0f} % of {n} ground pixels "
-            f"(need {100 * MIN_INLIER_RATIO:.0f} %); the prediction does not fit a flat road"
+            f"(need {100 * params.align_min_inlier_ratio:.0f} %); the prediction does not fit a flat road"
         )
     fit_partial = AlignmentFit(scale, shift, ratio, 0.0, n, space)
     err = np.abs(fit_partial.apply(v[inliers]) - g[inliers])
@@ -264,7 +259,7 @@ def align_to_ground(
 
     depth = fit.apply(prediction.depth)
     with np.errstate(invalid="ignore"):
-        valid = prediction.valid & np.isfinite(depth) & (depth > 0) & (depth <= MAX_ALIGNED_DEPTH_M)
+        valid = prediction.valid & np.isfinite(depth) & (depth > 0) & (depth <= params.align_max_depth_m)
     depth_m = np.where(valid, depth, 0.0).astype(np.float32)
     log.info(
         "%s: scale %.4g shift %.4g (%s), %.0f %% inliers of %d, median error %.3f m",

@@ -25,6 +25,9 @@ Cues (each a :class:`DepthCue`; an unavailable cue keeps its name with ``depth_m
     is known independently of the objects) and one pixel of height error give
     ``sigma = d sqrt((std_H / H)^2 + r_m^2 + (1 / h_px)^2)``.
 
+The numbers ``e_v``, ``r_c``, ``r_n``, ``r_m``, the erosion and the default height
+spread are fields of :class:`~usdworld.parameters.PerceptionParams`.
+
 All three sigmas grow with distance (the contact one quadratically), so near objects
 are placed by their contact point and truncated or occluded ones by the others.
 
@@ -43,26 +46,11 @@ import numpy as np
 
 from usdworld.errors import InputError, LayoutError
 from usdworld.io.types import DepthMap
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
 
 CUE_NAMES = ("contact", "cnn", "height")
-#: Contact row error in pixels (e_v).
-CONTACT_ROW_ERROR_PX = 1.0
-#: Relative floor of the contact cue's sigma (r_c).
-CONTACT_REL_SIGMA = 0.01
-#: Relative sigma of the CNN cue (r_n).
-CNN_REL_SIGMA = 0.10
-#: Default spread of class heights, as a fraction of the height, when none is given.
-HEIGHT_REL_STD = 0.10
-#: Uncertainty of a class's mean height itself, as a fraction (fleets and populations
-#: differ): added to the height cue when the camera height was given. When it was
-#: estimated from the same class heights, the contact cue shares that error already.
-HEIGHT_MEAN_REL_SIGMA = 0.10
-#: Erosion of the mask before averaging the depth map, pixels.
-EROSION_PX = 2
-#: Fewest depth pixels for the CNN cue.
-MIN_CNN_PIXELS = 10
-#: A cue whose weight is at least this share of the total names the method.
-DOMINANT_SHARE = 0.8
+#: Transitional: removed when layout takes PerceptionParams (it imports this name).
+HEIGHT_MEAN_REL_SIGMA = PerceptionParams().height_mean_rel_sigma
 
 
 @dataclass(frozen=True)
@@ -105,8 +93,8 @@ class FusedDepth:
     Attributes:
         depth_m: inverse-variance weighted mean of the available cues, metres.
         sigma_m: its standard deviation ``1 / sqrt(sum of weights)``, metres.
-        method: the name of the cue holding at least 80 % of the weight (or the only
-            one), else ``fused``.
+        method: the name of the cue holding at least ``dominant_share`` of the weight (or
+            the only one), else ``fused``.
         cues: every cue considered, available or not, in input order.
         chi2: ``sum w_i (d_i - d)^2`` over available cues; well above their count - 1
             means the cues disagree (e.g. an undetected occlusion).
@@ -151,28 +139,32 @@ def interquartile_mean(values: np.ndarray) -> float:
     return float(mid.mean()) if mid.size else float(np.median(values))
 
 
-def contact_sigma_m(depth_m: float, fy: float, camera_height_m: float) -> float:
-    """Sigma of the ground-contact cue at ``depth_m`` (module docstring)."""
-    geometric = CONTACT_ROW_ERROR_PX * depth_m**2 / (fy * camera_height_m)
-    return float(np.hypot(geometric, CONTACT_REL_SIGMA * depth_m))
+def contact_sigma_m(
+    depth_m: float, fy: float, camera_height_m: float, params: PerceptionParams = DEFAULT_PERCEPTION
+) -> float:
+    """Sigma of the ground-contact cue at ``depth_m`` (module docstring), metres."""
+    geometric = params.contact_row_error_px * depth_m**2 / (fy * camera_height_m)
+    return float(np.hypot(geometric, params.contact_rel_sigma * depth_m))
 
 
-def _cnn_cue(mask: np.ndarray, occluders: np.ndarray, depth_map: DepthMap | None) -> DepthCue:
+def _cnn_cue(
+    mask: np.ndarray, occluders: np.ndarray, depth_map: DepthMap | None, params: PerceptionParams
+) -> DepthCue:
     if depth_map is None:
         return DepthCue("cnn", None, None, "no depth map")
     if depth_map.depth_m.shape != mask.shape:
         raise InputError(f"object depth: depth map is {depth_map.depth_m.shape}, mask is {mask.shape}")
     usable = ~occluders & depth_map.valid
-    pixels = erode(mask, EROSION_PX) & usable
-    how = f"interquartile mean over mask eroded {EROSION_PX} px"
-    if pixels.sum() < MIN_CNN_PIXELS:
+    pixels = erode(mask, params.erosion_px) & usable
+    how = f"interquartile mean over mask eroded {params.erosion_px} px"
+    if pixels.sum() < params.min_cnn_pixels:
         pixels = mask & usable
         how = "interquartile mean over mask (too thin to erode)"
     n = int(pixels.sum())
-    if n < MIN_CNN_PIXELS:
-        return DepthCue("cnn", None, None, f"{n} unoccluded pixels with depth (need {MIN_CNN_PIXELS})")
+    if n < params.min_cnn_pixels:
+        return DepthCue("cnn", None, None, f"{n} unoccluded pixels with depth (need {params.min_cnn_pixels})")
     d = interquartile_mean(depth_map.depth_m[pixels].astype(np.float64))
-    return DepthCue("cnn", d, CNN_REL_SIGMA * d, f"{how}, {n} px, {depth_map.source}")
+    return DepthCue("cnn", d, params.cnn_rel_sigma * d, f"{how}, {n} px, {depth_map.source}")
 
 
 def object_depth_cues(
@@ -188,6 +180,7 @@ def object_depth_cues(
     class_height_std_m: float | None = None,
     height_depth_m: float | None = None,
     class_mean_rel_sigma: float = 0.0,
+    params: PerceptionParams = DEFAULT_PERCEPTION,
 ) -> list[DepthCue]:
     """Every depth cue of one object (module docstring for the models and sigmas).
 
@@ -202,14 +195,15 @@ def object_depth_cues(
             bottom is cut.
         fy: vertical focal length, pixels.
         camera_height_m: camera height above the ground, metres (contact sigma).
-        class_height_std_m: spread of the class's real heights, metres; default 10 %
-            of ``class_height_m``.
+        class_height_std_m: spread of the class's real heights, metres; default
+            ``params.height_rel_std`` of ``class_height_m``.
         height_depth_m: the depth the caller found for ``height_px`` with a model of the
             object's silhouette (:mod:`usdworld.layout.silhouette`), replacing the flat
             ``f H / h``; its sigma is the same.
         class_mean_rel_sigma: relative uncertainty of the class's mean height, added to
-            the height cue's sigma (:data:`HEIGHT_MEAN_REL_SIGMA` when the camera height
+            the height cue's sigma (``params.height_mean_rel_sigma`` when the camera height
             is known independently of the objects, else 0).
+        params: the cues' error model (module docstring).
 
     Returns:
         ``[contact, cnn, height]`` cues; unavailable ones have ``depth_m`` None and a
@@ -231,7 +225,7 @@ def object_depth_cues(
     ):
         if not (np.isfinite(value) and value > 0):
             raise InputError(f"object depth: {label} must be > 0, got {value}")
-    std_h = HEIGHT_REL_STD * class_height_m if class_height_std_m is None else float(class_height_std_m)
+    std_h = params.height_rel_std * class_height_m if class_height_std_m is None else float(class_height_std_m)
     if not (np.isfinite(std_h) and std_h > 0):
         raise InputError(f"object depth: class_height_std_m must be > 0, got {class_height_std_m}")
 
@@ -243,8 +237,8 @@ def object_depth_cues(
         contact = DepthCue(
             "contact",
             contact_depth_m,
-            contact_sigma_m(contact_depth_m, fy, camera_height_m),
-            f"ground contact row, {CONTACT_ROW_ERROR_PX:g} px row error",
+            contact_sigma_m(contact_depth_m, fy, camera_height_m, params),
+            f"ground contact row, {params.contact_row_error_px:g} px row error",
         )
 
     if height_px is None:
@@ -261,14 +255,17 @@ def object_depth_cues(
         sigma = d * float(np.sqrt((std_h / class_height_m) ** 2 + class_mean_rel_sigma**2 + (1.0 / height_px) ** 2))
         height = DepthCue("height", d, sigma, how)
 
-    return [contact, _cnn_cue(mask, occluders, depth_map), height]
+    return [contact, _cnn_cue(mask, occluders, depth_map, params), height]
 
 
-def fuse(cues: list[DepthCue] | tuple[DepthCue, ...]) -> FusedDepth:
+def fuse(
+    cues: list[DepthCue] | tuple[DepthCue, ...], params: PerceptionParams = DEFAULT_PERCEPTION
+) -> FusedDepth:
     """Inverse-variance weighted depth of the available cues.
 
     Args:
         cues: the object's cues (all of them, available or not).
+        params: ``dominant_share`` names the method.
 
     Returns:
         The fused depth; ``cues`` is kept whole for provenance.
@@ -287,6 +284,6 @@ def fuse(cues: list[DepthCue] | tuple[DepthCue, ...]) -> FusedDepth:
     sigma = float(1.0 / np.sqrt(np.sum(w)))
     share = w / np.sum(w)
     top = int(np.argmax(share))
-    method = avail[top].name if share[top] >= DOMINANT_SHARE else "fused"
+    method = avail[top].name if share[top] >= params.dominant_share else "fused"
     chi2 = float(np.sum(w * (d - depth) ** 2))
     return FusedDepth(depth_m=depth, sigma_m=sigma, method=method, cues=cues, chi2=chi2)

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from usdworld.authoring.asset_library import library_dirs
+from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.layout.placement import place_objects
 from usdworld.layout.yaw import RoadAxis
 from usdworld.perception.objects import ImageObject
-from usdworld.authoring.asset_measures import asset_catalogue
 
 K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
 CAM = PinholeCamera(1024, 512, K, 1.3)

@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from usdworld.authoring.asset_library import library_dirs
+from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.layout.placement import place_objects
 from usdworld.layout.street_lines import (
@@ -25,7 +26,6 @@ from usdworld.layout.street_lines import (
 )
 from usdworld.layout.yaw import RoadAxis
 from usdworld.perception.objects import ImageObject
-from usdworld.authoring.asset_measures import asset_catalogue
 
 K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
 LEVEL = PinholeCamera(1024, 512, K, 1.5)

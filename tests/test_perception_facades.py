@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from usdworld.authoring.asset_library import asset_path, library_dirs
+from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.types import Segmentation
 from usdworld.layout.placement import CURB_HEIGHT_M, FACADE_HEIGHT_NOTE, out_of_view_frontage, place_objects
@@ -24,7 +25,6 @@ from usdworld.perception.facades import (
     facade_ranges,
 )
 from usdworld.perception.objects import objects_from_segmentation
-from usdworld.authoring.asset_measures import asset_catalogue
 
 W, H = 1024, 512
 K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])

@@ -22,7 +22,7 @@ class SceneParams:
         "Farthest ground distance meshed (road, sidewalk, terrain), and the farthest an object "
         "whose depth is only a bound from above (cut or hidden) may be placed. `--max-range` "
         "overrides it.",
-        "convention: the street a photo shows in useful detail; also the ground alignment's range",
+        "convention: the part of the street a photo shows in useful detail",
     )
     road_top_min_fraction: float = param(
         0.005,
@@ -50,7 +50,8 @@ class SceneParams:
         "count",
         "Pixel grid (rows, columns) of the ground correspondences generated from a known camera "
         "for the DLT homography.",
-        "geometry: the homography has 8 degrees of freedom; 20 spread points fit it exactly",
+        "geometry: a homography has 8 degrees of freedom (4 points); 20 points spread over the "
+        "ground rows condition the least-squares fit well",
     )
     dlt_horizon_margin: float = param(
         0.05,

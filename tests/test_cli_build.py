@@ -146,3 +146,40 @@ def test_validate_reports_errors(capsys, tmp_path):
     bad.write_text('#usda 1.0\ndef Xform "W"\n{\n}\n')
     code, stdout, err = _run(capsys, "validate", str(bad), "--no-omni")
     assert code == 1 and "StageMetadataChecker" in stdout and err.startswith("error: ")
+
+
+def test_params_file_is_used_and_recorded_and_max_range_overrides_it(capsys, inputs):
+    params = inputs["dir"] / "params.json"
+    params.write_text(json.dumps({"scene": {"max_range_m": 30, "fill_reach_m": 4.0}}))
+    default = inputs["dir"] / "default"
+    assert _run(capsys, *_build_args(inputs, default))[0] == 0
+    near = inputs["dir"] / "near"
+    assert _run(capsys, *_build_args(inputs, near), "--params", str(params))[0] == 0
+    recorded = json.loads((near / "report.json").read_text())["parameters"]["scene"]
+    assert (recorded["max_range_m"], recorded["fill_reach_m"]) == (30.0, 4.0)
+    terrain = {
+        name: {s["name"]: s["area_m2"] for s in json.loads((d / "report.json").read_text())["surfaces"]}["terrain"]
+        for name, d in (("default", default), ("near", near))
+    }
+    assert terrain["near"] < terrain["default"]  # the terrain square reaches 30 m, not 80 m
+    nearer = inputs["dir"] / "nearer"
+    assert _run(capsys, *_build_args(inputs, nearer), "--params", str(params), "--max-range", "20")[0] == 0
+    scene = json.loads((nearer / "report.json").read_text())["parameters"]["scene"]
+    assert (scene["max_range_m"], scene["fill_reach_m"]) == (20.0, 4.0)
+
+
+@pytest.mark.parametrize(
+    ("doc", "expected"),
+    [
+        ({"scene": {"max_range": 30}}, "error: params.json -> scene -> max_range: unknown parameter; known: "),
+        ({"layout": {}}, "error: params.json -> layout: unknown parameter section; known: perception, camera, "),
+        ({"scene": {"fill_reach_m": "far"}}, "error: params.json -> scene -> fill_reach_m: must be a number, got string"),
+    ],
+)
+def test_bad_params_file_is_a_one_line_error(capsys, inputs, doc, expected):
+    params = inputs["dir"] / "params.json"
+    params.write_text(json.dumps(doc))
+    out = inputs["dir"] / "w"
+    code, _, err = _run(capsys, *_build_args(inputs, out), "--params", str(params))
+    _one_line_error(code, err, expected)
+    assert not out.exists()

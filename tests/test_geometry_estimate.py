@@ -6,12 +6,8 @@ import numpy as np
 import pytest
 
 from usdworld.geometry.camera import PinholeCamera
-from usdworld.geometry.estimate import (
-    CAMERA_HEIGHT_PRIOR_M,
-    DEFAULT_HFOV_DEG,
-    HeightObservations,
-    estimate_camera,
-)
+from usdworld.geometry.estimate import HeightObservations, estimate_camera
+from usdworld.parameters import CameraParams
 
 K = np.array([[720.0, 0.0, 620.0], [0.0, 720.0, 187.0], [0.0, 0.0, 1.0]])
 
@@ -51,8 +47,8 @@ def test_one_outlier_does_not_drag_the_fit():
 def test_nothing_to_go_on_gives_documented_defaults():
     empty = HeightObservations(*(np.zeros(0) for _ in range(5)))
     est = estimate_camera(1000, 500, None, None, None, None, None, empty)
-    assert est.camera.fx == pytest.approx(500.0 / np.tan(np.radians(DEFAULT_HFOV_DEG / 2)))
-    assert est.camera.height_m == pytest.approx(CAMERA_HEIGHT_PRIOR_M[0], abs=0.01)
+    assert est.camera.fx == pytest.approx(500.0 / np.tan(np.radians(CameraParams().default_hfov_deg / 2)))
+    assert est.camera.height_m == pytest.approx(CameraParams().height_prior_m[0], abs=0.01)
     assert est.camera.pitch == pytest.approx(0.0, abs=1e-3)
     assert "K" in est.estimated and "nothing to go on" in est.method
 

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from usdworld.authoring.asset_library import library_dirs
+from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.layout.placement import place_objects
 from usdworld.layout.yaw import RoadAxis
 from usdworld.perception.objects import ImageObject
-from usdworld.pipeline import _asset_sizes
 
 K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
 CAM = PinholeCamera(1024, 512, K, 1.3)
@@ -39,7 +39,7 @@ def test_a_sliver_of_stuff_past_a_near_car_is_not_put_behind_it():
     sliver = _obj("tree", (500, 200, 512, 250), 2, hidden=True, by=1)
     crown = _obj("tree", (400, 60, 620, 250), 3, hidden=True, by=1)  # a whole crown: its top row places it
     objects = [car, sliver, crown]
-    sizes = _asset_sizes(objects, library_dirs(None))
+    sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
     ground_from_px = np.linalg.inv(CAM.px_from_ground())
     placements, skipped = place_objects(
         objects, CAM, ground_from_px, RoadAxis(0.0, np.zeros(2), "camera_forward"), sizes
@@ -58,7 +58,7 @@ def test_a_person_under_a_crown_does_not_push_the_tree():
     mask[140:, 45:55] = True  # 35-45 px (about 1.2 m) left of the person
     tree = ImageObject(**{**tree.__dict__, "mask": mask, "contact_px": np.array([530.0, 299.5])})
     objects = [person, tree]
-    sizes = _asset_sizes(objects, library_dirs(None))
+    sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
     ground_from_px = np.linalg.inv(CAM.px_from_ground())
     placements, _ = place_objects(objects, CAM, ground_from_px, RoadAxis(0.0, np.zeros(2), "camera_forward"), sizes)
     placed = {p.obj.ref: p for p in placements}

@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from usdworld.authoring.asset_library import library_dirs
+from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.layout.placement import place_objects
 from usdworld.layout.street_lines import (
@@ -25,7 +26,6 @@ from usdworld.layout.street_lines import (
 )
 from usdworld.layout.yaw import RoadAxis
 from usdworld.perception.objects import ImageObject
-from usdworld.pipeline import _asset_sizes
 
 K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
 LEVEL = PinholeCamera(1024, 512, K, 1.5)
@@ -128,7 +128,7 @@ def _box_at(x: float, y: float, half_w: float, height: float) -> tuple[int, int,
 
 def _place(objects: list[ImageObject], sidewalk: np.ndarray | None = None) -> tuple[dict, list[str]]:
     """Placements by object ref, and the names not placed, seen by the level camera."""
-    sizes = _asset_sizes(objects, library_dirs(None))
+    sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
     ground_from_px = np.linalg.inv(LEVEL.px_from_ground())
     placements, skipped = place_objects(
         objects, LEVEL, ground_from_px, FORWARD, sizes, sidewalk_ground=sidewalk

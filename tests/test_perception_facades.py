@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from usdworld.authoring.asset_library import asset_path, library_dirs
+from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.class_table import load_class_table
 from usdworld.io.label_table import label_lookups
@@ -20,7 +21,6 @@ from usdworld.layout.yaw import RoadAxis, choose_yaw
 from usdworld.parameters import PerceptionParams
 from usdworld.perception.facades import StreetView, base_frontage_m, facade_ranges
 from usdworld.perception.objects import ImageObject, objects_from_segmentation
-from usdworld.pipeline import _asset_sizes
 
 W, H = 1024, 512
 K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
@@ -185,7 +185,7 @@ def test_a_facade_run_becomes_buildings_behind_their_fronts():
     buildings = [o for o in _objects(seg, VIEW) if o.class_name == "building"]
     unsplit = [o for o in _objects(seg) if o.class_name == "building"]
     assert len(buildings) == 3 and len(unsplit) < 3
-    sizes = _asset_sizes(buildings, library_dirs(None))
+    sizes = asset_catalogue((o.class_name for o in buildings), library_dirs(None))
     ground_from_px = np.linalg.inv(CAM.px_from_ground())
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
     placements, _ = place_objects(buildings, CAM, ground_from_px, axis, sizes)
@@ -213,7 +213,7 @@ def test_a_building_running_out_of_the_image_keeps_its_seen_end():
     seg = Segmentation(labels, None, ())
     buildings = [o for o in _objects(seg, VIEW_VP) if o.class_name == "building"]
     assert len(buildings) == 1 and buildings[0].box_px[0] == 0
-    sizes = _asset_sizes(buildings, library_dirs(None))
+    sizes = asset_catalogue((o.class_name for o in buildings), library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
     (placed,), _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
     lo, hi = prior_for("building").frontage_range_m
@@ -238,7 +238,7 @@ def test_stretched_buildings_are_authored_with_their_footprint(tmp_path):
         for o in _objects(Segmentation(labels, None, ()), VIEW)
         if o.class_name == "building"
     ]
-    sizes = _asset_sizes(buildings, library_dirs(None))
+    sizes = asset_catalogue((o.class_name for o in buildings), library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
     placements, _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
     stage = Usd.Stage.CreateNew(str(tmp_path / "w.usda"))
@@ -274,24 +274,6 @@ def test_out_of_view_frontage_is_at_least_the_seen_and_grows_with_it(a: float, b
     assert np.isnan(out_of_view_frontage(float("nan"), usual))
 
 
-def test_the_street_view_comes_from_the_vanishing_point_or_a_given_pitch():
-    from usdworld.geometry.vanishing import VanishingPoint
-    from usdworld.io.types import CameraSpec, InputFile, SourceImage
-    from usdworld.pipeline import _street_view
-
-    file = InputFile("camera", "cam.json", "0" * 64)
-    image = SourceImage(np.zeros((H, W, 3), dtype=np.uint8), InputFile("image", "x.png", "0" * 64))
-    spec = CameraSpec(K, 1.2, np.radians(2.0), 0.0, 0.0, "cityscapes", file)
-    seen = _street_view(spec, image, VanishingPoint(500.0, 240.0, 1.0, 30, 40))
-    assert (seen.horizon_v, seen.focal_px, seen.vanishing_u) == (240.0, 800.0, 500.0)
-    assert seen.camera_height_m == pytest.approx(1.2 - CURB_HEIGHT_M)  # above the sidewalk
-    # no vanishing point: the given pitch (2 deg down) puts the horizon 800 tan(2 deg) above row 256
-    pitched = _street_view(spec, image, None)
-    assert pitched.vanishing_u is None
-    assert pitched.horizon_v == pytest.approx(256.0 - 800.0 * np.tan(np.radians(2.0)), abs=0.01)
-    assert _street_view(None, image, None) is None
-
-
 def test_facade_priors_are_checked():
     import dataclasses
 
@@ -315,7 +297,7 @@ def test_a_facade_whose_base_is_seen_is_not_placed_by_its_height():
         if o.class_name == "building"
     ]
     assert buildings and not any(b.top_truncated for b in buildings)
-    sizes = _asset_sizes(buildings, library_dirs(None))
+    sizes = asset_catalogue((o.class_name for o in buildings), library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
     placements, _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
     for p in placements:

@@ -9,6 +9,7 @@ import pytest
 from synthetic_scene import default_camera, default_objects, write_scene
 
 from usdworld.authoring.validate import errors_only, validate_file
+from usdworld.parameters import DEFAULT_PARAMETERS
 from usdworld.pipeline import BuildRequest, build
 
 
@@ -68,3 +69,19 @@ def test_ground_surfaces_stay_on_the_true_road(built):
     # The terrain fills the rest of the 100 x 160 m square without overlapping them.
     total = sum(s.area_m2 for s in surfaces.values())
     assert total == pytest.approx(100.0 * 160.0, rel=1e-6)
+
+
+def test_report_records_the_parameters(built):
+    assert built.report["parameters"] == DEFAULT_PARAMETERS.to_dict()
+    assert built.report["parameters"]["scene"]["fill_reach_m"] == 8.0
+
+
+def test_a_changed_parameter_changes_the_world(scene, built, tmp_path):
+    params = DEFAULT_PARAMETERS.replace(scene={"fill_reach_m": 0.5})
+    short = build(BuildRequest(output=tmp_path / "w", params=params, **scene))
+    assert short.report["parameters"]["scene"]["fill_reach_m"] == 0.5
+    area = {s.name: s.area_m2 for s in built.model.surfaces}
+    short_area = {s.name: s.area_m2 for s in short.model.surfaces}
+    # less of the road hidden behind the cars is filled in
+    assert short_area["road"] < area["road"] - 1.0
+    assert [p.name for p in short.model.placements] == [p.name for p in built.model.placements]

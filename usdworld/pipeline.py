@@ -1,8 +1,15 @@
 """``build``: one image (plus labels or detections and a camera) to a USD world folder.
 
-This module wires the stages together: it chooses which inputs feed which stage and
-holds only the small adapters that turn one stage's output into the next one's input. :func:`build` is a pure function of its request (no
-global state, picklable arguments), so batch runners can call it in worker processes.
+This module only wires the stages together: it chooses which inputs feed which stage and
+holds only the small adapters that turn one stage's output into the next one's input;
+every decision and threshold lives in the stages and in :class:`~usdworld.parameters.Parameters`.
+:func:`build` is a pure function of its request (no global state, picklable arguments),
+so batch runners can call it in worker processes.
+
+Stages, in order: read the image, labels and camera (io); the street's vanishing point;
+image objects (perception); the asset catalogue of their classes; the camera estimate;
+dense depth; the ground homography; the road axis; placement; the ground surfaces; the
+world's layers and ``report.json``.
 """
 
 from __future__ import annotations
@@ -20,35 +27,30 @@ import numpy as np
 
 from usdworld.atomic import ensure_output_dir
 from usdworld.authoring import asset_library
-from usdworld.authoring.asset_measures import variant_measures
+from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.authoring.world import EDITS_LAYER, ROOT_LAYER, write_world
 from usdworld.depth_stage import DepthOutcome, estimate_depth
 from usdworld.errors import InputError, OutputError
-from usdworld.geometry.camera import PinholeCamera, ground_correspondences, intrinsics_from_fov
-from usdworld.geometry.estimate import (
-    CAMERA_HEIGHT_PRIOR_M,
-    DEFAULT_HFOV_DEG,
-    CameraEstimate,
-    HeightObservations,
-    estimate_camera,
-)
-from usdworld.geometry.homography import HomographyFit, apply_homography, estimate_homography
+from usdworld.geometry.camera import PinholeCamera, ground_correspondences
+from usdworld.geometry.estimate import CameraEstimate, estimate_camera
+from usdworld.geometry.homography import HomographyFit, estimate_homography
 from usdworld.geometry.vanishing import VanishingPoint, street_vanishing_point
+from usdworld.io.asset_catalogue import AssetCatalogue
 from usdworld.io.camera_files import read_camera
-from usdworld.io.class_table import load_class_table
+from usdworld.io.class_table import ClassTable, load_class_table
 from usdworld.io.correspondences import read_correspondences
 from usdworld.io.detections import read_detections_json, read_kitti_labels
 from usdworld.io.hashing import read_input
 from usdworld.io.images import read_image
 from usdworld.io.label_table import label_lookups
 from usdworld.io.labels import read_polygons, read_segmentation
-from usdworld.io.types import CameraSpec, Segmentation, SourceImage
-from usdworld.layout.boxes import box_view_angle
+from usdworld.io.types import CameraSpec, InputFile, Segmentation, SourceImage
+from usdworld.layout.camera_cues import height_observations, road_top_row, street_view, vanishing_yaw
 from usdworld.layout.model import WorldModel
-from usdworld.layout.placement import CURB_HEIGHT_M, AssetSizes, place_objects
-from usdworld.layout.priors import prior_for
-from usdworld.layout.surfaces import MAX_RANGE_M, build_surfaces, fill_behind_occluders, occluded_ground_mask
+from usdworld.layout.placement import place_objects
+from usdworld.layout.surfaces import SURFACE_CLASSES, build_surfaces, fill_hidden_ground, surface_points
 from usdworld.layout.yaw import road_axis
+from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.perception.facades import StreetView
 from usdworld.perception.objects import (
     ImageObject,
@@ -56,22 +58,14 @@ from usdworld.perception.objects import (
     objects_from_segmentation,
     sort_objects,
 )
+from usdworld.report import make_report
 
 log = logging.getLogger(__name__)
-
-#: Placed stuff classes the ground continues behind (trunks, posts; a crown hides only nearby ground).
-THIN_OCCLUDERS = ("pole", "traffic_light", "traffic_sign", "tree")
-#: How far behind a car, person or pole the hidden road or sidewalk is filled in (metres).
-FILL_REACH_M = 8.0
-#: Pixel grid (rows x columns) of the correspondences generated from a known camera.
-DLT_GRID = (4, 5)
-#: The generated correspondences start this fraction of the image height below the horizon.
-DLT_HORIZON_MARGIN = 0.05
 
 
 @dataclass(frozen=True)
 class BuildRequest:
-    """Everything ``build`` needs; paths only, so it pickles cheaply.
+    """Everything ``build`` needs; paths and plain values only, so it pickles cheaply.
 
     Attributes:
         image: the photo (PNG or JPEG).
@@ -88,7 +82,9 @@ class BuildRequest:
             ``monodepth2`` or ``hf``.
         depth_weights: weights file or folder of a network backend.
         library: a user asset library layered over the built-in one.
-        max_range_m: farthest ground distance meshed.
+        max_range_m: farthest ground distance meshed (``--max-range``); when given it
+            replaces ``params.scene.max_range_m``.
+        params: the tuned numbers (``--params FILE``).
     """
 
     image: Path
@@ -104,7 +100,8 @@ class BuildRequest:
     depth: str = "ground"
     depth_weights: Path | None = None
     library: Path | None = None
-    max_range_m: float = MAX_RANGE_M
+    max_range_m: float | None = None
+    params: Parameters = DEFAULT_PARAMETERS
 
     def __post_init__(self) -> None:
         if self.instances is not None and self.labels is None:
@@ -113,8 +110,15 @@ class BuildRequest:
             raise InputError("pass either --polygons or --labels/--instances, not both")
         if self.ground_plane is not None and self.camera is None:
             raise InputError("--ground-plane needs --camera (the KITTI calib file of the same frame)")
-        if not self.max_range_m > 0:
+        if self.max_range_m is not None and not self.max_range_m > 0:
             raise InputError(f"--max-range must be > 0 m, got {self.max_range_m}")
+
+    @property
+    def parameters(self) -> Parameters:
+        """The parameters the build uses: ``params``, with ``max_range_m`` in place when given."""
+        if self.max_range_m is None:
+            return self.params
+        return self.params.replace(scene={"max_range_m": float(self.max_range_m)})
 
 
 @dataclass(frozen=True)
@@ -134,7 +138,30 @@ class BuildResult:
     kept_edits: bool = False
 
 
-# --- stages ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class SceneHead:
+    """The stages every use of a photo shares (``build`` and ``usdworld depth``).
+
+    Attributes:
+        image: the photo.
+        seg: its labels, if given.
+        spec: the given camera, if any.
+        vanishing: the street's vanishing point, if the photo's lines give one.
+        objects: the image objects, sorted.
+        catalogue: the asset catalogue of the objects' classes.
+        camera: the camera (given, estimated, or both).
+    """
+
+    image: SourceImage
+    seg: Segmentation | None
+    spec: CameraSpec | None
+    vanishing: VanishingPoint | None
+    objects: list[ImageObject]
+    catalogue: AssetCatalogue
+    camera: CameraEstimate
+
+
+# --- adapters -------------------------------------------------------------------------
 
 
 def _read_segmentation(request: BuildRequest, image: SourceImage) -> Segmentation | None:
@@ -145,77 +172,35 @@ def _read_segmentation(request: BuildRequest, image: SourceImage) -> Segmentatio
     return None
 
 
-def _street_view(
-    spec: CameraSpec | None, image: SourceImage, vanishing: VanishingPoint | None
-) -> StreetView | None:
-    """The photo's perspective (for cutting facades), when its horizon is known: from the
-    street's vanishing point, else from a given camera pitch (None otherwise).
-
-    The camera is not estimated yet: a missing focal length is the default field of view's
-    and a missing height the typical one (facade pieces scale with it). Facades stand on the
-    sidewalk: the height is the camera's above it.
-    """
-    if spec is not None and spec.K is not None:
-        K = spec.K
-    else:
-        K = intrinsics_from_fov(image.width, image.height, DEFAULT_HFOV_DEG)
-    height = spec.height_m if spec is not None and spec.height_m is not None else CAMERA_HEIGHT_PRIOR_M[0]
-    if vanishing is not None:
-        horizon = vanishing.v
-    elif spec is not None and spec.pitch is not None:
-        horizon = PinholeCamera(image.width, image.height, K, height, spec.pitch, spec.roll or 0.0).horizon_v()
-    else:
+def _label_mask(seg: Segmentation | None, name: str) -> np.ndarray | None:
+    """(H, W) bool pixels of the Cityscapes class ``name``; None without labels."""
+    if seg is None:
         return None
-    vanishing_u = float(vanishing.u) if vanishing is not None else None
-    return StreetView(float(horizon), float(K[0, 0]), float(K[0, 2]), float(height) - CURB_HEIGHT_M, vanishing_u)
+    return np.asarray(seg.label_ids) == label_lookups().id_of(name)
 
 
 def _objects(
-    request: BuildRequest, image: SourceImage, seg: Segmentation | None, view: StreetView | None
+    request: BuildRequest,
+    image: SourceImage,
+    seg: Segmentation | None,
+    view: StreetView | None,
+    table: ClassTable,
+    params: Parameters,
 ) -> list[ImageObject]:
+    lookups = label_lookups()
     if request.detections is None:
-        return objects_from_segmentation(seg, view, load_class_table(), label_lookups()) if seg is not None else []
+        return objects_from_segmentation(seg, view, table, lookups, params.perception) if seg is not None else []
     if request.detections.suffix.lower() == ".json":
         dets = read_detections_json(request.detections, image)
     else:
         dets = read_kitti_labels(request.detections, image)
-    things = objects_from_detections(dets, image.width, image.height, seg, lookups=label_lookups())
+    things = objects_from_detections(dets, image.width, image.height, seg, lookups=lookups, params=params.perception)
     stuff = (
-        [o for o in objects_from_segmentation(seg, view, load_class_table(), label_lookups()) if not o.is_thing]
+        [o for o in objects_from_segmentation(seg, view, table, lookups, params.perception) if not o.is_thing]
         if seg is not None
         else []
     )
     return sort_objects(things + stuff)
-
-
-def _height_observations(
-    objects: list[ImageObject], sizes: dict[str, AssetSizes], image_width: int
-) -> HeightObservations:
-    """Objects of rigid class height with bottom and top in view; the top's extent beyond
-    the contact takes a box's turn from its aspect, else assumes it is seen end on."""
-    rows = []
-    for o in objects:
-        prior = prior_for(o.class_name)
-        if not prior.rigid_height or o.top_truncated or o.bottom_truncated or o.bottom_occluded:
-            continue
-        s = sizes[o.class_name]
-        angle = box_view_angle(o, prior, image_width)
-        near, far = s.top_offsets(s.default_variant, angle or 0.0, o.box_only)
-        rows.append(
-            (o.contact_px[0], o.contact_px[1], float(o.box_px[1]), prior.size_m[2], prior.height_std_m, near, far)
-        )
-    arr = np.array(rows, dtype=np.float64).reshape(-1, 7)
-    return HeightObservations(*(arr[:, k].copy() for k in range(7)))
-
-
-def _road_top_row(seg: Segmentation | None) -> float | None:
-    """Highest image row with a meaningful amount of road (>= 0.5 % of the width)."""
-    if seg is None:
-        return None
-    road = np.asarray(seg.label_ids) == label_lookups().id_of("road")
-    counts = road.sum(axis=1)
-    rows = np.nonzero(counts >= max(2, 0.005 * road.shape[1]))[0]
-    return float(rows[0]) if len(rows) else None
 
 
 def _camera(
@@ -223,8 +208,10 @@ def _camera(
     image: SourceImage,
     objects: list[ImageObject],
     seg: Segmentation | None,
-    sizes: dict[str, AssetSizes],
+    catalogue: AssetCatalogue,
     vanishing: VanishingPoint | None,
+    table: ClassTable,
+    params: Parameters,
 ) -> CameraEstimate:
     if spec is None:
         spec_values: tuple = (None, None, None, None, None)
@@ -234,88 +221,84 @@ def _camera(
         image.width,
         image.height,
         *spec_values,
-        _height_observations(objects, sizes, image.width),
-        _road_top_row(seg),
+        height_observations(objects, catalogue, table, image.width),
+        road_top_row(_label_mask(seg, "road"), params.scene),
         vanishing=vanishing,  # the photo's own lines measure the horizon when the pitch is not given
+        params=params.camera,
     )
 
 
-def _vanishing_yaw(vanishing: VanishingPoint | None, camera: PinholeCamera) -> float | None:
-    """World yaw of the direction the street's vanishing point lies in, or None."""
-    if vanishing is None:
-        return None
-    ray = camera.rays_world(np.array([[vanishing.u, vanishing.v]]))[0]
-    return float(np.arctan2(ray[1], ray[0]))
-
-
-def _ground_fit(request: BuildRequest, camera: PinholeCamera) -> tuple[HomographyFit, str]:
+def _ground_fit(request: BuildRequest, camera: PinholeCamera, params: Parameters) -> tuple[HomographyFit, str]:
     if request.correspondences is not None:
         pairs = read_correspondences(request.correspondences)
         return estimate_homography(pairs.points_px, pairs.points_ground), "manual"
-    px, ground = ground_correspondences(camera, DLT_GRID, DLT_HORIZON_MARGIN)
+    px, ground = ground_correspondences(camera, params.scene.dlt_grid, params.scene.dlt_horizon_margin)
     return estimate_homography(px, ground), "camera_model"
 
 
-def _asset_sizes(objects: list[ImageObject], libraries: tuple[Path, ...]) -> dict[str, AssetSizes]:
-    sizes = {}
-    for name in sorted({o.class_name for o in objects}):
-        info = asset_library.asset_info(name, libraries)
-        m = {v: variant_measures(name, v, libraries) for v in info.variants}
-        sizes[name] = AssetSizes(
-            dict(info.size_by_variant),
-            info.default_variant,
-            contact_half_by_variant={v: x.contact_half for v, x in m.items()},
-            top_half_by_variant={v: x.top_half for v, x in m.items()},
-            contact_mean_reach_by_variant={v: x.contact_mean_reach for v, x in m.items()},
-            top_shape_by_variant={v: x.top_shape for v, x in m.items()},
+def _inputs(request: BuildRequest, head: SceneHead) -> tuple[InputFile, ...]:
+    """Every input file with its digest, for the provenance."""
+    inputs = [head.image.file]
+    if head.seg is not None:
+        inputs.extend(head.seg.files)
+    for path, role in ((request.detections, "detections"), (request.correspondences, "correspondences")):
+        if path is not None:
+            inputs.append(read_input(path, role)[1])
+    if head.spec is not None:
+        inputs.append(head.spec.file)
+        inputs.extend(head.spec.extra_files)
+    if request.depth_map is not None:
+        inputs.append(read_input(request.depth_map, "depth_map")[1])
+    return tuple(inputs)
+
+
+def _warnings(head: SceneHead, skipped: list[str], max_range_m: float) -> tuple[str, ...]:
+    warnings = []
+    if not head.objects:
+        warnings.append(f"{head.image.file.name}: no objects found; the world has ground and camera only")
+    if skipped:
+        warnings.append(
+            f"not placed (no visible ground contact, or only a bound beyond {max_range_m:g} m): " + ", ".join(skipped)
         )
-    return sizes
+    if head.camera.estimated:
+        warnings.append(f"camera estimated ({', '.join(head.camera.estimated)}): {head.camera.method}")
+    return tuple(warnings)
 
 
-def _surface_points(
-    seg: Segmentation | None, fit: HomographyFit, camera: PinholeCamera, max_range_m: float, name: str = "road"
-) -> np.ndarray | None:
-    """Road-plane points of every fourth pixel of a surface class (within range), or None.
+# --- stages ---------------------------------------------------------------------------
 
-    A sidewalk's pixels are mapped onto the road plane too: its kerb face, labelled
-    sidewalk, stands on the road, so its kerb line comes out right (0.04 m median on the
-    synthetic set), while its raised top lands about 10 % too far (its back edge 0.4 m).
+
+def read_scene_head(
+    request: BuildRequest, libraries: tuple[Path, ...], table: ClassTable, params: Parameters
+) -> SceneHead:
+    """The shared head of a build: inputs, vanishing point, objects, asset catalogue, camera.
+
+    Args:
+        request: the inputs.
+        libraries: asset libraries, user first.
+        table: the class table.
+        params: the parameters used.
     """
-    if seg is None:
-        return None
-    surface = np.asarray(seg.label_ids) == label_lookups().id_of(name)
-    ys, xs = np.nonzero(surface[::4, ::4])
-    if len(ys) == 0:
-        return None
-    px = np.column_stack([xs * 4 + 2.0, ys * 4 + 2.0])
-    pts = apply_homography(fit.dst_from_src, px)
-    _, depth = camera.ground_points(px)
-    keep = np.isfinite(pts).all(axis=1) & (depth > 0) & (depth <= max_range_m)
-    return pts[keep]
-
-
-def _ground_occluders(placements: list) -> list[tuple[np.ndarray, np.ndarray, float]]:
-    """Box, mask and front depth of every placed object the ground continues behind."""
-    out = []
-    for p in placements:
-        o = p.obj
-        if o.is_thing or o.class_name in THIN_OCCLUDERS:
-            front = float(p.depth_m) - float(np.hypot(*p.size_m[:2])) / 2.0
-            out.append((o.box_px, o.mask, max(front, 0.5)))
-    return out
+    image = read_image(request.image)
+    seg = _read_segmentation(request, image)
+    spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
+    vanishing = street_vanishing_point(image.rgb, params.camera)
+    view = street_view(spec, image.width, image.height, vanishing, params.placement.curb_height_m, params.camera)
+    objects = _objects(request, image, seg, view, table, params)
+    catalogue = asset_catalogue((o.class_name for o in objects), libraries)
+    camera = _camera(spec, image, objects, seg, catalogue, vanishing, table, params)
+    return SceneHead(image, seg, spec, vanishing, objects, catalogue, camera)
 
 
 def depth_for_image(request: BuildRequest) -> tuple[DepthOutcome, PinholeCamera]:
     """Only the depth stage of a build: the metric depth and the camera it used."""
-    image = read_image(request.image)
-    seg = _read_segmentation(request, image)
-    spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
-    vanishing = street_vanishing_point(image.rgb)
-    objects = _objects(request, image, seg, _street_view(spec, image, vanishing))
-    sizes = _asset_sizes(objects, asset_library.library_dirs(request.library))
-    camera = _camera(spec, image, objects, seg, sizes, vanishing)
-    outcome = estimate_depth(request.depth, request.depth_weights, request.depth_map, image, camera.camera, seg, objects)
-    return outcome, camera.camera
+    head = read_scene_head(
+        request, asset_library.library_dirs(request.library), load_class_table(), request.parameters
+    )
+    outcome = estimate_depth(
+        request.depth, request.depth_weights, request.depth_map, head.image, head.camera.camera, head.seg, head.objects
+    )
+    return outcome, head.camera.camera
 
 
 def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldModel:
@@ -328,160 +311,57 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     Returns:
         The world model.
     """
-    image = read_image(request.image)
-    seg = _read_segmentation(request, image)
-    spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
-    vanishing = street_vanishing_point(image.rgb)
-    objects = _objects(request, image, seg, _street_view(spec, image, vanishing))
-    sizes = _asset_sizes(objects, libraries)
-    camera = _camera(spec, image, objects, seg, sizes, vanishing)
+    params = request.parameters
+    max_range_m = params.scene.max_range_m
+    table = load_class_table()
+    head = read_scene_head(request, libraries, table, params)
+    camera = head.camera.camera
     dense = estimate_depth(
-        request.depth, request.depth_weights, request.depth_map, image, camera.camera, seg, objects
+        request.depth, request.depth_weights, request.depth_map, head.image, camera, head.seg, head.objects
     )
-    depth = dense.depth_map
-    fit, dlt_source = _ground_fit(request, camera.camera)
+    fit, dlt_source = _ground_fit(request, camera, params)
+    stride = params.scene.surface_stride_px
+    road = _label_mask(head.seg, "road")
+    sidewalk = _label_mask(head.seg, "sidewalk")
     axis = road_axis(
-        _surface_points(seg, fit, camera.camera, request.max_range_m),
-        vanishing_angle=_vanishing_yaw(vanishing, camera.camera),
+        surface_points(road, fit.dst_from_src, camera, max_range_m, stride) if road is not None else None,
+        vanishing_angle=vanishing_yaw(head.vanishing, camera),
     )
     placements, skipped = place_objects(
-        objects,
-        camera.camera,
+        head.objects,
+        camera,
         fit.dst_from_src,
         axis,
-        sizes,
-        depth,
-        camera_sigma=(camera.sigma_height_m, camera.sigma_pitch),
-        max_partial_depth_m=request.max_range_m,
-        sidewalk_ground=_surface_points(seg, fit, camera.camera, request.max_range_m, "sidewalk"),
+        head.catalogue,
+        dense.depth_map,
+        camera_sigma=(head.camera.sigma_height_m, head.camera.sigma_pitch),
+        max_partial_depth_m=max_range_m,
+        sidewalk_ground=surface_points(sidewalk, fit.dst_from_src, camera, max_range_m, stride)
+        if sidewalk is not None
+        else None,
     )
-    lk = label_lookups()
-    surface_ids = {"road": [lk.id_of("road"), lk.id_of("parking")], "sidewalk": [lk.id_of("sidewalk")]}
     filled = None
-    if seg is not None:
-        labels = np.asarray(seg.label_ids)
-        fill = occluded_ground_mask(labels.shape, _ground_occluders(placements), camera.camera, FILL_REACH_M)
-        ahead = np.array([np.cos(axis.angle), np.sin(axis.angle), 0.0])
-        road_vp = camera.camera.vanishing_point(ahead) or (camera.camera.cx, camera.camera.horizon_v())
-        filled = fill_behind_occluders(labels, fill, road_vp)
-    surfaces = tuple(
-        build_surfaces(filled, surface_ids, camera.camera, fit.dst_from_src, CURB_HEIGHT_M, request.max_range_m)
+    if head.seg is not None:
+        filled = fill_hidden_ground(np.asarray(head.seg.label_ids), placements, camera, axis.angle, table, params.scene)
+    surface_ids = {name: [label_lookups().id_of(c) for c in classes] for name, classes in SURFACE_CLASSES.items()}
+    surfaces = build_surfaces(
+        filled, surface_ids, camera, fit.dst_from_src, params.placement.curb_height_m, max_range_m
     )
-    inputs = [image.file]
-    if seg is not None:
-        inputs.extend(seg.files)
-    for path, role in ((request.detections, "detections"), (request.correspondences, "correspondences")):
-        if path is not None:
-            inputs.append(read_input(path, role)[1])
-    if spec is not None:
-        inputs.append(spec.file)
-        inputs.extend(spec.extra_files)
-    if request.depth_map is not None:
-        inputs.append(read_input(request.depth_map, "depth_map")[1])
-    warnings = []
-    if not objects:
-        warnings.append(f"{image.file.name}: no objects found; the world has ground and camera only")
-    if skipped:
-        warnings.append(
-            f"not placed (no visible ground contact, or only a bound beyond {request.max_range_m:g} m): "
-            + ", ".join(skipped)
-        )
-    if camera.estimated:
-        warnings.append(f"camera estimated ({', '.join(camera.estimated)}): {camera.method}")
     return WorldModel(
-        image_name=image.file.name,
-        image_size=(image.width, image.height),
-        camera=camera,
+        image_name=head.image.file.name,
+        image_size=(head.image.width, head.image.height),
+        camera=head.camera,
         ground_fit=fit,
         dlt_source=dlt_source,
         placements=tuple(placements),
-        surfaces=surfaces,
-        inputs=tuple(inputs),
+        surfaces=tuple(surfaces),
+        inputs=_inputs(request, head),
         depth_source=dense.source,
         depth_kind=dense.kind,
         depth_alignment=dense.alignment,
         depth_fit=dense.fit,
-        warnings=tuple(warnings),
+        warnings=_warnings(head, skipped, max_range_m),
     )
-
-
-# --- report ---------------------------------------------------------------------------
-
-
-def _num(x: float | None) -> float | None:
-    if x is None:
-        return None
-    x = float(x)
-    return round(x, 6) if np.isfinite(x) else None
-
-
-def make_report(model: WorldModel) -> dict[str, Any]:
-    """The ``report.json`` content: the same numbers as the USD provenance."""
-    cam = model.camera.camera
-    objects = []
-    for p in model.placements:
-        o = p.obj
-        objects.append(
-            {
-                "name": p.name,
-                "class": o.class_name,
-                "source_class": o.source_label,
-                "instance_id": int(o.instance_id),
-                "variant": p.variant,
-                "image_bbox": [int(b) for b in o.box_px],
-                "contact_px": [_num(c) for c in o.contact_px],
-                "mask_area": o.mask_area,
-                "bottom_truncated": o.bottom_truncated,
-                "bottom_occluded": o.bottom_occluded,
-                "standing_on": o.standing_on,
-                "position_world": [_num(c) for c in p.position_world],
-                "yaw_deg": _num(np.degrees(p.yaw)),
-                "yaw_source": p.yaw_source,
-                "depth_m": _num(p.depth_m),
-                "depth_method": p.depth_method,
-                "depth_cues": {
-                    c.name: {"depth_m": _num(c.depth_m), "sigma_m": _num(c.sigma_m), "note": c.note} for c in p.cues
-                },
-                "scale": _num(p.scale),
-                "scale_measured": _num(p.scale_measured),
-                "size_m": [_num(s) for s in p.size_m],
-                "collision_displacement_m": [_num(d) for d in p.collision_displacement],
-                "confidence": _num(p.confidence),
-            }
-        )
-    return {
-        "usdworld_version": __import__("usdworld").__version__,
-        "source_image": model.image_name,
-        "image_size": list(model.image_size),
-        "camera": {
-            "K": [[_num(v) for v in row] for row in cam.K],
-            "height_m": _num(cam.height_m),
-            "pitch_deg": _num(np.degrees(cam.pitch)),
-            "roll_deg": _num(np.degrees(cam.roll)),
-            "yaw_deg": _num(np.degrees(cam.yaw)),
-            "estimated": list(model.camera.estimated),
-            "sigma_height_m": _num(model.camera.sigma_height_m),
-            "sigma_pitch_deg": _num(np.degrees(model.camera.sigma_pitch)),
-            "method": model.camera.method,
-        },
-        "dlt": {
-            "source": model.dlt_source,
-            "ground_from_px": [[_num(v) for v in row] for row in model.ground_fit.dst_from_src],
-            "points_px": [[_num(v) for v in row] for row in model.ground_fit.src],
-            "points_ground_m": [[_num(v) for v in row] for row in model.ground_fit.dst],
-            "rms_px": _num(model.ground_fit.rms_src),
-        },
-        "depth": {
-            "source": model.depth_source,
-            "kind": model.depth_kind,
-            "alignment": model.depth_alignment,
-            "fit_scale_shift_inliers_residual": [_num(v) for v in model.depth_fit],
-        },
-        "inputs": [{"role": f.role, "name": f.name, "sha256": f.sha256} for f in model.inputs],
-        "surfaces": [{"name": s.name, "area_m2": _num(s.area_m2)} for s in model.surfaces],
-        "objects": objects,
-        "warnings": list(model.warnings),
-    }
 
 
 # --- output ---------------------------------------------------------------------------
@@ -538,7 +418,7 @@ def build(request: BuildRequest) -> BuildResult:
     libraries = asset_library.library_dirs(request.library)
     model = build_model(request, libraries)
     asset_files = {c: asset_library.asset_path(c, libraries) for c in sorted({p.obj.class_name for p in model.placements})}
-    report = make_report(model)
+    report = make_report(model, request.parameters)
     try:
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
     except OSError as exc:

@@ -11,11 +11,16 @@
 
 Measures are cached by asset file and modification time, so a batch of builds pays for
 them once per process. Frames: the asset's (metres, Z up, origin at the footprint centre).
+
+:func:`asset_catalogue` gathers sizes, variants and measures of the classes a build uses
+into the plain :class:`~usdworld.io.asset_catalogue.AssetCatalogue` that layout receives
+(reading USD needs pxr, which only authoring and render import).
 """
 
 from __future__ import annotations
 
 import functools
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,6 +28,7 @@ import cv2
 import numpy as np
 
 from usdworld.authoring import asset_library
+from usdworld.io.asset_catalogue import AssetCatalogue, AssetSizes
 from usdworld.perception.shape import top_shape_ratio
 
 #: Vertices this close to an asset's lowest point count as its ground contact (metres):
@@ -105,3 +111,31 @@ def variant_measures(
     """
     path = asset_library.asset_path(class_name, libraries).resolve()
     return _cached(class_name, variant, str(path), path.stat().st_mtime_ns, libraries)
+
+
+def asset_catalogue(class_names: Iterable[str], libraries: tuple[Path, ...] | None = None) -> AssetCatalogue:
+    """The catalogue entries (sizes, default variant, measures of every variant) of some classes.
+
+    Args:
+        class_names: the classes a build places (repeats are fine).
+        libraries: asset library folders, user first (default: the built-in library).
+
+    Returns:
+        The catalogue, keyed by class name in sorted order.
+
+    Raises:
+        InputError: a class has no asset, or an asset is not readable.
+    """
+    sizes = {}
+    for name in sorted(set(class_names)):
+        info = asset_library.asset_info(name, libraries)
+        m = {v: variant_measures(name, v, libraries) for v in info.variants}
+        sizes[name] = AssetSizes(
+            dict(info.size_by_variant),
+            info.default_variant,
+            contact_half_by_variant={v: x.contact_half for v, x in m.items()},
+            top_half_by_variant={v: x.top_half for v, x in m.items()},
+            contact_mean_reach_by_variant={v: x.contact_mean_reach for v, x in m.items()},
+            top_shape_by_variant={v: x.top_shape for v, x in m.items()},
+        )
+    return AssetCatalogue(sizes)

@@ -42,7 +42,9 @@ from typing import Any
 from usdworld.batch.frames import Frame, Incomplete, make_frame
 from usdworld.errors import InputError
 from usdworld.io.hashing import json_type, parse_json, read_input
-from usdworld.layout.surfaces import MAX_RANGE_M
+from usdworld.parameters import DEFAULT_PARAMETERS
+
+MAX_RANGE_M = DEFAULT_PARAMETERS.scene.max_range_m  # the default range (scene.max_range_m)
 
 LAYOUTS = ("cityscapes", "kitti", "manifest")
 IMAGE_SUFFIX = "_leftImg8bit.png"

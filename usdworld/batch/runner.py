@@ -27,7 +27,9 @@ from usdworld.batch.records import (
 )
 from usdworld.batch.worker import FrameTask
 from usdworld.errors import FramesFailed
-from usdworld.layout.surfaces import MAX_RANGE_M
+from usdworld.parameters import DEFAULT_PARAMETERS
+
+MAX_RANGE_M = DEFAULT_PARAMETERS.scene.max_range_m  # the default range (scene.max_range_m)
 
 
 def prepare_output(out_dir: Path) -> Path:

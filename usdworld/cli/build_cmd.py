@@ -24,10 +24,17 @@ def build(
     library: Optional[Path] = typer.Option(
         None, "--library", envvar="USDWORLD_LIBRARY", help="User asset library layered over the built-in one."
     ),
-    max_range: float = typer.Option(80.0, "--max-range", help="Farthest ground distance meshed, metres."),
+    max_range: Optional[float] = typer.Option(
+        None, "--max-range", help="Farthest ground distance meshed, metres (default: scene.max_range_m, 80)."
+    ),
+    params: Optional[Path] = typer.Option(
+        None, "--params", help="Parameters JSON {section: {field: value}} over the defaults (docs/parameters.md)."
+    ),
 ) -> None:
     """Build a layered USD world from one street image."""
     from usdworld.cli.summary import print_build_summary
+    from usdworld.io.parameters_file import read_parameters
+    from usdworld.parameters import DEFAULT_PARAMETERS
     from usdworld.pipeline import BuildRequest
     from usdworld.pipeline import build as run_build
 
@@ -46,6 +53,7 @@ def build(
         depth_weights=depth_weights,
         library=library,
         max_range_m=max_range,
+        params=read_parameters(params) if params is not None else DEFAULT_PARAMETERS,
     )
     result = run_build(request)
     print_build_summary(result.report, str(result.world))

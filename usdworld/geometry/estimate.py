@@ -27,10 +27,6 @@ from usdworld.geometry.camera import PinholeCamera, intrinsics_from_fov
 from usdworld.geometry.vanishing import VanishingPoint, horizon_measurement
 from usdworld.parameters.camera import DEFAULT_CAMERA, CameraParams
 
-#: Transitional: removed when the pipeline takes CameraParams (it imports these names).
-DEFAULT_HFOV_DEG = CameraParams().default_hfov_deg
-CAMERA_HEIGHT_PRIOR_M = CameraParams().height_prior_m
-
 
 @dataclass(frozen=True)
 class HeightObservations:

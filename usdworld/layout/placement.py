@@ -28,6 +28,7 @@ import numpy as np
 from usdworld.errors import LayoutError
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.geometry.homography import apply_homography
+from usdworld.io.asset_catalogue import AssetSizes  # the input placement receives, defined with the catalogue
 from usdworld.io.types import DepthMap
 from usdworld.layout.boxes import align_box_columns, box_aspect_usable, fit_view_angle
 from usdworld.layout.collision import footprint_half_extents, resolve_collisions
@@ -66,58 +67,6 @@ PARTIAL_METHODS = ("contact_partial", "height_partial", "top_row")
 STUFF_PRIORITY_OFFSET = 1e6
 #: Height of the kerb: objects standing on the sidewalk are lifted by this much.
 CURB_HEIGHT_M = 0.15
-
-
-@dataclass(frozen=True)
-class AssetSizes:
-    """Sizes of the class assets, by variant, as recorded in the library.
-
-    Attributes:
-        by_variant: (l, w, h) metres for each variant name.
-        default_variant: the asset's default variant.
-        contact_half_by_variant: half extents (along length, width) of the points where
-            each variant touches the ground (a car's tyres, a person's feet), metres; the
-            lowest image point of an object is its nearest contact point, not its bumper.
-            Missing variants use half the footprint.
-        top_half_by_variant: half extents of each variant's top (a car's roof), metres;
-            the top row of a silhouette is the top's near or far edge. Missing variants
-            use 0 (a top right above the centre).
-        contact_mean_reach_by_variant: for objects whose heading is unknown (people), the
-            mean over headings of how far the nearest contact lies from the centre, metres.
-        top_shape_by_variant: each variant's side-view top shape
-            (:func:`usdworld.perception.shape.top_shape_ratio`): a conifer's against a
-            broad tree's, a plain pole's against a street lamp's.
-    """
-
-    by_variant: dict[str, tuple[float, float, float]]
-    default_variant: str
-    contact_half_by_variant: dict[str, tuple[float, float]] = field(default_factory=dict)
-    top_half_by_variant: dict[str, tuple[float, float]] = field(default_factory=dict)
-    contact_mean_reach_by_variant: dict[str, float] = field(default_factory=dict)
-    top_shape_by_variant: dict[str, float] = field(default_factory=dict)
-
-    def mean_reach(self, variant: str) -> float:
-        """Mean distance of the nearest contact from the centre over all headings, unit scale
-        (missing variants: the mean of the contact half extents)."""
-        if variant in self.contact_mean_reach_by_variant:
-            return float(self.contact_mean_reach_by_variant[variant])
-        return float(np.mean(self.contact_half(variant)))
-
-    def contact_half(self, variant: str) -> np.ndarray:
-        """(2,) float64 contact half extents of a variant at unit scale."""
-        if variant in self.contact_half_by_variant:
-            return np.asarray(self.contact_half_by_variant[variant], dtype=np.float64)
-        return 0.5 * np.asarray(self.by_variant[variant][:2], dtype=np.float64)
-
-    def top_half(self, variant: str) -> np.ndarray:
-        """(2,) float64 half extents of a variant's top at unit scale."""
-        return np.asarray(self.top_half_by_variant.get(variant, (0.0, 0.0)), dtype=np.float64)
-
-    def top_offsets(self, variant: str, rel_yaw: float, box_only: bool) -> tuple[float, float]:
-        """Near and far edges of the variant's top beyond its lowest image point at unit
-        scale, metres (:func:`usdworld.layout.silhouette.top_offsets`)."""
-        size = np.asarray(self.by_variant[variant][:2], dtype=np.float64)
-        return top_offsets(self.contact_half(variant), self.top_half(variant), size, rel_yaw, box_only)
 
 
 @dataclass(frozen=True)
@@ -702,7 +651,8 @@ def _draft(  # noqa: PLR0913
         # contact point, default variant at unit scale.
         guess = contact_ground if contact_ok else _point_at_depth(camera, u, v, 10.0)
         rel_yaw = _object_yaw(prior, guess, axis, obj, camera)[0] - float(np.arctan2(guess[1], guess[0]))
-        offsets = sizes.top_offsets(sizes.default_variant, rel_yaw, obj.box_only)
+        dv = sizes.default_variant
+        offsets = top_offsets(sizes.contact_half(dv), sizes.top_half(dv), sizes.footprint(dv), rel_yaw, obj.box_only)
         height_depth = depth_from_silhouette(camera, (u, v), obj.height_px, prior.size_m[2], offsets)
 
     # Cues for the depth of the object's front (its contact row / visible surface).

@@ -5,11 +5,18 @@ within ``max_range_m``, mapped to ground metres through the DLT homography (a
 homography maps straight edges to straight edges, so the polygon stays exact),
 cleaned and extruded with manifold3d cross-sections: the road as a thin slab whose top
 is the ground plane, the sidewalk raised to the kerb height.
+
+Cars, people and posts hide the ground behind them: :func:`ground_occluders` lists the
+placed objects the ground continues behind, :func:`fill_hidden_ground` fills a few metres
+of it in. :func:`surface_points` samples a surface's pixels on the road plane (for the
+road axis and the kerb lines).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import manifold3d
@@ -17,9 +24,13 @@ import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.geometry.homography import apply_homography
+from usdworld.io.class_table import ClassTable
+from usdworld.parameters.scene import SceneParams
 
-#: Default farthest ground distance meshed, metres.
-MAX_RANGE_M = 80.0
+if TYPE_CHECKING:
+    from usdworld.layout.placement import Placement
+#: Cityscapes classes each ground surface is made of (parking is driven on like the road).
+SURFACE_CLASSES = {"road": ("road", "parking"), "sidewalk": ("sidewalk",)}
 #: Thickness of the road slab below z = 0, metres.
 SLAB_DEPTH_M = 0.05
 #: Smallest surface piece kept, square metres.
@@ -58,7 +69,7 @@ def _range_cutoff_row(camera: PinholeCamera, max_range_m: float) -> int:
 
 
 def ground_cross_section(
-    mask: np.ndarray, camera: PinholeCamera, ground_from_px: np.ndarray, max_range_m: float = MAX_RANGE_M
+    mask: np.ndarray, camera: PinholeCamera, ground_from_px: np.ndarray, max_range_m: float
 ) -> manifold3d.CrossSection:
     """The ground region covered by a class mask, as a manifold3d cross-section.
 
@@ -179,13 +190,99 @@ def occluded_ground_mask(
     return out
 
 
+def ground_occluders(
+    placements: Sequence[Placement], table: ClassTable, min_front_m: float
+) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Box, mask and front depth of every placed object the ground continues behind.
+
+    Things (cars, people) and the class table's ``thin_occluder`` classes (trunks, posts)
+    hide ground that goes on behind them; a facade's does not. The front depth is the
+    centre's less the footprint's half diagonal, at least ``min_front_m``.
+
+    Args:
+        placements: the placed objects.
+        table: the class table (roles).
+        min_front_m: least front depth, metres (:attr:`SceneParams.occluder_min_front_m`).
+
+    Returns:
+        Per occluder ``(box_px (4,) int, mask crop (h, w) bool, front depth m)``, the input of
+        :func:`occluded_ground_mask`.
+    """
+    out = []
+    for p in placements:
+        o = p.obj
+        if o.is_thing or table.has(o.class_name, "thin_occluder"):
+            front = float(p.depth_m) - float(np.hypot(*p.size_m[:2])) / 2.0
+            out.append((o.box_px, o.mask, max(front, min_front_m)))
+    return out
+
+
+def fill_hidden_ground(
+    label_ids: np.ndarray,
+    placements: Sequence[Placement],
+    camera: PinholeCamera,
+    road_angle: float,
+    table: ClassTable,
+    params: SceneParams,
+) -> np.ndarray:
+    """Labels with the ground hidden by placed objects filled in, up to
+    :attr:`SceneParams.fill_reach_m` behind each (:func:`fill_behind_occluders`).
+
+    Args:
+        label_ids: (H, W) uint8 Cityscapes label ids.
+        placements: the placed objects.
+        camera: the source camera.
+        road_angle: world yaw of the road axis, radians; the fill walks towards its
+            vanishing point (the horizon's centre when it has none in view).
+        table: the class table (roles).
+        params: the scene parameters.
+
+    Returns:
+        (H, W) uint8 filled copy.
+    """
+    occluders = ground_occluders(placements, table, params.occluder_min_front_m)
+    fill = occluded_ground_mask(label_ids.shape, occluders, camera, params.fill_reach_m)
+    ahead = np.array([np.cos(road_angle), np.sin(road_angle), 0.0])
+    road_vp = camera.vanishing_point(ahead) or (camera.cx, camera.horizon_v())
+    return fill_behind_occluders(label_ids, fill, road_vp)
+
+
+def surface_points(
+    mask: np.ndarray, ground_from_px: np.ndarray, camera: PinholeCamera, max_range_m: float, stride_px: int
+) -> np.ndarray | None:
+    """Road-plane points of every ``stride_px``-th pixel of a surface (within range), or None.
+
+    A sidewalk's pixels are mapped onto the road plane too: its kerb face, labelled
+    sidewalk, stands on the road, so its kerb line comes out right (0.04 m median on the
+    synthetic set), while its raised top lands about 10 % too far (its back edge 0.4 m).
+
+    Args:
+        mask: (H, W) bool pixels of the surface.
+        ground_from_px: (3, 3) float64 DLT homography.
+        camera: the source camera (the points' depths).
+        max_range_m: farthest depth kept, metres.
+        stride_px: sampling step in rows and columns; each sample is its cell's centre.
+
+    Returns:
+        (N, 2) float64 ground points, metres, or None when the mask is empty.
+    """
+    ys, xs = np.nonzero(mask[::stride_px, ::stride_px])
+    if len(ys) == 0:
+        return None
+    px = np.column_stack([xs * stride_px + stride_px / 2, ys * stride_px + stride_px / 2])
+    pts = apply_homography(ground_from_px, px)
+    _, depth = camera.ground_points(px)
+    keep = np.isfinite(pts).all(axis=1) & (depth > 0) & (depth <= max_range_m)
+    return pts[keep]
+
+
 def build_surfaces(
     filled_ids: np.ndarray | None,
     class_ids: dict[str, list[int]],
     camera: PinholeCamera,
     ground_from_px: np.ndarray,
     curb_height_m: float,
-    max_range_m: float = MAX_RANGE_M,
+    max_range_m: float,
 ) -> list[SurfaceMesh]:
     """Road and sidewalk meshes; the road is cut where the sidewalk lies.
 

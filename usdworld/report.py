@@ -1,0 +1,103 @@
+"""``report.json``: the numbers of a built world in plain JSON, beside its USD provenance.
+
+The report repeats what the world's layers record (camera, DLT, depth, every object's
+cues and placement) and adds the inputs' digests and the parameters the build used, so a
+world can be checked and compared without USD tools. Values are rounded to 6 decimals;
+non-finite ones are null.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from usdworld.layout.model import WorldModel
+from usdworld.parameters import Parameters
+
+
+
+def _num(x: float | None) -> float | None:
+    """A JSON number: rounded to 6 decimals, None when missing or not finite."""
+    if x is None:
+        return None
+    x = float(x)
+    return round(x, 6) if np.isfinite(x) else None
+
+
+def make_report(model: WorldModel, params: Parameters) -> dict[str, Any]:
+    """The ``report.json`` content: the same numbers as the USD provenance.
+
+    Args:
+        model: the built world.
+        params: the parameters it was built with (recorded under ``parameters``).
+
+    Returns:
+        JSON-ready content (write it with ``sort_keys=True``).
+    """
+    cam = model.camera.camera
+    objects = []
+    for p in model.placements:
+        o = p.obj
+        objects.append(
+            {
+                "name": p.name,
+                "class": o.class_name,
+                "source_class": o.source_label,
+                "instance_id": int(o.instance_id),
+                "variant": p.variant,
+                "image_bbox": [int(b) for b in o.box_px],
+                "contact_px": [_num(c) for c in o.contact_px],
+                "mask_area": o.mask_area,
+                "bottom_truncated": o.bottom_truncated,
+                "bottom_occluded": o.bottom_occluded,
+                "standing_on": o.standing_on,
+                "position_world": [_num(c) for c in p.position_world],
+                "yaw_deg": _num(np.degrees(p.yaw)),
+                "yaw_source": p.yaw_source,
+                "depth_m": _num(p.depth_m),
+                "depth_method": p.depth_method,
+                "depth_cues": {
+                    c.name: {"depth_m": _num(c.depth_m), "sigma_m": _num(c.sigma_m), "note": c.note} for c in p.cues
+                },
+                "scale": _num(p.scale),
+                "scale_measured": _num(p.scale_measured),
+                "size_m": [_num(s) for s in p.size_m],
+                "collision_displacement_m": [_num(d) for d in p.collision_displacement],
+                "confidence": _num(p.confidence),
+            }
+        )
+    return {
+        "usdworld_version": __import__("usdworld").__version__,
+        "source_image": model.image_name,
+        "image_size": list(model.image_size),
+        "camera": {
+            "K": [[_num(v) for v in row] for row in cam.K],
+            "height_m": _num(cam.height_m),
+            "pitch_deg": _num(np.degrees(cam.pitch)),
+            "roll_deg": _num(np.degrees(cam.roll)),
+            "yaw_deg": _num(np.degrees(cam.yaw)),
+            "estimated": list(model.camera.estimated),
+            "sigma_height_m": _num(model.camera.sigma_height_m),
+            "sigma_pitch_deg": _num(np.degrees(model.camera.sigma_pitch)),
+            "method": model.camera.method,
+        },
+        "dlt": {
+            "source": model.dlt_source,
+            "ground_from_px": [[_num(v) for v in row] for row in model.ground_fit.dst_from_src],
+            "points_px": [[_num(v) for v in row] for row in model.ground_fit.src],
+            "points_ground_m": [[_num(v) for v in row] for row in model.ground_fit.dst],
+            "rms_px": _num(model.ground_fit.rms_src),
+        },
+        "depth": {
+            "source": model.depth_source,
+            "kind": model.depth_kind,
+            "alignment": model.depth_alignment,
+            "fit_scale_shift_inliers_residual": [_num(v) for v in model.depth_fit],
+        },
+        "inputs": [{"role": f.role, "name": f.name, "sha256": f.sha256} for f in model.inputs],
+        "surfaces": [{"name": s.name, "area_m2": _num(s.area_m2)} for s in model.surfaces],
+        "objects": objects,
+        "parameters": params.to_dict(),
+        "warnings": list(model.warnings),
+    }

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import logging
-import os
 import shutil
 import tempfile
 from dataclasses import dataclass, field
@@ -18,10 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from usdworld.atomic import ensure_output_dir
 from usdworld.authoring import asset_library
 from usdworld.authoring.asset_measures import variant_measures
-from usdworld.authoring.world import EDITS_LAYER, ROOT_LAYER, write_world
+from usdworld.authoring.world import ROOT_LAYER, write_world
 from usdworld.depth_stage import DepthOutcome, estimate_depth
 from usdworld.errors import InputError, OutputError
 from usdworld.geometry.camera import PinholeCamera, ground_correspondences, intrinsics_from_fov
@@ -40,6 +38,7 @@ from usdworld.io.detections import read_detections_json, read_kitti_labels
 from usdworld.io.hashing import read_input
 from usdworld.io.images import read_image
 from usdworld.io.labels import read_polygons, read_segmentation
+from usdworld.io.limits import MAX_RANGE_CAP_M
 from usdworld.io.types import CameraSpec, Segmentation, SourceImage
 from usdworld.layout.boxes import box_view_angle
 from usdworld.layout.model import WorldModel
@@ -47,6 +46,8 @@ from usdworld.layout.placement import CURB_HEIGHT_M, AssetSizes, place_objects
 from usdworld.layout.priors import prior_for
 from usdworld.layout.surfaces import MAX_RANGE_M, build_surfaces, fill_behind_occluders, occluded_ground_mask
 from usdworld.layout.yaw import road_axis
+from usdworld.output_dir import prepare_output as _prepare_output
+from usdworld.output_dir import swap_in as _swap_in
 from usdworld.perception.classes import label_lookups
 from usdworld.perception.facades import StreetView
 from usdworld.perception.objects import (
@@ -112,8 +113,11 @@ class BuildRequest:
             raise InputError("pass either --polygons or --labels/--instances, not both")
         if self.ground_plane is not None and self.camera is None:
             raise InputError("--ground-plane needs --camera (the KITTI calib file of the same frame)")
-        if not self.max_range_m > 0:
-            raise InputError(f"--max-range must be > 0 m, got {self.max_range_m}")
+        if not 0 < self.max_range_m <= MAX_RANGE_CAP_M:
+            raise InputError(
+                f"--max-range must be > 0 and <= {MAX_RANGE_CAP_M:g} m (the ground is meshed out to it), "
+                f"got {self.max_range_m:g}"
+            )
 
 
 @dataclass(frozen=True)
@@ -480,36 +484,6 @@ def make_report(model: WorldModel) -> dict[str, Any]:
 
 
 # --- output ---------------------------------------------------------------------------
-
-
-def _prepare_output(out: Path) -> Path | None:
-    """Check the output folder; return an existing edits layer to keep, if any."""
-    if out.exists():
-        if not out.is_dir():
-            raise OutputError(f"{out}: exists and is not a folder; choose another -o")
-        if (out / ROOT_LAYER).is_file():
-            edits = out / EDITS_LAYER
-            return edits if edits.is_file() else None
-        if any(out.iterdir()):
-            raise OutputError(f"{out}: folder exists, is not empty and holds no {ROOT_LAYER}; choose another -o")
-    ensure_output_dir(out.parent)
-    return None
-
-
-def _swap_in(tmp: Path, out: Path) -> None:
-    """Replace ``out`` by ``tmp`` with renames only; the old folder is removed last."""
-    if out.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-        old.rmdir()
-        os.replace(out, old)
-        try:
-            os.replace(tmp, out)
-        except OSError:
-            os.replace(old, out)
-            raise
-        shutil.rmtree(old, ignore_errors=True)
-    else:
-        os.replace(tmp, out)
 
 
 def build(request: BuildRequest) -> BuildResult:

@@ -24,7 +24,7 @@ def build(
     library: Optional[Path] = typer.Option(
         None, "--library", envvar="USDWORLD_LIBRARY", help="User asset library layered over the built-in one."
     ),
-    max_range: float = typer.Option(80.0, "--max-range", help="Farthest ground distance meshed, metres."),
+    max_range: float = typer.Option(80.0, "--max-range", help="Farthest ground distance meshed, metres (at most 1000)."),
 ) -> None:
     """Build a layered USD world from one street image."""
     from usdworld.cli.summary import print_build_summary

@@ -7,6 +7,8 @@ contact is cut by the image border or hidden by another object.
 
 from __future__ import annotations
 
+import logging
+from collections import Counter
 from dataclasses import dataclass
 
 import cv2
@@ -16,6 +18,8 @@ from usdworld.io.types import Detections, Segmentation
 from usdworld.perception.classes import label_lookups, placed_class_for_label
 from usdworld.perception.crowns import crown_ranges
 from usdworld.perception.facades import StreetView, facade_ranges, fill_through_occluders
+
+logger = logging.getLogger(__name__)
 
 #: Stuff classes split into chunks of this width/height aspect (metres of the class
 #: prior); classes not listed are never split (trees are cut by crown, below). With the
@@ -494,9 +498,11 @@ def objects_from_detections(
         Objects sorted canonically; ``instance_id`` is the detection's index in the file.
     """
     items = []
+    dropped: Counter[str] = Counter()
     for index, det in enumerate(detections.items):
         class_name = placed_class_for_label(det.label)
         if class_name is None:
+            dropped[det.label] += 1
             continue
         x0, y0, x1, y1 = det.box_px
         box = np.array(
@@ -509,6 +515,13 @@ def objects_from_detections(
         else:
             crop = np.ones((box[3] - box[1], box[2] - box[0]), dtype=bool)
         items.append((index, det, class_name, np.asarray(det.box_px, dtype=np.float64), box, crop))
+    if dropped:
+        logger.warning(
+            "%s: %d detections of classes usdworld does not place were dropped: %s",
+            detections.file.name,
+            sum(dropped.values()),
+            ", ".join(f"{label} ({n})" for label, n in sorted(dropped.items())),
+        )
 
     objects = []
     labels = np.asarray(segmentation.label_ids) if segmentation is not None else None

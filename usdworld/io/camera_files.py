@@ -320,6 +320,14 @@ def _check_intrinsics(K: np.ndarray, where: dict[str, str], image: SourceImage |
             f"{image.file.name}, so the calibration is for an image of {size}; scale fx, fy, cx, cy by "
             f"the resize factor{scale} or pass the calibration of this image"
         )
+
+
+def _warn_principal_point(K: np.ndarray, where: dict[str, str], image: SourceImage | None) -> None:
+    """Warn about an odd principal point; called after every check that can fail, so an error stays one line."""
+    if image is None:
+        return
+    w, h = image.width, image.height
+    cx, cy = float(K[0, 2]), float(K[1, 2])
     if not (0 <= cx <= w and 0 <= cy <= h):
         logger.warning("%s: principal point (%g, %g) is outside the %dx%d image", where["cx"], cx, cy, w, h)
     elif abs(cx - w / 2) > 0.25 * w or abs(cy - h / 2) > 0.25 * h:
@@ -415,6 +423,8 @@ def read_camera(
     if parsed.K is not None:
         _check_intrinsics(parsed.K, parsed.K_where, image)
     _check_extrinsics(parsed)
+    if parsed.K is not None:
+        _warn_principal_point(parsed.K, parsed.K_where, image)
     return CameraSpec(
         K=parsed.K,
         height_m=parsed.height_m,

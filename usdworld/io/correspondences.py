@@ -133,12 +133,8 @@ def read_correspondences(path: PathLike) -> GroundCorrespondences:
             f"{MAX_GROUND_COORD_M:g} m; ground points are metres from the camera (x forward, y left)"
         )
     _, first = np.unique(np.hstack([points_px, points_ground]), axis=0, return_index=True)
-    if len(first) < len(points_px):
-        logger.warning(
-            "%s: %d repeated pixel/ground pairs ignored (each pair is used once)",
-            file.name,
-            len(points_px) - len(first),
-        )
+    repeated = len(points_px) - len(first)
+    if repeated:
         keep = np.sort(first)
         points_px, points_ground = points_px[keep], points_ground[keep]
     if len(points_px) > MAX_GROUND_PAIRS:
@@ -157,4 +153,6 @@ def read_correspondences(path: PathLike) -> GroundCorrespondences:
             f"{file.name}: only {distinct} distinct pixels among {len(points_px)} pairs; at least "
             f"{MIN_PAIRS} different points are needed, remove the duplicates and add others"
         )
+    if repeated:  # after every check that can fail, so that an error stays one line
+        logger.warning("%s: %d repeated pixel/ground pairs ignored (each pair is used once)", file.name, repeated)
     return GroundCorrespondences(points_px=points_px, points_ground=points_ground, file=file)

@@ -52,8 +52,36 @@ def test_too_few_pairs(tmp_path: Path) -> None:
 
 
 def test_duplicate_pixels(tmp_path: Path) -> None:
-    doc = {"pairs": [{"px": [1, 1], "ground": [1, 1]}] * 3 + [{"px": [2, 2], "ground": [3, 3]}] * 2}
+    doc = {"pairs": [{"px": [1, 1], "ground": [1, g]} for g in range(3)] + [{"px": [2, 2], "ground": [3, g]} for g in range(2)]}
     with pytest.raises(CalibrationError, match=r"only 2 distinct pixels among 5 pairs"):
+        read_correspondences(_json(tmp_path, doc))
+
+
+def test_repeated_pairs_are_used_once(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    pairs = [{"px": [u, v], "ground": [u + 5.0, v - 1.0]} for u, v in ((0, 0), (9, 0), (0, 9), (9, 9))]
+    doc = {"pairs": [pairs[0], pairs[1], pairs[0], pairs[2], pairs[3], pairs[1]]}
+    corr = read_correspondences(_json(tmp_path, doc))
+    assert corr.points_px.tolist() == [[0, 0], [9, 0], [0, 9], [9, 9]]  # first occurrences, file order
+    assert corr.points_ground.tolist() == [[5, -1], [14, -1], [5, 8], [14, 8]]
+    assert "2 repeated pixel/ground pairs ignored" in caplog.text
+
+
+def test_too_many_pairs(tmp_path: Path) -> None:
+    doc = {"pairs": [{"px": [i % 97, i // 97], "ground": [float(i), 1.0]} for i in range(1001)]}
+    with pytest.raises(CalibrationError, match=r"^pts\.json: 1001 distinct pixel/ground pairs, at most 1000"):
+        read_correspondences(_json(tmp_path, doc))
+
+
+@pytest.mark.parametrize(
+    ("pair", "message"),
+    [
+        ({"px": [1e308, 0], "ground": [1, 1]}, r"^pts\.json: pair -> \[2\]: pixel coordinate 1e\+308 is far outside"),
+        ({"px": [5, 5], "ground": [1e308, 1]}, r"^pts\.json -> pairs -> \[2\] -> ground: \[1e\+308, 1\.0\] is beyond 10000 m"),
+    ],
+)
+def test_hostile_numbers(tmp_path: Path, pair: dict[str, list[float]], message: str) -> None:
+    doc = {"pairs": [{"px": [0, 0], "ground": [0, 1]}, {"px": [9, 0], "ground": [2, 1]}, pair, {"px": [0, 9], "ground": [0, 5]}]}
+    with pytest.raises(InputError, match=message):
         read_correspondences(_json(tmp_path, doc))
 
 

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import logging
-import os
 import shutil
 import tempfile
 from dataclasses import dataclass, field
@@ -25,10 +24,9 @@ from typing import Any
 
 import numpy as np
 
-from usdworld.atomic import ensure_output_dir
 from usdworld.authoring import asset_library
 from usdworld.authoring.asset_measures import asset_catalogue
-from usdworld.authoring.world import EDITS_LAYER, ROOT_LAYER, write_world
+from usdworld.authoring.world import ROOT_LAYER, write_world
 from usdworld.depth_stage import DepthOutcome, estimate_depth
 from usdworld.errors import InputError, OutputError
 from usdworld.geometry.camera import PinholeCamera, ground_correspondences
@@ -44,6 +42,7 @@ from usdworld.io.hashing import read_input
 from usdworld.io.images import read_image
 from usdworld.io.label_table import label_lookups
 from usdworld.io.labels import read_polygons, read_segmentation
+from usdworld.io.limits import MAX_RANGE_CAP_M
 from usdworld.io.types import CameraSpec, InputFile, Segmentation, SourceImage
 from usdworld.layout.camera_cues import height_observations, road_top_row, street_view, vanishing_yaw
 from usdworld.layout.model import WorldModel
@@ -51,6 +50,8 @@ from usdworld.layout.placement import place_objects
 from usdworld.layout.surfaces import SURFACE_CLASSES, build_surfaces, fill_hidden_ground, surface_points
 from usdworld.layout.yaw import road_axis
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
+from usdworld.output_dir import prepare_output as _prepare_output
+from usdworld.output_dir import swap_in as _swap_in
 from usdworld.perception.facades import StreetView
 from usdworld.perception.objects import (
     ImageObject,
@@ -110,8 +111,13 @@ class BuildRequest:
             raise InputError("pass either --polygons or --labels/--instances, not both")
         if self.ground_plane is not None and self.camera is None:
             raise InputError("--ground-plane needs --camera (the KITTI calib file of the same frame)")
-        if self.max_range_m is not None and not self.max_range_m > 0:
-            raise InputError(f"--max-range must be > 0 m, got {self.max_range_m}")
+        given = self.max_range_m is not None
+        max_range = float(self.max_range_m) if given else self.params.scene.max_range_m  # type: ignore[arg-type]
+        if not 0 < max_range <= MAX_RANGE_CAP_M:
+            what = "--max-range" if given else "parameters -> scene -> max_range_m"
+            raise InputError(
+                f"{what} must be > 0 and <= {MAX_RANGE_CAP_M:g} m (the ground is meshed out to it), got {max_range:g}"
+            )
 
     @property
     def parameters(self) -> Parameters:
@@ -365,36 +371,6 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
 
 
 # --- output ---------------------------------------------------------------------------
-
-
-def _prepare_output(out: Path) -> Path | None:
-    """Check the output folder; return an existing edits layer to keep, if any."""
-    if out.exists():
-        if not out.is_dir():
-            raise OutputError(f"{out}: exists and is not a folder; choose another -o")
-        if (out / ROOT_LAYER).is_file():
-            edits = out / EDITS_LAYER
-            return edits if edits.is_file() else None
-        if any(out.iterdir()):
-            raise OutputError(f"{out}: folder exists, is not empty and holds no {ROOT_LAYER}; choose another -o")
-    ensure_output_dir(out.parent)
-    return None
-
-
-def _swap_in(tmp: Path, out: Path) -> None:
-    """Replace ``out`` by ``tmp`` with renames only; the old folder is removed last."""
-    if out.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-        old.rmdir()
-        os.replace(out, old)
-        try:
-            os.replace(tmp, out)
-        except OSError:
-            os.replace(old, out)
-            raise
-        shutil.rmtree(old, ignore_errors=True)
-    else:
-        os.replace(tmp, out)
 
 
 def build(request: BuildRequest) -> BuildResult:

@@ -42,6 +42,7 @@ from typing import Any
 from usdworld.batch.frames import Frame, Incomplete, make_frame
 from usdworld.errors import InputError
 from usdworld.io.hashing import json_type, parse_json, read_input
+from usdworld.io.limits import MAX_RANGE_CAP_M
 from usdworld.parameters import DEFAULT_PARAMETERS
 
 MAX_RANGE_M = DEFAULT_PARAMETERS.scene.max_range_m  # the default range (scene.max_range_m)
@@ -285,6 +286,10 @@ def _manifest_row(row: dict[str, Any], where: str, base: Path, defaults: dict[st
             options["max_range_m"] = float(max_range)
         except (TypeError, ValueError):
             return Incomplete(name, f"{where} -> max_range_m: must be a number, got {max_range!r}")
+        if not 0 < options["max_range_m"] <= MAX_RANGE_CAP_M:
+            return Incomplete(
+                name, f"{where} -> max_range_m: must be > 0 and <= {MAX_RANGE_CAP_M:g} m, got {max_range!r}"
+            )
     frame_id = values.get("id")
     if frame_id is None:
         frame_id = Path(str(image).strip()).stem
@@ -435,6 +440,11 @@ def discover(
         raise InputError("--split applies to --layout cityscapes only")
     if ground_plane and layout != "kitti":
         raise InputError("--ground-plane applies to --layout kitti only")
+    if not 0 < max_range_m <= MAX_RANGE_CAP_M:
+        raise InputError(
+            f"--max-range must be > 0 and <= {MAX_RANGE_CAP_M:g} m (the ground is meshed out to it), "
+            f"got {max_range_m:g}"
+        )
     if layout == "cityscapes":
         return discover_cityscapes(source, splits=splits, library=library, max_range_m=max_range_m)
     if layout == "kitti":

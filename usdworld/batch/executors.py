@@ -13,7 +13,8 @@ returns True (``--fail-fast``) it pulls no more tasks, cancels the queued ones (
   :class:`concurrent.futures.ProcessPoolExecutor` with the ``spawn`` start method (or
   ``forkserver``), one frame per process at a time. Each worker imports usdworld itself.
   If a worker process dies (killed, out of memory), the frames in flight are recorded as
-  failed and a fresh pool carries on.
+  failed and a fresh pool carries on. Workers end when the batch process dies
+  (:mod:`usdworld.batch.parent_watch`).
 
 The Dask executor, with the same interface, is in :mod:`usdworld.batch.dask_executor`.
 """
@@ -21,12 +22,14 @@ The Dask executor, with the same interface, is in :mod:`usdworld.batch.dask_exec
 from __future__ import annotations
 
 import multiprocessing
+import os
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import replace
 from typing import Protocol, Self
 
+from usdworld.batch.parent_watch import exit_with_parent
 from usdworld.batch.records import FrameRecord
 from usdworld.batch.worker import FrameTask, run_frame
 from usdworld.errors import InputError
@@ -117,6 +120,8 @@ class LocalPoolExecutor:
             max_workers=self.workers,
             mp_context=multiprocessing.get_context(self.start_method),
             max_tasks_per_child=self.max_tasks_per_child,
+            initializer=exit_with_parent,
+            initargs=(os.getpid(),),
         )
 
     def __enter__(self) -> Self:

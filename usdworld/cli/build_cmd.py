@@ -25,7 +25,7 @@ def build(
         None, "--library", envvar="USDWORLD_LIBRARY", help="User asset library layered over the built-in one."
     ),
     max_range: Optional[float] = typer.Option(
-        None, "--max-range", help="Farthest ground distance meshed, metres (default: scene.max_range_m, 80)."
+        None, "--max-range", help="Farthest ground distance meshed, metres (default: scene.max_range_m, 80; at most 1000)."
     ),
     params: Optional[Path] = typer.Option(
         None, "--params", help="Parameters JSON {section: {field: value}} over the defaults (docs/parameters.md)."

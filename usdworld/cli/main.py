@@ -2,6 +2,10 @@
 
 Exit codes: 0 success, 1 validation failure or unexpected error, 2 bad input or usage.
 Errors print one line (``error: ...``) on stderr; ``--debug`` adds the traceback.
+Python warnings raised by libraries during a command (numpy's ``RuntimeWarning: overflow``
+on a hostile number, say) are held back: after an error they are dropped, so the error
+stays one line; after success they are logged as ``WARNING:`` lines. ``--debug`` shows
+them as they happen.
 """
 
 from __future__ import annotations
@@ -9,6 +13,7 @@ from __future__ import annotations
 import logging
 import sys
 import traceback
+import warnings
 
 import typer
 
@@ -72,12 +77,20 @@ def main(argv: list[str] | None = None) -> int:
 
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args
+    held: list[warnings.WarningMessage] = []
     try:
-        # Standalone mode: typer/click print usage errors and --help themselves and exit.
-        app(args=args, prog_name="usdworld", standalone_mode=True)
+        with warnings.catch_warnings(record=not debug) as caught:
+            try:
+                # Standalone mode: typer/click print usage errors and --help themselves and exit.
+                app(args=args, prog_name="usdworld", standalone_mode=True)
+            finally:
+                held = list(caught or [])
     except SystemExit as exc:
         code = exc.code
-        return code if isinstance(code, int) else (0 if code is None else 1)
+        code = code if isinstance(code, int) else (0 if code is None else 1)
+        if code == 0:
+            _log_held_warnings(held)
+        return code
     except UsdWorldError as exc:
         if debug:
             traceback.print_exc()
@@ -94,7 +107,18 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
+    _log_held_warnings(held)
     return 0
+
+
+def _log_held_warnings(held: list[warnings.WarningMessage]) -> None:
+    """Log the library warnings of a successful command, each distinct message once."""
+    seen: set[str] = set()
+    for w in held:
+        text = f"{w.category.__name__}: {w.message} ({w.filename}:{w.lineno})"
+        if text not in seen:
+            seen.add(text)
+            logging.getLogger("usdworld").warning("%s", text)
 
 
 def run() -> None:

@@ -49,6 +49,16 @@ def _normalisation(points: np.ndarray) -> np.ndarray:
     return np.array([[s, 0.0, -s * centroid[0]], [0.0, s, -s * centroid[1]], [0.0, 0.0, 1.0]])
 
 
+def _singular_values(matrix: np.ndarray, name: str) -> np.ndarray:
+    """Singular values of ``matrix``; a CalibrationError when LAPACK does not converge."""
+    try:
+        return np.linalg.svd(matrix, compute_uv=False)
+    except np.linalg.LinAlgError as exc:
+        raise CalibrationError(
+            f"the {name} points cannot be fitted ({exc}); check they are pixels and metres of sane size"
+        ) from exc
+
+
 def _check_points(name: str, points: np.ndarray) -> np.ndarray:
     points = np.asarray(points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 2:
@@ -60,7 +70,7 @@ def _check_points(name: str, points: np.ndarray) -> np.ndarray:
             f"a homography needs at least 4 point pairs, got {len(points)}; add more ground points"
         )
     centred = points - points.mean(axis=0)
-    sv = np.linalg.svd(centred, compute_uv=False)
+    sv = _singular_values(centred, name)
     if sv[0] == 0 or sv[1] / sv[0] < _COLLINEAR_RATIO:
         raise CalibrationError(
             f"the {name} points are collinear; pick ground points that are not all on one line"
@@ -124,7 +134,12 @@ def estimate_homography(src: np.ndarray, dst: np.ndarray) -> HomographyFit:
     A[1::2, 5] = 1.0
     A[1::2, 6:8] = -d[:, 1:2] * s
     A[1::2, 8] = -d[:, 1]
-    _, sv, vt = np.linalg.svd(A)
+    try:
+        # Economy SVD: (2N, 9) A needs only its 9 right singular vectors, not a (2N, 2N) U;
+        # with 4 pairs (8 rows) the full V is needed for the null vector.
+        _, sv, vt = np.linalg.svd(A, full_matrices=2 * n < 9)
+    except np.linalg.LinAlgError as exc:
+        raise CalibrationError(f"the homography fit did not converge ({exc}); spread the points out") from exc
     sv9 = np.concatenate([sv, np.zeros(9 - len(sv))])
     if sv9[-2] < 1e-10 * sv9[0]:
         raise CalibrationError("the correspondences do not determine a homography; spread the points out")

@@ -48,6 +48,15 @@ from usdworld.io.hashing import (
     read_input,
     require,
 )
+from usdworld.io.limits import (
+    MAX_CAMERA_HEIGHT_M,
+    MAX_FOCAL_PX,
+    MAX_FOCAL_WIDTHS,
+    MAX_PIXEL_COORD,
+    MAX_PLANE_COEFF,
+    MAX_YAW_DEG,
+    check_range,
+)
 from usdworld.io.types import CameraSpec, InputFile, SourceImage
 
 logger = logging.getLogger(__name__)
@@ -172,8 +181,14 @@ def _parse_kitti(text: str, name: str) -> _Parsed:
     out.K_where = {
         k: f"{where}[{ij}] ({k})" for k, ij in (("fx", "0,0"), ("fy", "1,1"), ("cx", "0,2"), ("cy", "1,2"))
     }
-    if P[0, 0] > 0 and P[1, 1] > 0:
-        out.cam_offset = cam2_offset_from_projection(P)
+    _check_intrinsics(out.K, out.K_where, None)  # bounded before K is inverted for the offset
+    offset = cam2_offset_from_projection(P)
+    if not np.all(np.abs(offset) <= MAX_CAMERA_HEIGHT_M):
+        raise InputError(
+            f"{where}: the camera offset t of P = K [I | t] is {offset.tolist()} m, beyond "
+            f"{MAX_CAMERA_HEIGHT_M:g} m; check the fourth column of the matrix"
+        )
+    out.cam_offset = offset
     return out
 
 
@@ -235,7 +250,12 @@ def _read_plane(path: PathLike) -> tuple[np.ndarray, float, InputFile]:
     except ValueError as exc:
         raise InputError(f"{name}: line {line_no}: {exc}; fix the plane coefficients") from exc
     normal = np.array([a, b, c])
-    if not (np.all(np.isfinite(normal)) and math.isfinite(d) and np.linalg.norm(normal) > 0):
+    if not all(math.isfinite(v) and abs(v) <= MAX_PLANE_COEFF for v in (a, b, c, d)):
+        raise InputError(
+            f"{name}: line {line_no}: plane coefficients must be finite and within +-{MAX_PLANE_COEFF:g}, "
+            f"got {tokens}; KITTI writes a unit normal and d in metres"
+        )
+    if not np.linalg.norm(normal) > 0:
         raise InputError(f"{name}: line {line_no}: the plane normal (a, b, c) must be finite and non-zero")
     return normal, d, file
 
@@ -272,12 +292,22 @@ def pose_from_ground_plane(normal_cam: np.ndarray, d: float) -> tuple[float, flo
 
 
 def _check_intrinsics(K: np.ndarray, where: dict[str, str], image: SourceImage | None) -> None:
+    max_f = MAX_FOCAL_PX if image is None else min(MAX_FOCAL_PX, MAX_FOCAL_WIDTHS * image.width)
     for key, (r, c) in (("fx", (0, 0)), ("fy", (1, 1))):
         if not (math.isfinite(K[r, c]) and K[r, c] > 0):
             raise CalibrationError(f"{where[key]}: must be > 0, got {K[r, c]:g}")
+        if not K[r, c] <= max_f:
+            raise CalibrationError(
+                f"{where[key]}: focal length {K[r, c]:g} px is beyond {max_f:g} px "
+                f"({MAX_FOCAL_WIDTHS:g} image widths); focal lengths are in pixels, check the unit"
+            )
+    if not abs(K[0, 1]) <= max_f:
+        raise CalibrationError(f"{where['fx']}: skew {K[0, 1]:g} must be within +-{max_f:g} px")
     for key, (r, c) in (("cx", (0, 2)), ("cy", (1, 2))):
-        if not math.isfinite(K[r, c]):
-            raise CalibrationError(f"{where[key]}: must be finite, got {K[r, c]:g}")
+        if not (math.isfinite(K[r, c]) and abs(K[r, c]) <= MAX_PIXEL_COORD):
+            raise CalibrationError(
+                f"{where[key]}: must be finite and within +-{MAX_PIXEL_COORD:g} px, got {K[r, c]:g}"
+            )
     if image is None:
         return
     w, h = image.width, image.height
@@ -290,6 +320,14 @@ def _check_intrinsics(K: np.ndarray, where: dict[str, str], image: SourceImage |
             f"{image.file.name}, so the calibration is for an image of {size}; scale fx, fy, cx, cy by "
             f"the resize factor{scale} or pass the calibration of this image"
         )
+
+
+def _warn_principal_point(K: np.ndarray, where: dict[str, str], image: SourceImage | None) -> None:
+    """Warn about an odd principal point; called after every check that can fail, so an error stays one line."""
+    if image is None:
+        return
+    w, h = image.width, image.height
+    cx, cy = float(K[0, 2]), float(K[1, 2])
     if not (0 <= cx <= w and 0 <= cy <= h):
         logger.warning("%s: principal point (%g, %g) is outside the %dx%d image", where["cx"], cx, cy, w, h)
     elif abs(cx - w / 2) > 0.25 * w or abs(cy - h / 2) > 0.25 * h:
@@ -307,6 +345,11 @@ def _check_intrinsics(K: np.ndarray, where: dict[str, str], image: SourceImage |
 def _check_extrinsics(p: _Parsed) -> None:
     if p.height_m is not None and not (math.isfinite(p.height_m) and p.height_m > 0):
         raise CalibrationError(f"{p.where['height_m']}: camera height must be > 0 m, got {p.height_m:g}")
+    if p.height_m is not None and not p.height_m <= MAX_CAMERA_HEIGHT_M:
+        raise CalibrationError(
+            f"{p.where['height_m']}: camera height must be <= {MAX_CAMERA_HEIGHT_M:g} m, got "
+            f"{p.height_m:g}; heights are metres above the road"
+        )
     for key in ("pitch", "roll"):
         value = getattr(p, key)
         if value is not None and not abs(math.degrees(value)) < MAX_TILT_DEG:
@@ -314,6 +357,10 @@ def _check_extrinsics(p: _Parsed) -> None:
                 f"{p.where[key]}: {key} must be within +-{MAX_TILT_DEG:g} degrees, got "
                 f"{math.degrees(value):.1f} degrees; check its sign and units"
             )
+    if p.yaw is not None:
+        check_range(
+            math.degrees(p.yaw), -MAX_YAW_DEG, MAX_YAW_DEG, p.where["yaw"], "degrees", "check its unit"
+        )
 
 
 # --- entry point ----------------------------------------------------------------------
@@ -376,6 +423,8 @@ def read_camera(
     if parsed.K is not None:
         _check_intrinsics(parsed.K, parsed.K_where, image)
     _check_extrinsics(parsed)
+    if parsed.K is not None:
+        _warn_principal_point(parsed.K, parsed.K_where, image)
     return CameraSpec(
         K=parsed.K,
         height_m=parsed.height_m,

@@ -8,13 +8,18 @@ Two formats, recognised from the content:
 
 ``(u, v)`` are pixels (origin at the top-left corner, u right, v down); ``(x, y)`` are
 metres on the ground (x forward, y left, origin below the camera). At least
-:data:`MIN_PAIRS` pairs with distinct pixels are needed for a homography.
+:data:`MIN_PAIRS` pairs with distinct pixels are needed for a homography. Pixels must lie
+within :data:`~usdworld.io.limits.MAX_PIXEL_COORD` and ground points within
+:data:`~usdworld.io.limits.MAX_GROUND_COORD_M`; a pair repeated exactly is kept once
+(with a warning), and at most :data:`~usdworld.io.limits.MAX_GROUND_PAIRS` distinct pairs
+are accepted.
 """
 
 from __future__ import annotations
 
 import csv
 import io
+import logging
 
 import numpy as np
 
@@ -30,7 +35,10 @@ from usdworld.io.hashing import (
     read_input,
     require,
 )
+from usdworld.io.limits import MAX_GROUND_COORD_M, MAX_GROUND_PAIRS, check_pixels
 from usdworld.io.types import GroundCorrespondences
+
+logger = logging.getLogger(__name__)
 
 #: A homography has 8 degrees of freedom; each pair gives 2 equations.
 MIN_PAIRS = 4
@@ -100,11 +108,14 @@ def read_correspondences(path: PathLike) -> GroundCorrespondences:
 
     Returns:
         GroundCorrespondences with ``points_px`` (N, 2) and ``points_ground`` (N, 2)
-        float64, N >= 4, in file order; ``file.role == "correspondences"``.
+        float64, 4 <= N <= MAX_GROUND_PAIRS, in file order without exact repeats;
+        ``file.role == "correspondences"``.
 
     Raises:
-        InputError: malformed file, missing fields or non-numbers (named by path or line).
-        CalibrationError: fewer than 4 pairs, or fewer than 4 distinct pixels.
+        InputError: malformed file, missing fields, non-numbers (named by path or line), or
+            a pixel or ground coordinate beyond its bound.
+        CalibrationError: fewer than 4 or more than MAX_GROUND_PAIRS distinct pairs, or
+            fewer than 4 distinct pixels.
     """
     data, file = read_input(path, "correspondences")
     text = decode_text(data, file.name)
@@ -112,18 +123,36 @@ def read_correspondences(path: PathLike) -> GroundCorrespondences:
         px, ground = _from_json(data, file.name)
     else:
         px, ground = _from_csv(text, file.name)
-    if len(px) < MIN_PAIRS:
-        raise CalibrationError(
-            f"{file.name}: {len(px)} pixel/ground pairs, at least {MIN_PAIRS} are needed for the "
-            f"ground homography; add {MIN_PAIRS - len(px)} more (5-6 spread over the road is best)"
-        )
     points_px = np.array(px, dtype=np.float64).reshape(-1, 2)
+    points_ground = np.array(ground, dtype=np.float64).reshape(-1, 2)
+    check_pixels(points_px, None, None, f"{file.name}: pair")
+    far = np.flatnonzero(~(np.abs(points_ground) <= MAX_GROUND_COORD_M).all(axis=1))
+    if far.size:
+        raise InputError(
+            f"{file.name} -> pairs -> [{int(far[0])}] -> ground: {points_ground[far[0]].tolist()} is beyond "
+            f"{MAX_GROUND_COORD_M:g} m; ground points are metres from the camera (x forward, y left)"
+        )
+    _, first = np.unique(np.hstack([points_px, points_ground]), axis=0, return_index=True)
+    repeated = len(points_px) - len(first)
+    if repeated:
+        keep = np.sort(first)
+        points_px, points_ground = points_px[keep], points_ground[keep]
+    if len(points_px) > MAX_GROUND_PAIRS:
+        raise CalibrationError(
+            f"{file.name}: {len(points_px)} distinct pixel/ground pairs, at most {MAX_GROUND_PAIRS} are "
+            "accepted (5-20 spread over the road determine the homography); keep a spread-out subset"
+        )
+    if len(points_px) < MIN_PAIRS:
+        raise CalibrationError(
+            f"{file.name}: {len(points_px)} pixel/ground pairs, at least {MIN_PAIRS} are needed for the "
+            f"ground homography; add {MIN_PAIRS - len(points_px)} more (5-6 spread over the road is best)"
+        )
     distinct = len(np.unique(points_px, axis=0))
     if distinct < MIN_PAIRS:
         raise CalibrationError(
-            f"{file.name}: only {distinct} distinct pixels among {len(px)} pairs; at least "
+            f"{file.name}: only {distinct} distinct pixels among {len(points_px)} pairs; at least "
             f"{MIN_PAIRS} different points are needed, remove the duplicates and add others"
         )
-    return GroundCorrespondences(
-        points_px=points_px, points_ground=np.array(ground, dtype=np.float64).reshape(-1, 2), file=file
-    )
+    if repeated:  # after every check that can fail, so that an error stays one line
+        logger.warning("%s: %d repeated pixel/ground pairs ignored (each pair is used once)", file.name, repeated)
+    return GroundCorrespondences(points_px=points_px, points_ground=points_ground, file=file)

@@ -7,8 +7,9 @@ Readable formats, recognised from the file's first bytes:
 * PFM (``Pf``, single channel, float32): a negative scale means little-endian; rows
   are stored bottom to top.
 
-NaN, infinite and non-positive values are marked invalid and set to 0; they never
-reach later stages. Depth is along the optical axis, not the ray length.
+NaN, infinite, non-positive values and values beyond :data:`MAX_FILE_DEPTH_M` are
+marked invalid and set to 0; they never reach later stages. A map may hold at most
+:data:`~usdworld.io.limits.MAX_PIXELS` pixels. Depth is along the optical axis, not the ray length.
 
 Example:
     >>> write_depth_png16("d.png", depth_m)  # doctest: +SKIP
@@ -18,6 +19,7 @@ Example:
 from __future__ import annotations
 
 import io
+import math
 import re
 from pathlib import Path
 
@@ -28,16 +30,45 @@ from usdworld.atomic import write_bytes_atomic
 from usdworld.errors import InputError, OutputError
 from usdworld.io.hashing import PathLike, read_input
 from usdworld.io.images import decode_unchanged, sniff_format
+from usdworld.io.limits import MAX_PIXELS
 from usdworld.io.types import DepthMap, SourceImage
 
 #: KITTI depth PNG scale: stored value = metres * 256.
 PNG_DEPTH_SCALE = 256.0
 MAX_PNG_DEPTH_M = 65535 / PNG_DEPTH_SCALE
+#: Farthest depth read from a file, metres: no street photo shows measurable depth past
+#: 10 km, and larger values (1e30 in a float .npy) would overflow later float32 sums.
+MAX_FILE_DEPTH_M = 10_000.0
 
 _PFM_HEADER = re.compile(rb"^(P[Ff])\s+(\d+)\s+(\d+)\s+([-+0-9.eE]+)(?:\r\n|\s)")
 
 
+def _check_npy_header(data: bytes, name: str) -> None:
+    """Refuse a .npy whose header promises more samples than the file holds or than allowed.
+
+    ``np.load`` allocates the whole declared array before reading, so a 100-byte file
+    declaring 10^10 samples would ask for 80 GB.
+    """
+    f = io.BytesIO(data)
+    try:
+        version = np.lib.format.read_magic(f)
+        reader = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+        if version not in reader:
+            raise ValueError(f"format version {version[0]}.{version[1]}; save with numpy.save")
+        shape, _, dtype = reader[version](f)
+    except (ValueError, TypeError, SyntaxError) as exc:
+        raise InputError(f"{name}: not a plain numeric .npy array ({exc}); save it with numpy.save") from exc
+    count = math.prod(int(n) for n in shape)
+    if count > 3 * MAX_PIXELS:
+        raise InputError(f"{name}: array of shape {tuple(shape)} is more than {MAX_PIXELS} pixels")
+    if count * dtype.itemsize > len(data) - f.tell():
+        raise InputError(
+            f"{name}: the header declares shape {tuple(shape)} but the file is shorter; save it again"
+        )
+
+
 def _read_npy(data: bytes, name: str) -> np.ndarray:
+    _check_npy_header(data, name)
     try:
         arr = np.load(io.BytesIO(data), allow_pickle=False)
     except ValueError as exc:  # pickled object arrays, bad header
@@ -50,6 +81,8 @@ def _read_npy(data: bytes, name: str) -> np.ndarray:
         arr = arr.reshape(arr.shape[1:] if arr.shape[0] == 1 else arr.shape[:2])
     if arr.ndim != 2:
         raise InputError(f"{name}: array of shape {arr.shape}; a depth map must be (H, W)")
+    if arr.size > MAX_PIXELS:
+        raise InputError(f"{name}: {arr.shape[1]}x{arr.shape[0]} is more than {MAX_PIXELS} pixels")
     if arr.dtype.kind != "f":
         raise InputError(
             f"{name}: dtype {arr.dtype}; .npy depth must be float metres "
@@ -77,6 +110,8 @@ def _read_pfm(data: bytes, name: str) -> np.ndarray:
     if m.group(1) == b"PF":
         raise InputError(f"{name}: a 3-channel PFM; pass a single-channel (Pf) depth map")
     width, height = int(m.group(2)), int(m.group(3))
+    if width * height > MAX_PIXELS:
+        raise InputError(f"{name}: PFM header gives {width}x{height}, more than {MAX_PIXELS} pixels; fix the header")
     try:
         scale = float(m.group(4))
     except ValueError as exc:
@@ -132,10 +167,11 @@ def read_depth(path: PathLike, image: SourceImage | None = None) -> DepthMap:
         )
     with np.errstate(over="ignore", invalid="ignore"):
         depth = raw.astype(np.float32)
-        valid = np.isfinite(depth) & (depth > 0)
+        valid = np.isfinite(depth) & (depth > 0) & (depth <= MAX_FILE_DEPTH_M)
     if not valid.any():
         raise InputError(
-            f"{name}: no valid depth (every value is NaN, infinite or <= 0); pass a real depth map"
+            f"{name}: no valid depth (every value is NaN, infinite, <= 0 or beyond {MAX_FILE_DEPTH_M:g} m); "
+            "pass a real depth map in metres"
         )
     depth[~valid] = 0.0
     return DepthMap(depth_m=depth, valid=valid, source=f"file:{name}")

@@ -37,7 +37,11 @@ it. Other keys are ignored.
 
 In both formats boxes use the image frame (origin at the top-left corner, u right,
 v down; ``xmax`` / ``ymax`` are edges) and are clipped to the image when the image is
-given; a box with non-positive size or entirely outside the image is an error.
+given; a box with non-positive size or entirely outside the image is an error, and so
+is a box corner or polygon vertex more than :data:`~usdworld.io.limits.MAX_OUTSIDE_IMAGES`
+image sizes outside the image (``[0, 0, 1e308, 1e308]`` is a unit or parsing error, not
+a box). A file may hold at most :data:`~usdworld.io.limits.MAX_DETECTIONS` detections
+(see there for why).
 """
 
 from __future__ import annotations
@@ -60,6 +64,7 @@ from usdworld.io.hashing import (
     read_input,
     require,
 )
+from usdworld.io.limits import MAX_DETECTIONS, check_pixel, check_pixels
 from usdworld.io.types import Detection, Detections, SourceImage
 
 _KITTI_FIELDS = ("type", "truncated", "occluded", "alpha", "x1", "y1", "x2", "y2")
@@ -183,6 +188,9 @@ def rle_from_string(text: str) -> list[int]:
 def _check_box(box: list[float], image: SourceImage | None, where: str) -> np.ndarray:
     """Validate and clip ``[xmin, ymin, xmax, ymax]``; ``where`` starts the error message."""
     x1, y1, x2, y2 = box
+    w_img, h_img = (None, None) if image is None else (image.width, image.height)
+    for value, extent in ((x1, w_img), (y1, h_img), (x2, w_img), (y2, h_img)):
+        check_pixel(value, extent, where)
     if not (x2 > x1 and y2 > y1):
         raise InputError(
             f"{where}: box [{x1:g}, {y1:g}, {x2:g}, {y2:g}] has non-positive size; "
@@ -200,6 +208,14 @@ def _check_box(box: list[float], image: SourceImage | None, where: str) -> np.nd
             f"{image.file.name}; pass the detections of this image"
         )
     return clipped
+
+
+def _check_count(count: int, where: str) -> None:
+    if count > MAX_DETECTIONS:
+        raise InputError(
+            f"{where}: {count} detections, at most {MAX_DETECTIONS} are accepted (a street photo holds "
+            "tens to hundreds of objects); keep the confident ones or run non-maximum suppression first"
+        )
 
 
 def _check_score(score: float, where: str) -> float:
@@ -228,6 +244,7 @@ def read_kitti_labels(path: PathLike, image: SourceImage | None = None) -> Detec
     """
     data, file = read_input(path, "detections")
     text = decode_text(data, file.name)
+    _check_count(sum(1 for line in text.splitlines() if line.split()[:1] not in ([], ["DontCare"])), file.name)
     items: list[Detection] = []
     for line_no, line in enumerate(text.splitlines(), start=1):
         fields = line.split()
@@ -287,7 +304,7 @@ def _mask_from_rle(value: Any, image: SourceImage, where: str) -> np.ndarray:
                 f"got {json_type(counts_value)}"
             )
         return rle_decode(counts, image.height, image.width)
-    except ValueError as exc:
+    except (ValueError, OverflowError) as exc:  # OverflowError: a run beyond int64
         raise InputError(f"{where} -> counts: {exc}; re-encode the mask with pycocotools") from exc
 
 
@@ -296,6 +313,7 @@ def _mask_from_polygon(value: Any, image: SourceImage, where: str) -> np.ndarray
     if len(points) < 3:
         raise InputError(f"{where}: needs at least 3 [u, v] vertices, got {len(points)}")
     pts = np.array([as_floats(p, f"{where} -> [{i}]", 2) for i, p in enumerate(points)], dtype=np.float64)
+    check_pixels(pts, image.width, image.height, where)
     mask = np.zeros((image.height, image.width), dtype=np.uint8)
     cv2.fillPoly(mask, [np.round(pts).astype(np.int32).reshape(-1, 1, 2)], color=1)
     return mask.astype(bool)
@@ -348,6 +366,7 @@ def read_detections_json(path: PathLike, image: SourceImage) -> Detections:
             f'{file.name}: the top level must be an object {{"detections": [...]}}, got {json_type(doc)}'
         )
     entries = as_array(require(doc, "detections", file.name), f"{file.name} -> detections")
+    _check_count(len(entries), f"{file.name} -> detections")
     items = tuple(
         _read_detection(v, image, f"{file.name} -> detections -> [{i}]") for i, v in enumerate(entries)
     )

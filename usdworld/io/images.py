@@ -3,7 +3,9 @@
 Greyscale photos are expanded to RGB, an alpha channel is dropped, and 16-bit PNGs
 are scaled to 8 bits (``round(v * 255 / 65535)``). JPEG EXIF orientation is applied,
 so the pixels are what an image viewer shows. The format is recognised from the
-file's first bytes, not its extension.
+file's first bytes, not its extension. Decoding happens with the process's native stderr
+captured (:func:`native_stderr_captured`), so libpng's and OpenCV's own warnings about a
+damaged file go to the debug log instead of preceding the one-line error.
 
 Example:
     >>> image = read_image("street.jpg")  # doctest: +SKIP
@@ -13,12 +15,25 @@ Example:
 
 from __future__ import annotations
 
+import contextlib
+import logging
+import os
+import sys
+import tempfile
+import threading
+from collections.abc import Iterator
+
 import cv2
 import numpy as np
 
 from usdworld.errors import InputError
 from usdworld.io.hashing import PathLike, read_input
+from usdworld.io.limits import MAX_PIXELS
 from usdworld.io.types import SourceImage
+
+logger = logging.getLogger(__name__)
+
+_STDERR_LOCK = threading.Lock()
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 JPEG_SIGNATURE = b"\xff\xd8\xff"
@@ -75,6 +90,39 @@ def png_header(data: bytes) -> tuple[int, int, int, int]:
     return (width, height, data[24], data[25])
 
 
+@contextlib.contextmanager
+def native_stderr_captured(what: str) -> Iterator[None]:
+    """Send what C libraries write to file descriptor 2 to the debug log instead.
+
+    libpng (``libpng warning: iCCP: ...``, ``libpng error: IDAT: CRC error``) and OpenCV's
+    decoders print straight to the process's stderr, below Python's ``sys.stderr``. The
+    descriptor is pointed at a temporary file for the duration and restored after; a lock
+    serialises the swap between threads. Where descriptor 2 cannot be swapped (no such
+    descriptor), the block runs unchanged.
+
+    Args:
+        what: name for the debug log line (the file being decoded).
+    """
+    with _STDERR_LOCK:
+        try:
+            sys.stderr.flush()
+            saved = os.dup(2)
+        except (OSError, ValueError, AttributeError):
+            yield
+            return
+        with tempfile.TemporaryFile() as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield
+            finally:
+                os.dup2(saved, 2)
+                os.close(saved)
+                sink.seek(0)
+                text = sink.read(4096).decode("utf-8", "replace").strip()
+        if text:
+            logger.debug("%s: the decoder said: %s", what, text.replace("\n", " | "))
+
+
 def decode_unchanged(data: bytes, name: str, what: str) -> np.ndarray:
     """Decode PNG or JPEG bytes without any conversion (OpenCV ``IMREAD_UNCHANGED``).
 
@@ -97,9 +145,16 @@ def decode_unchanged(data: bytes, name: str, what: str) -> np.ndarray:
 
 
 def _decode(data: bytes, name: str, fmt: str, flags: int) -> np.ndarray:
+    if fmt == "PNG":
+        width, height = png_header(data)[:2]
+        if width * height > MAX_PIXELS:
+            raise InputError(
+                f"{name}: the PNG header gives {width}x{height}, more than {MAX_PIXELS} pixels; pass a smaller image"
+            )
     buf = np.frombuffer(data, dtype=np.uint8)
     try:
-        img = cv2.imdecode(buf, flags)
+        with native_stderr_captured(name):
+            img = cv2.imdecode(buf, flags)
     except cv2.error as exc:
         raise InputError(
             f"{name}: the {fmt} data cannot be decoded ({str(exc).strip().splitlines()[-1]}); "

@@ -32,6 +32,7 @@ from usdworld.io.hashing import (
     require,
 )
 from usdworld.io.images import PNG_COLOR_TYPES, decode_unchanged, png_header, sniff_format
+from usdworld.io.limits import MAX_PIXELS, check_pixels
 from usdworld.io.label_table import TABLE_NAME, LabelClass, known_ids, label_table
 from usdworld.io.types import Segmentation, SourceImage
 
@@ -43,8 +44,6 @@ MAX_MISMATCH_FRACTION = 0.01
 
 #: Cityscapes classes with a negative id: present in polygon files but never drawn.
 SKIPPED_POLYGON_LABELS = frozenset({"license plate"})
-
-_MAX_PIXELS = 1 << 28
 
 
 def _size_text(shape: tuple[int, ...]) -> str:
@@ -184,7 +183,7 @@ def _as_size(value: Any, where: str) -> int:
     return int(f)
 
 
-def _polygon_points(value: Any, where: str) -> np.ndarray:
+def _polygon_points(value: Any, where: str, width: int, height: int) -> np.ndarray:
     points = as_array(value, where)
     if len(points) < 3:
         raise InputError(f"{where}: needs at least 3 [x, y] points, got {len(points)}")
@@ -197,6 +196,7 @@ def _polygon_points(value: Any, where: str) -> np.ndarray:
             as_float(pair[0], f"{where} -> [{i}] -> [0]"),
             as_float(pair[1], f"{where} -> [{i}] -> [1]"),
         ]
+    check_pixels(out, width, height, where)  # before the int32 cast: 1e10 would wrap and hang fillPoly
     return np.round(out).astype(np.int32).reshape(-1, 1, 2)
 
 
@@ -236,7 +236,7 @@ def read_polygons(path: PathLike, image: SourceImage | None = None) -> Segmentat
     doc = as_object(parse_json(data, name), name)
     width = _as_size(require(doc, "imgWidth", name), f"{name} -> imgWidth")
     height = _as_size(require(doc, "imgHeight", name), f"{name} -> imgHeight")
-    if width * height > _MAX_PIXELS:
+    if width * height > MAX_PIXELS:
         raise InputError(f"{name}: {width}x{height} is too large; check imgWidth and imgHeight")
     _check_image_size(name, (height, width), image, "polygons")
     objects = as_array(require(doc, "objects", name), f"{name} -> objects")
@@ -252,7 +252,7 @@ def read_polygons(path: PathLike, image: SourceImage | None = None) -> Segmentat
         label = require(obj, "label", where)
         if not isinstance(label, str):
             raise InputError(f"{where} -> label: must be a string, got {json_type(label)}")
-        points = _polygon_points(require(obj, "polygon", where), f"{where} -> polygon")
+        points = _polygon_points(require(obj, "polygon", where), f"{where} -> polygon", width, height)
         if label in SKIPPED_POLYGON_LABELS:
             continue
         cls, is_group = _polygon_class(label, f"{where} -> label")

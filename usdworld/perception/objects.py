@@ -13,6 +13,8 @@ their lowest columns. The thresholds are :class:`~usdworld.parameters.Perception
 
 from __future__ import annotations
 
+import logging
+from collections import Counter
 from dataclasses import dataclass
 
 import cv2
@@ -30,6 +32,8 @@ from usdworld.perception.facades import StreetView, facade_ranges, fill_through_
 #: a ``ClassTable`` argument and reads no roles from here).
 CROWN_CLASSES = load_class_table().with_role("crown")
 TRUNK_CLASSES = load_class_table().with_role("trunk")
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -498,9 +502,11 @@ def objects_from_detections(
         Objects sorted canonically; ``instance_id`` is the detection's index in the file.
     """
     items = []
+    dropped: Counter[str] = Counter()
     for index, det in enumerate(detections.items):
         class_name = placed_class_for_label(det.label, lookups)
         if class_name is None:
+            dropped[det.label] += 1
             continue
         x0, y0, x1, y1 = det.box_px
         box = np.array(
@@ -513,6 +519,13 @@ def objects_from_detections(
         else:
             crop = np.ones((box[3] - box[1], box[2] - box[0]), dtype=bool)
         items.append((index, det, class_name, np.asarray(det.box_px, dtype=np.float64), box, crop))
+    if dropped:
+        logger.warning(
+            "%s: %d detections of classes usdworld does not place were dropped: %s",
+            detections.file.name,
+            sum(dropped.values()),
+            ", ".join(f"{label} ({n})" for label, n in sorted(dropped.items())),
+        )
 
     objects = []
     labels = np.asarray(segmentation.label_ids) if segmentation is not None else None

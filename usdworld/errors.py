@@ -82,8 +82,8 @@ class EditRefused(UsdWorldError):
         message: the neutral one-line message (also ``str(error)``).
         op: the operation (``move``, ``add`` ...).
         subject: the object or class concerned ('' when none).
-        field: the argument concerned (``to``, ``by``, ``yaw_deg``, ``at``, ``variant``,
-            ``color``, ``steps``; '' when none).
+        field: the argument concerned (``name``, ``to``, ``by``, ``yaw_deg``, ``at``, ``with``,
+            ``variant``, ``color``, ``steps``; '' when none).
         value: the value given for ``field`` (None when none).
         choices: the values that would be accepted (known classes, variants), if any.
         violations: for ``not_permissible``, the rules broken

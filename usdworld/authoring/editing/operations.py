@@ -178,9 +178,11 @@ def _asset_ref(ed: Editing, class_name: str) -> str:
     return Path(os.path.relpath(target, ed.tx.path.parent)).as_posix()
 
 
-def _finite(op: str, field: str, values: tuple[float, ...], message: str) -> None:
+def _finite(op: str, field: str, given: float | tuple[float, ...], message: str) -> None:
+    """Refuse (``bad_value``) a number or tuple of numbers that is not all finite."""
+    values = given if isinstance(given, tuple) else (given,)
     if not all(math.isfinite(c) for c in values):
-        raise EditRefused(RefusalReason.BAD_VALUE, message, op=op, field=field, value=values)
+        raise EditRefused(RefusalReason.BAD_VALUE, message, op=op, field=field, value=given)
 
 
 def move(
@@ -228,7 +230,7 @@ def move(
 
 def rotate(ed: Editing, name: str, yaw_deg: float, *, force: bool = False) -> EditResult:
     """Set an object's yaw (rotation about Z) to ``yaw_deg`` degrees."""
-    _finite("rotate", "yaw_deg", (yaw_deg,), f"rotate: yaw_deg must be finite, got {yaw_deg}")
+    _finite("rotate", "yaw_deg", yaw_deg, f"rotate: yaw_deg must be finite, got {yaw_deg}")
     with ed.tx.locked():
         obj, states = ed.state.find(name, op="rotate")
         yaw = wrap_deg(yaw_deg)
@@ -339,7 +341,8 @@ def replace(ed: Editing, name: str, with_class: str, *, variant: str | None = No
                 f"(one of {', '.join(info.variants) or 'none'})",
                 op="replace",
                 subject=obj.name,
-                field="variant",
+                field="with",
+                value=with_class,
                 choices=info.variants,
             )
         variant = _variant(ed, "replace", with_class, variant)

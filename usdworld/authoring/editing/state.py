@@ -81,7 +81,7 @@ def object_path(name: str) -> Sdf.Path:
     """The prim path of an object given by name (``car_0003``) or path.
 
     Raises:
-        EditRefused: ``unknown_object``: not an object name or path.
+        EditRefused: ``unknown_object`` with ``field`` ``name``: not an object name or path.
     """
     if name.startswith("/"):
         if not Sdf.Path.IsValidPathString(name) or Sdf.Path(name).GetParentPath() != Sdf.Path(OBJECTS_PATH):
@@ -89,6 +89,8 @@ def object_path(name: str) -> Sdf.Path:
                 RefusalReason.UNKNOWN_OBJECT,
                 f"'{name}': not an object path; objects are {OBJECTS_PATH}/<class>_<NNNN>",
                 subject=name,
+                field="name",
+                value=name,
             )
         return Sdf.Path(name)
     if not Sdf.Path.IsValidIdentifier(name):
@@ -96,6 +98,8 @@ def object_path(name: str) -> Sdf.Path:
             RefusalReason.UNKNOWN_OBJECT,
             f"'{name}': not an object name; use e.g. car_0003 or {OBJECTS_PATH}/car_0003",
             subject=name,
+            field="name",
+            value=name,
         )
     return Sdf.Path(OBJECTS_PATH).AppendChild(name)
 

@@ -205,7 +205,10 @@ def test_user_surface_rules_by_option_and_env(world, capsys, tmp_path, monkeypat
         (("rotate", "car_0001", "--yaw-deg", "nan"), "--yaw-deg: must be finite, got nan"),
         (("move", "car_0001", "--to", "inf,0"), "move: --to must be finite, got (inf, 0.0)"),
         (("move", "car_0001"), "move: give exactly one of --to x,y or --by dx,dy"),
-        (("restyle", "car_0001", "--color", "red"), "--color: expected a hex colour like '#c03030', got 'red'"),
+        (
+            ("restyle", "car_0001", "--color", "red"),
+            "--color: expected a hex colour like '#c03030', got 'red'",
+        ),
         (
             ("add", "car", "--at", "40,0", "--variant", "limo"),
             "--variant: car has no variant 'limo'; available: hatchback, sedan, suv",

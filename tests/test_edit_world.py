@@ -50,7 +50,9 @@ def test_edits_go_to_the_edits_layer_only(world, editor):
     assert sha256(world.parent / "layers/base.usda") == base and sha256(world) == root
     stage = _fresh_stage(world)
     car = stage.GetPrimAtPath(f"{OBJ}/car_0001")
-    assert tuple(car.GetAttribute("xformOp:translate").Get())[0] == pytest.approx(base_x(world, "car_0001") + 2.0, abs=0.01)
+    assert tuple(car.GetAttribute("xformOp:translate").Get())[0] == pytest.approx(
+        base_x(world, "car_0001") + 2.0, abs=0.01
+    )
     assert car.GetVariantSets().GetVariantSelection("model") == "suv"
 
 
@@ -168,7 +170,9 @@ def test_add_refusals(world, editor):
     with pytest.raises(EditRefused, match="unknown class 'unicorn'; known classes: ") as err:
         editor.add("unicorn", (30.0, 0.0))
     assert err.value.reason == "unknown_class" and "car" in err.value.choices
-    with pytest.raises(EditRefused, match="^car has no variant 'limo'; available: hatchback, sedan, suv$") as err:
+    with pytest.raises(
+        EditRefused, match="^car has no variant 'limo'; available: hatchback, sedan, suv$"
+    ) as err:
         editor.add("car", (40.0, 0.0), variant="limo")
     assert (err.value.reason, err.value.field, err.value.value) == ("unknown_variant", "variant", "limo")
     assert err.value.choices == ("hatchback", "sedan", "suv")

@@ -333,7 +333,9 @@ def test_every_operation_goes_through_the_engine(client, world, targets, twin):
             assert data["version"] == client.get("/api/version", headers=HEADERS).json()["version"]
         else:
             assert data["code"] == ("not_permissible" if r.status_code == 409 else "nothing_to_reset")
-            assert expected.replace(str(twin.root.parent), str(world.parent)) == f"EditRefused: {data['error']}", (
+            assert (
+                expected.replace(str(twin.root.parent), str(world.parent)) == f"EditRefused: {data['error']}"
+            ), (
                 op,
                 body,
             )

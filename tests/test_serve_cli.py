@@ -84,7 +84,9 @@ def test_serve_on_ipv6_loopback_prints_a_url_that_works(tmp_path_factory, tmp_pa
             server.base + "/api/delete", server.token, {"name": targets.person}, origin="http://evil.example"
         )
         assert status == 403 and json.loads(body)["ok"] is False
-        status, body = request(server.base + "/api/delete", server.token, {"name": targets.person}, origin=server.base)
+        status, body = request(
+            server.base + "/api/delete", server.token, {"name": targets.person}, origin=server.base
+        )
         assert status == 200, body
     finally:
         code, _, err = server.stop()

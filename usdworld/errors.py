@@ -54,7 +54,6 @@ class ClusterError(UsdWorldError):
     """The Dask cluster cannot be reached or its workers cannot run the batch."""
 
 
-
 class RefusalReason(StrEnum):
     """Why an edit is refused (:attr:`EditRefused.reason`)."""
 
@@ -105,4 +104,9 @@ class EditRefused(UsdWorldError):
     ) -> None:
         super().__init__(message)
         self.reason, self.message, self.op, self.subject = RefusalReason(reason), message, op, subject
-        self.field, self.value, self.choices, self.violations = field, value, tuple(choices), tuple(violations)
+        self.field, self.value, self.choices, self.violations = (
+            field,
+            value,
+            tuple(choices),
+            tuple(violations),
+        )

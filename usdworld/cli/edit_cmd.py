@@ -232,11 +232,7 @@ def add(
     """Add an object, scaled like its neighbours of the same class."""
     editor = _editor(ctx, surface_rules, library=library)
     with _worded(ctx, editor):
-        _done(
-            editor.add(
-                class_name, _pair(at, "--at"), variant=variant, yaw_deg=yaw_deg, force=force
-            )
-        )
+        _done(editor.add(class_name, _pair(at, "--at"), variant=variant, yaw_deg=yaw_deg, force=force))
 
 
 @edit_app.command("replace")
@@ -255,11 +251,7 @@ def replace(
     """Replace an object by another class or another variant."""
     editor = _editor(ctx, surface_rules, replacement_rules, library)
     with _worded(ctx, editor):
-        _done(
-            editor.replace(
-                name, with_class, variant=variant, force=force
-            )
-        )
+        _done(editor.replace(name, with_class, variant=variant, force=force))
 
 
 @edit_app.command("restyle")

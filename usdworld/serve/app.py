@@ -95,7 +95,9 @@ def web_message(exc: EditRefused) -> str:
     if reason is RefusalReason.DELETED_OBJECT:
         return f"{name} is deleted; Reset it or Undo to bring it back"
     if reason is RefusalReason.SAME_CLASS:
-        return f"{name} is already a {exc.value}; choose a variant (one of {', '.join(exc.choices) or 'none'})"
+        return (
+            f"{name} is already a {exc.value}; choose a variant (one of {', '.join(exc.choices) or 'none'})"
+        )
     if reason is RefusalReason.UNKNOWN_VARIANT:
         return f"{name} has no variant '{exc.value}'; choose one of {', '.join(exc.choices) or 'none'}"
     return exc.message
@@ -177,7 +179,9 @@ class ApiGuard:
             referer = request.headers.get("referer")
             if origin is not None:
                 if origin.lower() != own:
-                    return _error(403, f"cross-origin request refused: Origin '{origin}' is not this server ({own})")
+                    return _error(
+                        403, f"cross-origin request refused: Origin '{origin}' is not this server ({own})"
+                    )
             elif referer is not None and _origin(referer) != own:
                 return _error(403, f"cross-origin request refused: Referer is not from this server ({own})")
         if method != "POST":

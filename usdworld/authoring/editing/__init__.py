@@ -5,5 +5,7 @@
 * :mod:`.state` -- the objects, their footprints and the ground as the composed stage has them now;
 * :mod:`.operations` -- move, rotate, delete, add, replace, reset (rules gated by
   :mod:`usdworld.layout.permissible`);
-* :mod:`.restyle` -- the colour edit and its helpers.
+* :mod:`.restyle` -- the colour edit and its helpers;
+* :mod:`.user_object` -- what an added object is authored with;
+* :mod:`.orphans` -- edits whose target prim no longer exists.
 """

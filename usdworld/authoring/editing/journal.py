@@ -139,7 +139,9 @@ def restore(layer: Sdf.Layer, path: Sdf.Path, text: str, index: int) -> None:
     Sdf.CopySpec(anon, path, layer, tmp)
     edit = Sdf.BatchNamespaceEdit()
     edit.Add(
-        Sdf.NamespaceEdit.ReparentAndRename(tmp, parent.path, path.name, min(index, len(parent.nameChildren) - 1))
+        Sdf.NamespaceEdit.ReparentAndRename(
+            tmp, parent.path, path.name, min(index, len(parent.nameChildren) - 1)
+        )
     )
     if not layer.Apply(edit):
         raise AuthoringError(f"{layer.realPath}: cannot restore {path}")

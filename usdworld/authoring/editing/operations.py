@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdSemantics
+from pxr import Gf, Sdf, Usd
 
 from usdworld.authoring import asset_library
 from usdworld.authoring.editing import restyle as paint
@@ -104,7 +104,12 @@ def wrap_deg(d: float) -> float:
 
 
 def _commit(
-    ed: Editing, op: str, args: dict, paths: list[Sdf.Path], violations: list[rules.Violation], author: Callable[[], None]
+    ed: Editing,
+    op: str,
+    args: dict,
+    paths: list[Sdf.Path],
+    violations: list[rules.Violation],
+    author: Callable[[], None],
 ) -> int:
     """Author one edit into the edits layer with its history entry and save it."""
     recorder = StepRecorder(ed.tx.layer, paths)
@@ -149,7 +154,11 @@ def _prior(ed: Editing, op: str, class_name: str) -> ClassPrior:
         return ed.classes[class_name]
     except InputError as exc:
         raise EditRefused(
-            RefusalReason.UNKNOWN_CLASS, str(exc), op=op, subject=class_name, choices=tuple(sorted(ed.classes))
+            RefusalReason.UNKNOWN_CLASS,
+            str(exc),
+            op=op,
+            subject=class_name,
+            choices=tuple(sorted(ed.classes)),
         ) from None
 
 
@@ -225,7 +234,9 @@ def move(
             v,
             lambda: _xform_op(prim, "translate").Set(Gf.Vec3d(float(xy[0]), float(xy[1]), z)),
         )
-        return _result("move", obj.name, step, v, f"moved {obj.name} to ({xy[0]:.2f}, {xy[1]:.2f}) on {surface}")
+        return _result(
+            "move", obj.name, step, v, f"moved {obj.name} to ({xy[0]:.2f}, {xy[1]:.2f}) on {surface}"
+        )
 
 
 def rotate(ed: Editing, name: str, yaw_deg: float, *, force: bool = False) -> EditResult:
@@ -261,13 +272,19 @@ def delete(ed: Editing, name: str) -> EditResult:
         return _result("delete", obj.name, step, [], f"deleted {obj.name} (inactive)")
 
 
-def _default_yaw(ed: Editing, class_name: str, prior: ClassPrior, xy: np.ndarray, states: list[ObjectState]) -> float:
+def _default_yaw(
+    ed: Editing, class_name: str, prior: ClassPrior, xy: np.ndarray, states: list[ObjectState]
+) -> float:
     """The yaw of the class's habit: along the nearest object with the same road-aligned habit, facing the camera, or 0."""
     how = prior.yaw
     if how == "camera":
         return wrap_deg(math.degrees(math.atan2(-xy[1], -xy[0])))
     if how in ("road", "face_road"):
-        road = [s for s in states if s.active and s.class_name in ed.classes and ed.classes[s.class_name].yaw == how]
+        road = [
+            s
+            for s in states
+            if s.active and s.class_name in ed.classes and ed.classes[s.class_name].yaw == how
+        ]
         same = [s for s in road if s.class_name == class_name] or road
         if same:
             near = min(same, key=lambda s: (math.dist(s.position_world[:2], xy), s.name))
@@ -296,7 +313,9 @@ def add(
 ) -> EditResult:
     """Add an object of ``class_name`` at ``at`` (x, y), scaled like its neighbours of the class."""
     values = (*at, *(() if yaw_deg is None else (yaw_deg,)))
-    _finite("add", "at", values, f"add: position and yaw must be finite, got at={tuple(at)}, yaw_deg={yaw_deg}")
+    _finite(
+        "add", "at", values, f"add: position and yaw must be finite, got at={tuple(at)}, yaw_deg={yaw_deg}"
+    )
     prior = _prior(ed, "add", class_name)
     with ed.tx.locked():
         variant = _variant(ed, "add", class_name, variant)
@@ -308,15 +327,25 @@ def add(
         length, width = ed.state.footprint_size(class_name, variant)
         cand = rules.Candidate(class_name, xy, np.array([length * scale, width * scale]), math.radians(yaw))
         name = _next_name(ed, class_name)
-        v = _gate("add", name, rules.check_placement(cand, others, ed.state.ground(), ed.surface_rules), force)
+        v = _gate(
+            "add", name, rules.check_placement(cand, others, ed.state.ground(), ed.surface_rules), force
+        )
         surface, z = ed.state.where(xy)
         ref = _asset_ref(ed, class_name)
         path = Sdf.Path(OBJECTS_PATH).AppendChild(name)
 
         def author() -> None:
-            author_user_object(ed.stage, path, class_name, ref, variant, (float(xy[0]), float(xy[1]), z), yaw, scale)
+            author_user_object(
+                ed.stage, path, class_name, ref, variant, (float(xy[0]), float(xy[1]), z), yaw, scale
+            )
 
-        args = {"class": class_name, "at": [float(c) for c in at], "variant": variant, "yaw_deg": yaw_deg, "name": name}
+        args = {
+            "class": class_name,
+            "at": [float(c) for c in at],
+            "variant": variant,
+            "yaw_deg": yaw_deg,
+            "name": name,
+        }
         step = _commit(ed, "add", args, [path], v, author)
         return _result(
             "add",
@@ -327,7 +356,9 @@ def add(
         )
 
 
-def replace(ed: Editing, name: str, with_class: str, *, variant: str | None = None, force: bool = False) -> EditResult:
+def replace(
+    ed: Editing, name: str, with_class: str, *, variant: str | None = None, force: bool = False
+) -> EditResult:
     """Replace an object by another class (explicit reference list) or another variant of its own."""
     prior = _prior(ed, "replace", with_class)
     with ed.tx.locked():
@@ -354,7 +385,9 @@ def replace(ed: Editing, name: str, with_class: str, *, variant: str | None = No
             fallback = float(np.clip(obj.scale, *prior.scale_range))
             scale = rules.neighbour_scale(with_class, xy, others, prior.scale_range, fallback)
         length, width = ed.state.footprint_size(with_class, variant)
-        cand = rules.Candidate(with_class, xy, np.array([length * scale, width * scale]), math.radians(obj.yaw_deg))
+        cand = rules.Candidate(
+            with_class, xy, np.array([length * scale, width * scale]), math.radians(obj.yaw_deg)
+        )
         found = rules.replacement_violations(obj.class_name, with_class, ed.replacement_rules)
         found += rules.check_placement(cand, others, ed.state.ground(), ed.surface_rules)
         v = _gate("replace", obj.name, found, force)
@@ -424,7 +457,10 @@ def reset(ed: Editing, name: str, *, force: bool = False) -> EditResult:
     with ed.tx.locked():
         if not layer.GetPrimAtPath(path):
             raise EditRefused(
-                RefusalReason.NOTHING_TO_RESET, f"{path.name} has no edits to reset", op="reset", subject=path.name
+                RefusalReason.NOTHING_TO_RESET,
+                f"{path.name} has no edits to reset",
+                op="reset",
+                subject=path.name,
             )
         text, index = capture(layer, path)
         restore(layer, path, "", -1)
@@ -434,7 +470,10 @@ def reset(ed: Editing, name: str, *, force: bool = False) -> EditResult:
             states = ed.state.all()
             obj = next(s for s in states if s.path == str(path))
             cand = rules.Candidate(
-                obj.class_name, np.array(obj.position_world[:2]), np.array(obj.footprint_lw), math.radians(obj.yaw_deg)
+                obj.class_name,
+                np.array(obj.position_world[:2]),
+                np.array(obj.footprint_lw),
+                math.radians(obj.yaw_deg),
             )
             found = rules.fit_violations(cand, footprints(states).without(obj.name))
         restore(layer, path, text, index)

@@ -41,7 +41,9 @@ def orphan_edits(stage: Usd.Stage, edits: Sdf.Layer) -> list[OrphanEdit]:
             while owner.pathElementCount > 3:
                 owner = owner.GetParentPath()
             inside = owner.GetParentPath() == Sdf.Path(OBJECTS_PATH)
-            out.append(OrphanEdit(str(spec.path), tuple(steps.get(str(owner), ())), owner.name if inside else ""))
+            out.append(
+                OrphanEdit(str(spec.path), tuple(steps.get(str(owner), ())), owner.name if inside else "")
+            )
             return
         if prim and not prim.IsActive():
             return  # an inactive prim's children are not composed

@@ -184,7 +184,9 @@ class WorldState:
     def _read(self, prim: Usd.Prim) -> ObjectState:
         name = prim.GetName()
         labels = (
-            prim.GetAttribute("semantics:labels:class").Get() if prim.HasAttribute("semantics:labels:class") else None
+            prim.GetAttribute("semantics:labels:class").Get()
+            if prim.HasAttribute("semantics:labels:class")
+            else None
         )
         class_name = str(labels[0]) if labels else name.rsplit("_", 1)[0]
         vsets = prim.GetVariantSets()
@@ -257,7 +259,9 @@ class WorldState:
                 self._states[path] = self._read(prim)
         if self._states is None:
             objects = self.stage.GetPrimAtPath(OBJECTS_PATH)
-            self._states = {str(p.GetPath()): self._read(p) for p in objects.GetAllChildren() if p.IsDefined()}
+            self._states = {
+                str(p.GetPath()): self._read(p) for p in objects.GetAllChildren() if p.IsDefined()
+            }
         self._stale = set()
         return list(self._states.values())
 
@@ -272,7 +276,10 @@ class WorldState:
         prim = self.stage.GetPrimAtPath(path)
         if not prim or not prim.IsDefined():
             raise EditRefused(
-                RefusalReason.UNKNOWN_OBJECT, f"no object '{path.name}' in this world", op=op, subject=path.name
+                RefusalReason.UNKNOWN_OBJECT,
+                f"no object '{path.name}' in this world",
+                op=op,
+                subject=path.name,
             )
         states = self.all()
         state = next(s for s in states if s.path == str(path))

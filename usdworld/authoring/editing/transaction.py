@@ -14,7 +14,6 @@ import contextlib
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from filelock import FileLock
 from pxr import Sdf, Tf
 
 from usdworld.atomic import write_text_atomic
@@ -41,6 +40,8 @@ def edit_lock(path: Path) -> Iterator[None]:
     Raises:
         AuthoringError: the lock file cannot be created (e.g. a read-only folder).
     """
+    from filelock import FileLock  # ~25 ms: only once a transaction needs it
+
     lock = FileLock(path, timeout=-1, thread_local=False)
     try:
         lock.acquire(poll_interval=LOCK_POLL_S)
@@ -134,5 +135,7 @@ class EditsTransaction:
         except OutputError as exc:
             cause = exc.__cause__
             reason = cause.strerror if isinstance(cause, OSError) and cause.strerror else str(exc)
-            raise AuthoringError(f"{self.path}: cannot save the edits ({reason}); nothing was changed") from exc
+            raise AuthoringError(
+                f"{self.path}: cannot save the edits ({reason}); nothing was changed"
+            ) from exc
         self._synced = text.encode("utf-8")

@@ -197,3 +197,51 @@ def test_user_surface_rules_by_option_and_env(world, capsys, tmp_path, monkeypat
         f"error: move car_0001 refused: surface: car may stand on other, not sidewalk (rules: {strict}); "
         "nothing was written (--force applies it anyway)\n"
     )
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (("rotate", "car_0001", "--yaw-deg", "nan"), "--yaw-deg: must be finite, got nan"),
+        (("move", "car_0001", "--to", "inf,0"), "move: --to must be finite, got (inf, 0.0)"),
+        (("move", "car_0001"), "move: give exactly one of --to x,y or --by dx,dy"),
+        (
+            ("restyle", "car_0001", "--color", "red"),
+            "--color: expected a hex colour like '#c03030', got 'red'",
+        ),
+        (
+            ("add", "car", "--at", "40,0", "--variant", "limo"),
+            "--variant: car has no variant 'limo'; available: hatchback, sedan, suv",
+        ),
+        (
+            ("replace", "car_0001", "--with", "car"),
+            "replace car_0001: it is already a car; pass --variant (one of hatchback, sedan, suv)",
+        ),
+        (("undo", "0"), "undo: N must be >= 1, got 0"),
+        (("delete", "car 1"), "'car 1': not an object name; use e.g. car_0003 or /World/Objects/car_0003"),
+    ],
+)
+def test_refusals_are_worded_for_the_command_line(world, capsys, args, message):
+    before = sha256(world.parent / "layers/edits.usda")
+    assert run(capsys, world, *args) == (2, "", f"error: {message}\n")
+    assert sha256(world.parent / "layers/edits.usda") == before
+
+
+def test_unknown_and_deleted_objects_name_the_commands_that_help(world, capsys):
+    edits = world.parent / "layers" / "edits.usda"
+    assert run(capsys, world, "reset", "car_0001") == (
+        2,
+        "",
+        f"error: car_0001 has no edits to reset in {edits}\n",
+    )
+    assert run(capsys, world.parent, "delete", "car_0099") == (
+        2,
+        "",
+        f"error: no object 'car_0099' in {world}; `usdworld edit {world} list` shows the names\n",
+    )
+    assert run(capsys, world, "delete", "car_0001")[0] == 0
+    assert run(capsys, world, "move", "car_0001", "--by", "1,0") == (
+        2,
+        "",
+        "error: car_0001 is deleted; `reset car_0001` or `undo` brings it back\n",
+    )

@@ -125,22 +125,22 @@ def test_crash_during_save_leaves_the_previous_layer(tmp_path_factory, tmp_path)
 
 
 def test_an_editor_waits_for_the_lock(tmp_path_factory, tmp_path):
-    import fcntl
     import threading
 
+    from filelock import FileLock
+
     world = fresh_world(tmp_path_factory, tmp_path / "world")
-    lock = world.parent / "layers/edits.usda.lock"
-    held = open(lock, "w")  # noqa: SIM115
-    fcntl.flock(held, fcntl.LOCK_EX)
-    released = []
+    held = FileLock(world.parent / "layers/edits.usda.lock")  # another editor's, in another thread
+    taken, released = threading.Event(), []
 
-    def release() -> None:
-        time.sleep(0.3)
-        released.append(time.monotonic())
-        fcntl.flock(held, fcntl.LOCK_UN)
-        held.close()
+    def hold() -> None:
+        with held:
+            taken.set()
+            time.sleep(0.3)
+            released.append(time.monotonic())
 
-    threading.Thread(target=release).start()
+    threading.Thread(target=hold).start()
+    assert taken.wait(30)
     with WorldEditor(world) as editor:
         assert editor.delete("car_0001").step == 1
         done = time.monotonic()

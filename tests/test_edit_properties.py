@@ -9,8 +9,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_edit_support import sha256, template
 
+from usdworld.authoring.editing.state import footprints
 from usdworld.authoring.edits import WorldEditor
-from usdworld.errors import InputError, LayoutError
+from usdworld.errors import EditRefused
 from usdworld.layout.permissible import footprint_overlaps
 
 NAMES = ["car_0001", "car_0002", "person_0001", "car_0003", "person_0002", "tree_0001"]
@@ -50,7 +51,7 @@ def _apply(editor: WorldEditor, op: tuple) -> None:
 
 
 def _overlaps(editor: WorldEditor) -> list:
-    return footprint_overlaps(editor._footprints(editor.objects()))
+    return footprint_overlaps(footprints(editor.objects()))
 
 
 @settings(
@@ -79,7 +80,7 @@ def test_random_edit_sequences(tmp_path_factory, sequence):
                     assert editor.objects() == objects
                     continue
                 _apply(editor, op)
-            except (LayoutError, InputError):
+            except EditRefused:
                 assert edits.read_text() == before  # refused: nothing written
                 continue
             states.append((edits.read_text(), editor.objects()))

@@ -8,7 +8,7 @@ from test_edit_support import sha256
 from usdworld.authoring.edits import WorldEditor
 from usdworld.authoring.validate import errors_only, validate_file
 from usdworld.authoring.variations import make_variations
-from usdworld.errors import LayoutError
+from usdworld.errors import EditRefused
 from usdworld.pipeline import BuildRequest, build
 
 
@@ -33,8 +33,8 @@ def _exercise(root):
         for attempt in attempts:
             try:
                 applied.append(attempt().op)
-            except LayoutError:
-                pass
+            except EditRefused as exc:
+                assert exc.reason == "not_permissible", exc
         assert editor.check() == []
         if applied:
             editor.undo()

@@ -10,7 +10,7 @@ from test_edit_support import base_x, build_world, fresh_world, sha256, template
 
 from usdworld.authoring.edits import WorldEditor, parse_color
 from usdworld.authoring.validate import errors_only, validate_file
-from usdworld.errors import InputError, LayoutError
+from usdworld.errors import EditRefused, InputError
 
 OBJ = "/World/Objects"
 
@@ -50,7 +50,9 @@ def test_edits_go_to_the_edits_layer_only(world, editor):
     assert sha256(world.parent / "layers/base.usda") == base and sha256(world) == root
     stage = _fresh_stage(world)
     car = stage.GetPrimAtPath(f"{OBJ}/car_0001")
-    assert tuple(car.GetAttribute("xformOp:translate").Get())[0] == pytest.approx(base_x(world, "car_0001") + 2.0, abs=0.01)
+    assert tuple(car.GetAttribute("xformOp:translate").Get())[0] == pytest.approx(
+        base_x(world, "car_0001") + 2.0, abs=0.01
+    )
     assert car.GetVariantSets().GetVariantSelection("model") == "suv"
 
 
@@ -67,15 +69,19 @@ def test_move_authors_translate_and_follows_the_ground(world, editor):
 
 def test_refused_move_names_rule_and_object_and_writes_nothing(world, editor):
     before = _edits_text(world)
-    with pytest.raises(LayoutError) as err:
+    with pytest.raises(EditRefused) as err:
         editor.move("car_0001", to=(16.5, -2.8))
     msg = str(err.value)
     assert msg.startswith("move car_0001 refused: fit: overlaps car_0002 by ")
-    assert msg.endswith("; nothing was written (--force applies it anyway)")
+    assert msg.endswith("; nothing was written")  # neutral: no CLI flag
+    assert (err.value.reason, err.value.op, err.value.subject) == ("not_permissible", "move", "car_0001")
+    (fit,) = err.value.violations
+    assert (fit.rule, fit.other) == ("fit", "car_0002") and fit.amount_m > 0.0
+    assert fit.message == f"overlaps car_0002 by {fit.amount_m:.2f} m"
     assert _edits_text(world) == before
-    with pytest.raises(LayoutError, match=r"surface: car may stand on road, not sidewalk"):
+    with pytest.raises(EditRefused, match=r"surface: car may stand on road, not sidewalk"):
         editor.move("car_0001", to=(30.0, 7.0))
-    with pytest.raises(LayoutError, match=r"extent: footprint reaches .* outside the ground extent"):
+    with pytest.raises(EditRefused, match=r"extent: footprint reaches .* outside the ground extent"):
         editor.move("car_0001", to=(300.0, 0.0))
     assert _edits_text(world) == before and editor.history() == []
 
@@ -93,7 +99,7 @@ def test_force_applies_and_records(world, editor):
 
 def test_rotate_checks_fit_of_the_rotated_footprint(world, editor):
     editor.move("car_0002", to=(22.3, -1.3))  # parallel to car_0001, 1.3 m gap... rotate would hit it
-    with pytest.raises(LayoutError, match=r"rotate car_0002 refused: fit: overlaps car_0001 by"):
+    with pytest.raises(EditRefused, match=r"rotate car_0002 refused: fit: overlaps car_0001 by"):
         editor.rotate("car_0002", 90.0)
     assert editor.rotate("car_0002", 180.0).message == "rotated car_0002 to 180.0 deg"
     assert editor.rotate("car_0002", 540.0).message == "rotated car_0002 to 180.0 deg"
@@ -106,9 +112,10 @@ def test_delete_deactivates_but_keeps_the_prim(world, editor):
     assert prim and prim.IsDefined() and not prim.IsActive()
     assert 'over "person_0001" (\n            active = false' in _edits_text(world)
     with pytest.raises(
-        InputError, match="person_0001 is deleted; `reset person_0001` or `undo` brings it back"
-    ):
+        EditRefused, match="person_0001 is deleted; a reset of person_0001 or an undo brings it back"
+    ) as err:
         editor.move("person_0001", by=(1.0, 0.0))
+    assert err.value.reason == "deleted_object" and err.value.subject == "person_0001"
     # a deleted object no longer blocks others
     assert editor.add("person", (12.1, -6.6)).name == "person_0002"
 
@@ -153,19 +160,22 @@ def test_add_copies_a_missing_asset_into_the_world(world, editor):
 
 def test_add_refusals(world, editor):
     with pytest.raises(
-        LayoutError, match=r"add tree_0001 refused: surface: tree may stand on sidewalk or other, not road"
+        EditRefused, match=r"add tree_0001 refused: surface: tree may stand on sidewalk or other, not road"
     ):
         editor.add("tree", (30.0, 0.0))
     person = next(o for o in editor.objects() if o.name == "person_0001")
     x, y = (float(v) for v in person.position_world[:2])
-    with pytest.raises(LayoutError, match=r"add person_0002 refused: fit: overlaps person_0001 by"):
+    with pytest.raises(EditRefused, match=r"add person_0002 refused: fit: overlaps person_0001 by"):
         editor.add("person", (x + 0.1, y - 0.1))
-    with pytest.raises(InputError, match="unknown class 'unicorn'"):
+    with pytest.raises(EditRefused, match="unknown class 'unicorn'; known classes: ") as err:
         editor.add("unicorn", (30.0, 0.0))
+    assert err.value.reason == "unknown_class" and "car" in err.value.choices
     with pytest.raises(
-        InputError, match="--variant: car has no variant 'limo'; available: hatchback, sedan, suv"
-    ):
+        EditRefused, match="^car has no variant 'limo'; available: hatchback, sedan, suv$"
+    ) as err:
         editor.add("car", (40.0, 0.0), variant="limo")
+    assert (err.value.reason, err.value.field, err.value.value) == ("unknown_variant", "variant", "limo")
+    assert err.value.choices == ("hatchback", "sedan", "suv")
     assert editor.history() == []
 
 
@@ -184,13 +194,13 @@ def test_replace_with_another_class_swaps_the_reference_list(world, editor):
 
 def test_replace_refusals_class_rule_and_same_class(world, editor):
     with pytest.raises(
-        LayoutError,
+        EditRefused,
         match=r"replace person_0001 refused: class: person may be replaced by person, rider, not car",
     ):
         editor.replace("person_0001", "car")
     with pytest.raises(
-        InputError,
-        match=r"replace car_0001: it is already a car; pass --variant \(one of hatchback, sedan, suv\)",
+        EditRefused,
+        match=r"replace car_0001: it is already a car; name a variant \(one of hatchback, sedan, suv\)",
     ):
         editor.replace("car_0001", "car")
     r = editor.replace("person_0001", "car", force=True)
@@ -217,7 +227,7 @@ def test_restyle_recolours_paint_material_and_display_color(world, editor):
         0
     ]
     assert tuple(blue.GetInput("diffuseColor").Get()) == pytest.approx(linear, abs=1e-6)
-    with pytest.raises(InputError, match="--color: expected a hex colour like '#c03030', got 'red'"):
+    with pytest.raises(EditRefused, match="^color: expected a hex colour like '#c03030', got 'red'$"):
         editor.restyle("car_0001", "red")
 
 
@@ -237,7 +247,7 @@ def test_undo_restores_the_exact_previous_layer(world, editor):
         (undone,) = editor.undo()
         assert _edits_text(world) == texts[-1 - k], f"after undoing step {undone.step}"
     assert texts[0] == _edits_text(world)
-    with pytest.raises(InputError, match=r"undo 1: only 0 edit\(s\) recorded"):
+    with pytest.raises(EditRefused, match=r"^undo 1: only 0 edit\(s\) recorded$"):
         editor.undo()
 
 
@@ -255,12 +265,12 @@ def test_undo_n_and_history(world, editor):
 def test_reset_drops_edits_and_checks_fit(world, editor):
     editor.move("car_0002", to=(30.0, -2.8))
     editor.move("car_0001", to=(15.8, -2.8))  # into car_0002's old spot
-    with pytest.raises(LayoutError, match=r"reset car_0002 refused: fit: overlaps car_0001 by"):
+    with pytest.raises(EditRefused, match=r"reset car_0002 refused: fit: overlaps car_0001 by"):
         editor.reset("car_0002")
     editor.reset("car_0001")
     assert [o.status for o in editor.objects()][:2] == ["base", "edited"]
     editor.reset("car_0002")
-    with pytest.raises(InputError, match="car_0002 has no edits to reset"):
+    with pytest.raises(EditRefused, match="^car_0002 has no edits to reset$"):
         editor.reset("car_0002")
     added = editor.add("car", (40.0, -1.5)).name
     editor.reset(added)  # an added object disappears
@@ -328,13 +338,12 @@ def test_failed_save_leaves_layer_and_memory_unchanged(world, editor, monkeypatc
 
 
 def test_names_and_paths(world, editor):
-    with pytest.raises(
-        InputError, match=r"no object 'car_0099' in .*world.usda; `usdworld edit .* list` shows the names"
-    ):
+    with pytest.raises(EditRefused, match="^no object 'car_0099' in this world$") as err:
         editor.delete("car_0099")
-    with pytest.raises(InputError, match="not an object path"):
+    assert (err.value.reason, err.value.op, err.value.subject) == ("unknown_object", "delete", "car_0099")
+    with pytest.raises(EditRefused, match="not an object path"):
         editor.delete("/World/Ground/Road")
-    with pytest.raises(InputError, match="not an object name"):
+    with pytest.raises(EditRefused, match="not an object name"):
         editor.delete("car 1")
     with pytest.raises(InputError, match="no such world"):
         WorldEditor(world.parent / "missing.usda")
@@ -363,7 +372,7 @@ def test_trees_are_checked_by_their_trunk_as_the_build_places_them(world, editor
     tree = next(o for o in editor.objects() if o.class_name == "tree")
     assert tree.size_lw[1] > 2 * 1.2 > tree.footprint_lw[1]
     editor.move("person_0001", to=(x + 0.3, y))  # still under the crown, clear of the trunk
-    with pytest.raises(LayoutError, match="tree_0001"):
+    with pytest.raises(EditRefused, match="tree_0001"):
         editor.move("person_0001", to=(x + 1.2, y))  # into the trunk
 
 
@@ -375,7 +384,7 @@ def test_a_stretched_footprint_is_read_per_axis_and_kept_by_edits(world):
     base.Save()
     with WorldEditor(world) as editor:
         car = next(o for o in editor.objects() if o.name == "car_0001")
-        length, width = editor._size("car", car.variant)
+        length, width = editor.size("car", car.variant)
         assert car.scale == pytest.approx(1.0)
         assert car.size_lw == pytest.approx((2.0 * length, 1.5 * width))
         assert car.footprint_lw == pytest.approx(car.size_lw)

@@ -16,7 +16,7 @@ from usdworld.authoring.edits import WorldEditor
 from usdworld.errors import UsdWorldError
 from usdworld.resources import data_dir
 from usdworld.serve import app as app_module
-from usdworld.serve.app import STATIC_DIR, create_app, refusal_reasons
+from usdworld.serve.app import STATIC_DIR, create_app
 from usdworld.serve.payloads import MAX_BODY_BYTES
 from usdworld.serve.session import WorldSession
 
@@ -332,8 +332,10 @@ def test_every_operation_goes_through_the_engine(client, world, targets, twin):
             assert data["ok"] is True and data["message"] == expected, (op, body)
             assert data["version"] == client.get("/api/version", headers=HEADERS).json()["version"]
         else:
-            kind = "LayoutError" if r.status_code == 409 else "InputError"
-            assert expected.replace(str(twin.root.parent), str(world.parent)) == f"{kind}: {data['error']}", (
+            assert data["code"] == ("not_permissible" if r.status_code == 409 else "nothing_to_reset")
+            assert (
+                expected.replace(str(twin.root.parent), str(world.parent)) == f"EditRefused: {data['error']}"
+            ), (
                 op,
                 body,
             )
@@ -440,7 +442,9 @@ def test_refused_edits_say_which_rule_and_write_nothing(client, world, targets, 
     assert r.status_code == 409
     data = r.json()
     assert data["ok"] is False and data["refused"] is True
-    assert f"LayoutError: {data['error']}" == engine(twin, *call, **kwargs)
+    assert f"EditRefused: {data['error']}" == engine(twin, *call, **kwargs)
+    assert data["code"] == "not_permissible" and "--force" not in data["error"]
+    assert data["reasons"] == [f"{v['rule']}: {v['message']}" for v in data["violations"]]
     assert " refused: " in data["error"] and "nothing was written" in data["error"]
     assert any(reason.startswith(f"{rule}: ") for reason in data["reasons"]), data["reasons"]
     assert all(reason in data["error"] for reason in data["reasons"])
@@ -453,13 +457,76 @@ def test_refused_edits_say_which_rule_and_write_nothing(client, world, targets, 
     assert sha256(edits_layer(world)) == before
 
 
-def test_refusal_reasons_parsing():
-    msg = "move car_0001 refused: fit: overlaps car_0002 by 0.50 m; surface: car may stand on road, not sidewalk (rules: x.json); nothing was written (--force applies it anyway)"
-    assert refusal_reasons(msg) == [
-        "fit: overlaps car_0002 by 0.50 m",
-        "surface: car may stand on road, not sidewalk (rules: x.json)",
-    ]
-    assert refusal_reasons("odd") == ["odd"]
+def test_refusals_are_worded_for_the_page_as_json(client, world, targets):
+    t = targets
+    before = sha256(edits_layer(world))
+    r = post(client, "move", {"name": t.car, "to": list(t.other_xy)})
+    assert r.status_code == 409
+    data = r.json()
+    fit = next(v for v in data["violations"] if v["rule"] == "fit")
+    assert fit["object"] and fit["amount_m"] > 0.0
+    assert fit["message"] == f"overlaps {fit['object']} by {fit['amount_m']:.2f} m"
+    assert data["error"].startswith(f"move {t.car} refused: fit: overlaps ")
+    assert data["error"].endswith("; nothing was written")
+    r = post(client, "delete", {"name": "car_9999"})
+    assert (r.status_code, r.json()) == (
+        400,
+        {
+            "ok": False,
+            "code": "unknown_object",
+            "error": "no object 'car_9999' in this world; the object list shows the names",
+            "refused": False,
+            "op": "delete",
+            "subject": "car_9999",
+            "field": "",
+            "choices": [],
+            "reasons": [],
+            "violations": [],
+        },
+    )
+    r = post(client, "replace", {"name": t.car, "with": "car"})
+    assert r.status_code == 400 and r.json()["code"] == "same_class"
+    assert r.json()["error"] == f"{t.car} is already a car; choose a variant (one of hatchback, sedan, suv)"
+    r = post(client, "rotate", {"name": t.car, "yaw_deg": 10})
+    assert r.status_code == 200
+    post(client, "delete", {"name": t.person})
+    r = post(client, "move", {"name": t.person, "by": [1.0, 0.0]})
+    assert (r.status_code, r.json()["code"]) == (400, "deleted_object")
+    assert r.json()["error"] == f"{t.person} is deleted; Reset it or Undo to bring it back"
+    assert before != sha256(edits_layer(world))  # the rotate and the delete went through
+
+
+@pytest.mark.parametrize(
+    "headers",
+    [
+        {"Origin": "http://evil.example"},
+        {"Origin": "null"},
+        {"Origin": "http://127.0.0.1:9999"},  # another port is another origin
+        {"Referer": "http://evil.example/page"},
+    ],
+)
+def test_cross_origin_mutations_are_refused(client, world, targets, headers):
+    before = sha256(edits_layer(world))
+    r = client.post("/api/delete", json={"name": targets.car}, headers={**HEADERS, **headers})
+    assert r.status_code == 403
+    assert r.json()["ok"] is False and r.json()["error"].startswith("cross-origin request refused: ")
+    for method in ("put", "patch", "delete"):
+        assert getattr(client, method)("/api/delete", headers={**HEADERS, **headers}).status_code == 403
+    assert sha256(edits_layer(world)) == before
+    assert client.get("/api/version", headers={**HEADERS, **headers}).status_code == 200  # reading is fine
+
+
+@pytest.mark.parametrize("headers", [{"Origin": BASE}, {"Referer": f"{BASE}/?token={TOKEN}"}, {}])
+def test_same_origin_mutations_pass(client, targets, headers):
+    r = client.post("/api/delete", json={"name": targets.car}, headers={**HEADERS, **headers})
+    assert r.status_code == 200, r.json()
+
+
+def test_ipv6_loopback_host_is_accepted(session):
+    with TestClient(create_app(session, TOKEN), base_url="http://[::1]:8765") as c:
+        assert c.get("/api/version", headers=HEADERS).status_code == 200
+        r = c.post("/api/delete", json={"name": "x"}, headers={**HEADERS, "Origin": "http://[::1]:8765"})
+        assert r.status_code == 400 and r.json()["code"] == "unknown_object"
 
 
 # --- validation and size limits ---------------------------------------------------------------------
@@ -545,7 +612,7 @@ def test_version_follows_edits_made_elsewhere(client, world, targets):
 
 
 def test_a_crash_while_saving_leaves_the_layer_intact(client, world, targets, monkeypatch):
-    from usdworld.authoring import edits
+    from usdworld.authoring.editing import transaction as edits
 
     path = edits_layer(world)
     before = path.read_bytes()
@@ -587,4 +654,4 @@ def test_hosts_can_be_opened_up_on_purpose(world):
     with TestClient(create_app(s, TOKEN, allowed_hosts=None), base_url="http://192.0.2.7:8765") as c:
         assert c.get("/api/version", headers=HEADERS).status_code == 200
     s.close()
-    assert app_module.LOOPBACK_HOSTS == ("127.0.0.1", "localhost")
+    assert app_module.LOOPBACK_HOSTS == ("127.0.0.1", "localhost", "::1", "[::1]")

@@ -21,12 +21,20 @@ from usdworld.serve.payloads import EditRequest, decode_body, parse_edit
 from usdworld.serve.server import bind
 
 
-def request(url: str, token: str | None = None, body: dict | None = None, host: str | None = None):
+def request(
+    url: str,
+    token: str | None = None,
+    body: dict | None = None,
+    host: str | None = None,
+    origin: str | None = None,
+):
     headers = {"Content-Type": "application/json"}
     if token:
         headers["X-Usdworld-Token"] = token
     if host:
         headers["Host"] = host
+    if origin:
+        headers["Origin"] = origin
     data = json.dumps(body).encode() if body is not None else None
     req = urllib.request.Request(url, data=data, headers=headers, method="POST" if data else "GET")
     try:
@@ -60,6 +68,29 @@ def test_serve_prints_the_url_edits_and_stops_cleanly_on_ctrl_c(tmp_path_factory
     assert "Traceback" not in err
     assert not list((world.parent / "layers").glob(".edits.usda.*.tmp"))
     assert "active = false" in (world.parent / "layers" / "edits.usda").read_text()
+
+
+def test_serve_on_ipv6_loopback_prints_a_url_that_works(tmp_path_factory, tmp_path):
+    world = demo_world(tmp_path_factory, tmp_path / "demo")
+    targets = find_targets(world)
+    server = ServerProcess(world, "--host", "::1")
+    try:
+        assert server.url.startswith("http://[::1]:") and server.url.endswith(f"/?token={server.token}")
+        status, page = request(server.url)
+        assert status == 200 and b"/static/app.js" in page
+        status, body = request(server.base + "/api/world", server.token)
+        assert status == 200 and len(json.loads(body)["objects"]) == targets.count
+        status, body = request(
+            server.base + "/api/delete", server.token, {"name": targets.person}, origin="http://evil.example"
+        )
+        assert status == 403 and json.loads(body)["ok"] is False
+        status, body = request(
+            server.base + "/api/delete", server.token, {"name": targets.person}, origin=server.base
+        )
+        assert status == 200, body
+    finally:
+        code, _, err = server.stop()
+    assert code == 0, err
 
 
 def test_serve_refuses_a_taken_port(tmp_path_factory, tmp_path, capsys):

@@ -6,6 +6,7 @@ import pytest
 from pxr import Sdf
 from test_edit_support import fresh_world, sha256
 
+from usdworld.authoring.editing.state import footprints
 from usdworld.authoring.edits import WorldEditor
 from usdworld.authoring.validate import errors_only, validate_file
 from usdworld.authoring.variations import make_variations
@@ -45,7 +46,7 @@ def test_variations_share_the_base_and_are_permissible(world, tmp_path):
             history = editor.history()
             assert len(history) == len(v.applied) and all(h.time == "" and not h.forced for h in history)
             objects = editor.objects()
-            assert footprint_overlaps(editor._footprints(objects)) == []
+            assert footprint_overlaps(footprints(objects)) == []
             touched = [o for o in objects if o.active and o.status in ("added", "edited")]
             names, _ = surface_at([o.position_world[:2] for o in touched], editor.ground())
             for o, surface in zip(touched, names):

@@ -28,7 +28,7 @@ from pxr import Sdf, UsdGeom
 
 from usdworld.authoring.edits import WorldEditor, atomic_write_text
 from usdworld.authoring.world import ROOT_LAYER, WORLD_PATH
-from usdworld.errors import InputError, LayoutError, UsdWorldError
+from usdworld.errors import EditRefused, InputError, RefusalReason, UsdWorldError
 from usdworld.layout.permissible import surface_at
 
 #: Random edits per variation: inclusive range.
@@ -136,7 +136,9 @@ def _attempt(editor: WorldEditor, kind: str, rng: np.random.Generator) -> str | 
                 return editor.move(
                     o.name, by=(round(d * math.cos(yaw), 3), round(d * math.sin(yaw), 3))
                 ).message
-        except LayoutError:
+        except EditRefused as exc:
+            if exc.reason is not RefusalReason.NOT_PERMISSIBLE:
+                raise
             continue
     return None
 

@@ -2,15 +2,22 @@
 
 Every sub-command is one call of :class:`usdworld.authoring.edits.WorldEditor`. A refused
 edit prints ``error: <op> <name> refused: <rule>: <why>; ...`` and exits 2 having written
-nothing; ``--force`` applies it and records that it was forced.
+nothing; ``--force`` applies it and records that it was forced. The library's refusals
+(:class:`~usdworld.errors.EditRefused`) are worded here for command-line users, naming the
+options (:func:`cli_message`).
 """
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import typer
+
+if TYPE_CHECKING:
+    from usdworld.errors import EditRefused
 
 edit_app = typer.Typer(
     no_args_is_help=True,
@@ -65,6 +72,72 @@ def _done(result) -> None:  # EditResult
     typer.echo(f"{result.message} [step {result.step}]")
 
 
+#: The option that gives each argument an :class:`EditRefused` names in ``field``.
+_OPTIONS = {"to": "--to", "by": "--by", "yaw_deg": "--yaw-deg", "variant": "--variant", "color": "--color"}
+
+
+def cli_message(exc: EditRefused, world: Path, edits_path: Path) -> str:
+    """A refusal worded for command-line users: the options to change, how to look things up.
+
+    Args:
+        exc: the library's refusal.
+        world: the WORLD argument (root layer or folder).
+        edits_path: the world's edits layer.
+    """
+    from usdworld.authoring.world import ROOT_LAYER
+    from usdworld.errors import RefusalReason
+
+    reason, name = exc.reason, exc.subject
+    if reason is RefusalReason.NOT_PERMISSIBLE:
+        return f"{exc.message} (--force applies it anyway)"
+    if reason is RefusalReason.UNKNOWN_OBJECT and not exc.field:  # a well-formed name
+        root = world / ROOT_LAYER if world.is_dir() else world
+        return f"no object '{name}' in {root}; `usdworld edit {root} list` shows the names"
+    if reason is RefusalReason.DELETED_OBJECT:
+        return f"{name} is deleted; `reset {name}` or `undo` brings it back"
+    if reason is RefusalReason.UNKNOWN_VARIANT:
+        return f"--variant: {exc.message}"
+    if reason is RefusalReason.SAME_CLASS:
+        return (
+            f"replace {name}: it is already a {exc.value}; "
+            f"pass --variant (one of {', '.join(exc.choices) or 'none'})"
+        )
+    if reason is RefusalReason.BAD_VALUE:
+        if exc.op == "move" and exc.value is None:
+            return "move: give exactly one of --to x,y or --by dx,dy"
+        if exc.field in ("to", "by"):
+            return f"move: --{exc.field} must be finite, got {exc.value}"
+        if exc.field == "yaw_deg":
+            return f"--yaw-deg: must be finite, got {exc.value}"
+        if exc.field == "color":
+            return f"--color: expected a hex colour like '#c03030', got '{exc.value}'"
+        if exc.field == "steps":
+            return f"undo: N must be >= 1, got {exc.value}"
+    if reason in (RefusalReason.NOTHING_TO_UNDO, RefusalReason.NOTHING_TO_RESET):
+        return f"{exc.message} in {edits_path}"
+    return exc.message
+
+
+@contextlib.contextmanager
+def _worded(ctx: typer.Context, editor) -> Iterator[None]:  # editor: WorldEditor
+    """Re-raise the library's refusals with their command-line wording."""
+    from usdworld.errors import EditRefused
+
+    try:
+        yield
+    except EditRefused as exc:
+        raise EditRefused(
+            exc.reason,
+            cli_message(exc, Path(ctx.obj), editor.edits_path),
+            op=exc.op,
+            subject=exc.subject,
+            field=exc.field,
+            value=exc.value,
+            choices=exc.choices,
+            violations=exc.violations,
+        ) from exc
+
+
 @edit_app.callback()
 def _world(
     ctx: typer.Context,
@@ -109,11 +182,13 @@ def move(
     surface_rules: Optional[Path] = SURFACE_RULES,
 ) -> None:
     """Move an object on the ground (its height follows the surface)."""
-    _done(
-        _editor(ctx, surface_rules).move(
-            name, to=_pair(to, "--to") if to else None, by=_pair(by, "--by") if by else None, force=force
+    editor = _editor(ctx, surface_rules)
+    with _worded(ctx, editor):
+        _done(
+            editor.move(
+                name, to=_pair(to, "--to") if to else None, by=_pair(by, "--by") if by else None, force=force
+            )
         )
-    )
 
 
 @edit_app.command("rotate")
@@ -124,13 +199,17 @@ def rotate(
     force: bool = FORCE,
 ) -> None:
     """Set an object's yaw."""
-    _done(_editor(ctx).rotate(name, yaw_deg, force=force))
+    editor = _editor(ctx)
+    with _worded(ctx, editor):
+        _done(editor.rotate(name, yaw_deg, force=force))
 
 
 @edit_app.command("delete")
 def delete(ctx: typer.Context, name: str = typer.Argument(..., help="Object name or prim path.")) -> None:
     """Deactivate an object (active = false; undo or reset brings it back)."""
-    _done(_editor(ctx).delete(name))
+    editor = _editor(ctx)
+    with _worded(ctx, editor):
+        _done(editor.delete(name))
 
 
 @edit_app.command("add")
@@ -151,11 +230,9 @@ def add(
     library: Optional[Path] = LIBRARY,
 ) -> None:
     """Add an object, scaled like its neighbours of the same class."""
-    _done(
-        _editor(ctx, surface_rules, library=library).add(
-            class_name, _pair(at, "--at"), variant=variant, yaw_deg=yaw_deg, force=force
-        )
-    )
+    editor = _editor(ctx, surface_rules, library=library)
+    with _worded(ctx, editor):
+        _done(editor.add(class_name, _pair(at, "--at"), variant=variant, yaw_deg=yaw_deg, force=force))
 
 
 @edit_app.command("replace")
@@ -172,11 +249,9 @@ def replace(
     library: Optional[Path] = LIBRARY,
 ) -> None:
     """Replace an object by another class or another variant."""
-    _done(
-        _editor(ctx, surface_rules, replacement_rules, library).replace(
-            name, with_class, variant=variant, force=force
-        )
-    )
+    editor = _editor(ctx, surface_rules, replacement_rules, library)
+    with _worded(ctx, editor):
+        _done(editor.replace(name, with_class, variant=variant, force=force))
 
 
 @edit_app.command("restyle")
@@ -186,7 +261,9 @@ def restyle(
     color: str = typer.Option(..., "--color", help="sRGB hex colour, e.g. '#c03030'."),
 ) -> None:
     """Recolour an object's paint (material diffuseColor and displayColor)."""
-    _done(_editor(ctx).restyle(name, color))
+    editor = _editor(ctx)
+    with _worded(ctx, editor):
+        _done(editor.restyle(name, color))
 
 
 @edit_app.command("undo")
@@ -194,7 +271,10 @@ def undo(
     ctx: typer.Context, steps: int = typer.Argument(1, metavar="[N]", help="How many edits to undo.")
 ) -> None:
     """Undo the last N edits (the edits layer returns to exactly what it was)."""
-    for entry in _editor(ctx).undo(steps):
+    editor = _editor(ctx)
+    with _worded(ctx, editor):
+        undone = editor.undo(steps)
+    for entry in undone:
         typer.echo(f"undid step {entry.step}: {entry.op} {entry.args.get('name', '')}".rstrip())
 
 
@@ -216,7 +296,9 @@ def reset(
     ctx: typer.Context, name: str = typer.Argument(..., help="Object name or prim path."), force: bool = FORCE
 ) -> None:
     """Drop every edit of one object (an added object disappears)."""
-    _done(_editor(ctx).reset(name, force=force))
+    editor = _editor(ctx)
+    with _worded(ctx, editor):
+        _done(editor.reset(name, force=force))
 
 
 @edit_app.command("check")

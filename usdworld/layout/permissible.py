@@ -154,10 +154,15 @@ class Violation:
     Attributes:
         rule: ``fit``, ``extent``, ``surface`` or ``class``.
         message: why, e.g. ``overlaps car_0005 by 0.80 m``.
+        other: the object it concerns (``fit``: the one overlapped), '' when none.
+        amount_m: by how much (``fit``: the overlap, ``extent``: the distance outside),
+            metres; 0 for ``surface`` and ``class``.
     """
 
     rule: str
     message: str
+    other: str = ""
+    amount_m: float = 0.0
 
     def __str__(self) -> str:
         return f"{self.rule}: {self.message}"
@@ -512,7 +517,7 @@ def load_replacement_rules(path: Path | str | None = None) -> ReplacementRules:
 def fit_violations(candidate: Candidate, others: Footprints) -> list[Violation]:
     """``fit``: one violation per object the candidate overlaps."""
     return [
-        Violation("fit", f"overlaps {name} by {depth:.2f} m")
+        Violation("fit", f"overlaps {name} by {depth:.2f} m", name, float(depth))
         for name, depth in overlapping(candidate, others)
     ]
 
@@ -531,6 +536,7 @@ def extent_violations(candidate: Candidate, ground: Ground) -> list[Violation]:
             "extent",
             f"footprint reaches {worst:.2f} m outside the ground extent "
             f"x {lo[0]:.1f}..{hi[0]:.1f}, y {lo[1]:.1f}..{hi[1]:.1f} m",
+            amount_m=worst,
         )
     ]
 

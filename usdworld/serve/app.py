@@ -19,9 +19,17 @@ requests may also pass ``?token=``, for ``<img src>``); a POST must send it as t
 with ``Content-Type: application/json`` and a body of at most
 :data:`~usdworld.serve.payloads.MAX_BODY_BYTES`. Answers: 401 without the right token, 413
 for a larger body, 415 for another content type, 400 for an invalid request, 409 with the
-rule's reason when the permissibility rules refuse an edit (nothing is written), 404 for
-any file outside the world folder. Bound to a loopback address, the app also refuses
-requests whose ``Host`` is not a loopback name (DNS rebinding).
+rules' reasons when the permissibility rules refuse an edit (nothing is written), 404 for
+any file outside the world folder. A refused edit answers
+``{"ok": false, "code", "error", "refused", "reasons", "violations", ...}``: ``code`` is
+the library's :class:`~usdworld.errors.RefusalReason` and ``error`` a sentence worded
+for the page's users (:func:`web_message`). Bound to a loopback address, the app also
+refuses requests whose ``Host`` is not a loopback name (DNS rebinding).
+
+As a second layer beside the token, a mutating request (POST, PUT, PATCH, DELETE) whose
+``Origin`` -- or, without one, ``Referer`` -- is not the server's own origin is refused
+with 403 (cross-site requests); a request with neither (a script, curl) is judged by its
+token alone.
 """
 
 from __future__ import annotations
@@ -44,7 +52,7 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from usdworld.errors import InputError, LayoutError, UsdWorldError
+from usdworld.errors import EditRefused, InputError, RefusalReason, UsdWorldError
 from usdworld.serve.payloads import MAX_BODY_BYTES, OPERATIONS, decode_body, parse_edit
 from usdworld.serve.session import PHOTO_SUFFIXES, WorldSession
 
@@ -52,8 +60,10 @@ log = logging.getLogger(__name__)
 
 STATIC_DIR = Path(__file__).resolve().parent / "static"
 TOKEN_HEADER = "x-usdworld-token"
-#: Hosts accepted when the server is bound to a loopback address.
-LOOPBACK_HOSTS = ("127.0.0.1", "localhost")
+#: Hosts accepted when the server is bound to a loopback address (``[::1]`` as a URL has it).
+LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1", "[::1]")
+#: Methods that change something; they must come from the server's own origin.
+MUTATING_METHODS = frozenset({"POST", "PUT", "PATCH", "DELETE"})
 CONTENT_SECURITY_POLICY = (
     "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
     "connect-src 'self' data: blob:; object-src 'none'; base-uri 'none'; frame-ancestors 'none'; "
@@ -77,11 +87,49 @@ def _error(status: int, message: str, **extra: Any) -> JSONResponse:
     return JSONResponse({"ok": False, "error": message, **extra}, status_code=status)
 
 
-def refusal_reasons(message: str) -> list[str]:
-    """The rules named in a refusal: ``move car_0001 refused: fit: ...; surface: ...; nothing was written``."""
-    _, _, rest = message.partition(" refused: ")
-    rest = rest.split("; nothing was written", 1)[0]
-    return [r.strip() for r in rest.split("; ") if r.strip()] or [message]
+def web_message(exc: EditRefused) -> str:
+    """A refusal worded for the page's users: what the page offers, no command-line options."""
+    name, reason = exc.subject, exc.reason
+    if reason is RefusalReason.UNKNOWN_OBJECT and not exc.field:
+        return f"no object '{name}' in this world; the object list shows the names"
+    if reason is RefusalReason.DELETED_OBJECT:
+        return f"{name} is deleted; Reset it or Undo to bring it back"
+    if reason is RefusalReason.SAME_CLASS:
+        return (
+            f"{name} is already a {exc.value}; choose a variant (one of {', '.join(exc.choices) or 'none'})"
+        )
+    if reason is RefusalReason.UNKNOWN_VARIANT:
+        return f"{name} has no variant '{exc.value}'; choose one of {', '.join(exc.choices) or 'none'}"
+    return exc.message
+
+
+def refusal_json(exc: EditRefused) -> tuple[int, dict[str, Any]]:
+    """The status (409 for the rules, 400 otherwise) and JSON body of a refused edit."""
+    refused = exc.reason is RefusalReason.NOT_PERMISSIBLE
+    body = {
+        "ok": False,
+        "code": exc.reason.value,
+        "error": web_message(exc),
+        "refused": refused,
+        "op": exc.op,
+        "subject": exc.subject,
+        "field": exc.field,
+        "choices": list(exc.choices),
+        "reasons": [str(v) for v in exc.violations],
+        "violations": [
+            {"rule": v.rule, "message": v.message, "object": v.other, "amount_m": round(v.amount_m, 3)}
+            for v in exc.violations
+        ],
+    }
+    return (409 if refused else 400), body
+
+
+def _origin(url: str) -> str:
+    """``scheme://host[:port]`` of a URL ('' when it has none), lower case."""
+    scheme, sep, rest = url.partition("://")
+    if not sep or not scheme or not rest:
+        return ""
+    return f"{scheme}://{rest.split('/', 1)[0].split('?', 1)[0].split('#', 1)[0]}".lower()
 
 
 class ApiGuard:
@@ -125,6 +173,17 @@ class ApiGuard:
             )
         if method in ("GET", "HEAD"):
             return None
+        if method in MUTATING_METHODS:
+            own = f"{scope.get('scheme', 'http')}://{request.headers.get('host', '')}".lower()
+            origin = request.headers.get("origin")
+            referer = request.headers.get("referer")
+            if origin is not None:
+                if origin.lower() != own:
+                    return _error(
+                        403, f"cross-origin request refused: Origin '{origin}' is not this server ({own})"
+                    )
+            elif referer is not None and _origin(referer) != own:
+                return _error(403, f"cross-origin request refused: Referer is not from this server ({own})")
         if method != "POST":
             return _error(405, f"{method} is not allowed; edits are POST requests")
         ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
@@ -215,8 +274,9 @@ def create_app(
     async def _guarded(call: Callable[[], dict[str, Any]]) -> Response:
         try:
             result = await run_in_threadpool(call)
-        except LayoutError as exc:
-            return _error(409, str(exc), refused=True, reasons=refusal_reasons(str(exc)))
+        except EditRefused as exc:
+            status, body = refusal_json(exc)
+            return JSONResponse(body, status_code=status)
         except InputError as exc:
             return _error(400, str(exc))
         except UsdWorldError as exc:

@@ -2,8 +2,8 @@
 
 A :class:`WorldSession` owns one :class:`~usdworld.authoring.edits.WorldEditor`, so every
 edit goes through the same lock, permissibility rules, history and atomic save as
-``usdworld edit``; a refused edit raises the engine's :class:`~usdworld.errors.LayoutError`
-(nothing written) and the app shows its reason. The editor is not thread-safe: the session
+``usdworld edit``; a refused edit raises the engine's :class:`~usdworld.errors.EditRefused`
+(nothing written) and the app words its reason for the page. The editor is not thread-safe: the session
 serialises its calls with a lock (the web server runs them in worker threads).
 
 **Version.** :meth:`WorldSession.version` hashes the (inode, mtime, size) of the root, base
@@ -435,8 +435,9 @@ class WorldSession:
             ``{"ok": True, "op", "name", "step", "message", "steps": [...]}``.
 
         Raises:
-            LayoutError: a rule refuses the edit (nothing written).
-            InputError: a bad name, class, variant or colour, or nothing to undo / redo.
+            EditRefused: the engine refuses the edit (a rule, a bad name, class, variant or
+                colour, nothing to undo); nothing written.
+            InputError: nothing to redo.
         """
         args = dict(request.args)
         with self._lock:

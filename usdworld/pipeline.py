@@ -35,6 +35,7 @@ from usdworld.geometry.estimate import (
 from usdworld.geometry.homography import HomographyFit, apply_homography, estimate_homography
 from usdworld.geometry.vanishing import VanishingPoint, street_vanishing_point
 from usdworld.io.camera_files import read_camera
+from usdworld.io.class_table import load_class_table
 from usdworld.io.correspondences import read_correspondences
 from usdworld.io.detections import read_detections_json, read_kitti_labels
 from usdworld.io.hashing import read_input
@@ -43,10 +44,11 @@ from usdworld.io.labels import read_polygons, read_segmentation
 from usdworld.io.types import CameraSpec, Segmentation, SourceImage
 from usdworld.layout.boxes import box_view_angle
 from usdworld.layout.model import WorldModel
-from usdworld.layout.placement import CURB_HEIGHT_M, AssetSizes, place_objects
+from usdworld.layout.placement import AssetSizes, place_objects
 from usdworld.layout.priors import prior_for
 from usdworld.layout.surfaces import MAX_RANGE_M, build_surfaces, fill_behind_occluders, occluded_ground_mask
 from usdworld.layout.yaw import road_axis
+from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.classes import label_lookups
 from usdworld.perception.facades import StreetView
 from usdworld.perception.objects import (
@@ -166,7 +168,7 @@ def _street_view(
     else:
         return None
     vanishing_u = float(vanishing.u) if vanishing is not None else None
-    return StreetView(float(horizon), float(K[0, 0]), float(K[0, 2]), float(height) - CURB_HEIGHT_M, vanishing_u)
+    return StreetView(float(horizon), float(K[0, 0]), float(K[0, 2]), float(height) - PlacementParams().curb_height_m, vanishing_u)
 
 
 def _objects(
@@ -345,6 +347,8 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         fit.dst_from_src,
         axis,
         sizes,
+        load_class_table(),
+        PlacementParams(),
         depth,
         camera_sigma=(camera.sigma_height_m, camera.sigma_pitch),
         max_partial_depth_m=request.max_range_m,
@@ -360,7 +364,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         road_vp = camera.camera.vanishing_point(ahead) or (camera.camera.cx, camera.camera.horizon_v())
         filled = fill_behind_occluders(labels, fill, road_vp)
     surfaces = tuple(
-        build_surfaces(filled, surface_ids, camera.camera, fit.dst_from_src, CURB_HEIGHT_M, request.max_range_m)
+        build_surfaces(filled, surface_ids, camera.camera, fit.dst_from_src, PlacementParams().curb_height_m, request.max_range_m)
     )
     inputs = [image.file]
     if seg is not None:

@@ -11,9 +11,15 @@ from hypothesis import strategies as st
 
 from usdworld.authoring.asset_library import asset_path, library_dirs
 from usdworld.geometry.camera import PinholeCamera
+from usdworld.io.class_table import load_class_table
 from usdworld.io.types import Segmentation
-from usdworld.layout.placement import CURB_HEIGHT_M, FACADE_HEIGHT_NOTE, out_of_view_frontage, place_objects
+from usdworld.layout.cues import FACADE_HEIGHT_NOTE
+from usdworld.layout.facades import out_of_view_frontage
+from usdworld.layout.placement import place_objects
 from usdworld.layout.priors import prior_for
+from usdworld.parameters.placement import PlacementParams
+
+CURB_HEIGHT_M = PlacementParams().curb_height_m
 from usdworld.layout.yaw import RoadAxis, choose_yaw
 from usdworld.perception.classes import label_lookups
 from usdworld.perception.facades import (
@@ -185,7 +191,9 @@ def test_a_facade_run_becomes_buildings_behind_their_fronts():
     sizes = _asset_sizes(buildings, library_dirs(None))
     ground_from_px = np.linalg.inv(CAM.px_from_ground())
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
-    placements, _ = place_objects(buildings, CAM, ground_from_px, axis, sizes)
+    placements, _ = place_objects(
+        buildings, CAM, ground_from_px, axis, sizes, load_class_table(), PlacementParams()
+    )
     assert len(placements) == 3
     depth = prior_for("building").facade_depth_m
     for p in sorted(placements, key=lambda p: p.position_world[0]):
@@ -212,7 +220,15 @@ def test_a_building_running_out_of_the_image_keeps_its_seen_end():
     assert len(buildings) == 1 and buildings[0].box_px[0] == 0
     sizes = _asset_sizes(buildings, library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
-    (placed,), _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
+    (placed,), _ = place_objects(
+        buildings,
+        CAM,
+        np.linalg.inv(CAM.px_from_ground()),
+        axis,
+        sizes,
+        load_class_table(),
+        PlacementParams(),
+    )
     lo, hi = prior_for("building").frontage_range_m
     assert (lo, hi) == (8.0, 25.0)
     assert placed.size_m[1] == pytest.approx(0.5 * (lo + hi), abs=0.3)
@@ -237,7 +253,15 @@ def test_stretched_buildings_are_authored_with_their_footprint(tmp_path):
     ]
     sizes = _asset_sizes(buildings, library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
-    placements, _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
+    placements, _ = place_objects(
+        buildings,
+        CAM,
+        np.linalg.inv(CAM.px_from_ground()),
+        axis,
+        sizes,
+        load_class_table(),
+        PlacementParams(),
+    )
     stage = Usd.Stage.CreateNew(str(tmp_path / "w.usda"))
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
@@ -314,7 +338,15 @@ def test_a_facade_whose_base_is_seen_is_not_placed_by_its_height():
     assert buildings and not any(b.top_truncated for b in buildings)
     sizes = _asset_sizes(buildings, library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
-    placements, _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
+    placements, _ = place_objects(
+        buildings,
+        CAM,
+        np.linalg.inv(CAM.px_from_ground()),
+        axis,
+        sizes,
+        load_class_table(),
+        PlacementParams(),
+    )
     for p in placements:
         height = next(c for c in p.cues if c.name == "height")
         assert not height.available and height.note == FACADE_HEIGHT_NOTE

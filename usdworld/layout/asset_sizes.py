@@ -97,6 +97,8 @@ def choose_variant(
             across = abs(l * np.sin(yaw_to_ray)) + abs(w * np.cos(yaw_to_ray))
             err += abs(np.log(aspect / (across / h)))
         if shape_usable:
-            err += abs(np.log((top_shape + top_shape_offset) / (sizes.top_shape_by_variant[n] + top_shape_offset)))
+            err += abs(
+                np.log((top_shape + top_shape_offset) / (sizes.top_shape_by_variant[n] + top_shape_offset))
+            )
         errs.append(err)
     return names[int(np.argmin(errs))]

@@ -98,7 +98,12 @@ def fit_view_angle(
 
 
 def align_box_columns(
-    camera: PinholeCamera, ground: np.ndarray, yaw: float, size: np.ndarray, obj: ImageObject, params: PlacementParams
+    camera: PinholeCamera,
+    ground: np.ndarray,
+    yaw: float,
+    size: np.ndarray,
+    obj: ImageObject,
+    params: PlacementParams,
 ) -> np.ndarray:
     """Shift an object sideways so that its projected 3D box spans the same columns as the image box.
 

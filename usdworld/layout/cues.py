@@ -63,7 +63,9 @@ def contact_depth(obj: ImageObject, ctx: PlacementContext) -> tuple[np.ndarray, 
     """
     camera = ctx.camera
     contact_ground = apply_homography(ctx.ground_from_px, np.array([[float(x) for x in obj.contact_px]]))[0]
-    contact_ok = bool(np.all(np.isfinite(contact_ground))) and depth_of_ground_point(camera, contact_ground) > 0
+    contact_ok = (
+        bool(np.all(np.isfinite(contact_ground))) and depth_of_ground_point(camera, contact_ground) > 0
+    )
     front = depth_of_ground_point(camera, contact_ground) if contact_ok else float("nan")
     if contact_ok and ctx.sidewalk_lift and obj.standing_on == "sidewalk":
         # The homography maps to the road plane z = 0; the contact lies on the kerb top,
@@ -137,7 +139,9 @@ def front_depth(obj: ImageObject, ctx: PlacementContext, forced: Forced | None) 
     contact_ground, contact_ok, front_contact = contact_depth(obj, ctx)
     cues = tuple(object_cues(obj, prior, sizes, ctx, contact_ground, contact_ok, front_contact))
     if forced is not None:
-        return FrontDepth(forced.front_depth_m, forced.method, method_confidence(forced.method, ctx.params), cues)
+        return FrontDepth(
+            forced.front_depth_m, forced.method, method_confidence(forced.method, ctx.params), cues
+        )
     try:
         fused = fuse(list(cues))
     except LayoutError:
@@ -161,7 +165,9 @@ def with_camera_uncertainty(cue: DepthCue, ctx: PlacementContext) -> DepthCue:
     extra = np.hypot(d * s_h / h, d * d * s_p / h)
     if extra == 0:
         return cue
-    return DepthCue(cue.name, d, float(np.hypot(cue.sigma_m, extra)), cue.note + "; camera uncertainty included")
+    return DepthCue(
+        cue.name, d, float(np.hypot(cue.sigma_m, extra)), cue.note + "; camera uncertainty included"
+    )
 
 
 def crop_depth(depth_map: DepthMap, obj: ImageObject) -> DepthMap:
@@ -196,7 +202,9 @@ def partial_front_depth(
     if not obj.top_truncated:
         x0, y0, x1, _ = (float(b) for b in obj.box_px)
         v_top = y0 if obj.box_only else y0 - 0.5
-        top = depth_from_top_row(camera, 0.5 * (x0 + x1), v_top, prior.size_m[2], prior.height_std_m, ctx.params)
+        top = depth_from_top_row(
+            camera, 0.5 * (x0 + x1), v_top, prior.size_m[2], prior.height_std_m, ctx.params
+        )
     if top is not None and (not bounds or top[0] <= min(bounds)[0]):
         return top[0], DepthMethod.TOP_ROW
     if bounds:

@@ -45,7 +45,9 @@ class _Size:
     size: np.ndarray
 
 
-def draft_object(obj: ImageObject, name: str, ctx: PlacementContext, forced: Forced | None = None) -> Draft | None:
+def draft_object(
+    obj: ImageObject, name: str, ctx: PlacementContext, forced: Forced | None = None
+) -> Draft | None:
     """Everything about one object before the row, occlusion and collision passes.
 
     Args:
@@ -121,7 +123,9 @@ def _size(
         # Its row gives the depth of an object whose bottom is hidden: its top row there
         # gives its height above the ground.
         x0, y0, x1, _ = (float(b) for b in obj.box_px)
-        measured_h = height_from_top_row(camera, 0.5 * (x0 + x1), y0 if obj.box_only else y0 - 0.5, front.depth_m)
+        measured_h = height_from_top_row(
+            camera, 0.5 * (x0 + x1), y0 if obj.box_only else y0 - 0.5, front.depth_m
+        )
     sides_cut = obj.box_px[0] <= 0 or obj.box_px[2] >= camera.width
     # The silhouette's aspect tells stuff variants apart (a conifer from a broad tree); for
     # vehicles and people perspective dominates it, so only their height counts.

@@ -11,7 +11,14 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from usdworld.layout.draft import DepthMethod, Draft, Forced, PlacementContext, method_confidence, point_at_depth
+from usdworld.layout.draft import (
+    DepthMethod,
+    Draft,
+    Forced,
+    PlacementContext,
+    method_confidence,
+    point_at_depth,
+)
 from usdworld.layout.drafting import draft_object
 from usdworld.perception.objects import ImageObject
 
@@ -91,7 +98,10 @@ def move_behind_occluders(drafts: list[Draft], ctx: PlacementContext) -> list[Dr
 
 
 def drop_unbounded(
-    drafts: list[Draft], unplaced: list[tuple[ImageObject, str]], ctx: PlacementContext, max_partial_depth_m: float
+    drafts: list[Draft],
+    unplaced: list[tuple[ImageObject, str]],
+    ctx: PlacementContext,
+    max_partial_depth_m: float,
 ) -> tuple[list[Draft], list[tuple[ImageObject, str]]]:
     """Pass: unplace the drafts whose depth says nothing useful.
 
@@ -102,7 +112,11 @@ def drop_unbounded(
     Returns:
         (the drafts kept, ``unplaced`` followed by the dropped objects and names).
     """
-    far = [d for d in drafts if (d.method.is_partial and d.depth_m > max_partial_depth_m) or sliver_behind(d, ctx)]
+    far = [
+        d
+        for d in drafts
+        if (d.method.is_partial and d.depth_m > max_partial_depth_m) or sliver_behind(d, ctx)
+    ]
     kept = [d for d in drafts if not any(d is f for f in far)]
     return kept, [*unplaced, *((d.obj, d.name) for d in far)]
 

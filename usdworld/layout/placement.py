@@ -152,7 +152,9 @@ def place_objects(
     return resolve_footprints(drafts, ctx), skipped
 
 
-def draft_all(objects: list[ImageObject], ctx: PlacementContext) -> tuple[list[Draft], list[tuple[ImageObject, str]]]:
+def draft_all(
+    objects: list[ImageObject], ctx: PlacementContext
+) -> tuple[list[Draft], list[tuple[ImageObject, str]]]:
     """Pass: name every object (``<class>_<NNNN>`` in input order) and draft it.
 
     Returns:

@@ -15,6 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from usdworld.io.class_table import ClassTable
 from usdworld.layout.draft import DepthMethod, Draft, Forced, PlacementContext, point_at_depth
 from usdworld.layout.drafting import draft_object
 from usdworld.layout.occlusion import bounding_occluder, drafts_by_ref
@@ -35,7 +36,9 @@ from usdworld.perception.objects import ImageObject
 KERB_LINING_CLASS = "car"
 
 
-def street_rows(drafts: list[Draft], ctx: PlacementContext, sidewalk_ground: np.ndarray | None) -> list[StreetLine]:
+def street_rows(
+    drafts: list[Draft], ctx: PlacementContext, sidewalk_ground: np.ndarray | None
+) -> list[StreetLine]:
     """The rows: measured by seen contacts (a lone one giving way to a disagreeing sidewalk),
     then the sidewalk's for the rest, then the parked cars' kerb for the rest.
 
@@ -132,13 +135,12 @@ def off_its_row(d: Draft, lines: list[StreetLine], ctx: PlacementContext) -> boo
     return any(abs(offset) - abs(ln.offset_m) > ctx.params.row_outlier_m for ln in rows)
 
 
-def line_pixel(obj: ImageObject, width: int, ctx: PlacementContext) -> np.ndarray:
+def line_pixel(obj: ImageObject, width: int, classes: ClassTable) -> np.ndarray:
     """(2,) float64 pixel whose ray finds an object on its row: a trunk or post stands below
     the middle of its crown or sign when its own foot is hidden (unless the image's side
     cuts it); a ``facade``, and a ``post_contact`` class (a pole: its lowest columns are its
     post, not the lamp's arm beside it), keep their contact pixel."""
     u, v = (float(x) for x in obj.contact_px)
-    classes = ctx.classes
     middle = not classes.has(obj.class_name, "facade") and not classes.has(obj.class_name, "post_contact")
     if middle and obj.box_px[0] > 0 and obj.box_px[2] < width:
         u = 0.5 * float(obj.box_px[0] + obj.box_px[2])
@@ -175,7 +177,7 @@ def onto_street_line(
     if not ctx.classes.has(obj.class_name, "line"):
         return None
     params, camera = ctx.params, ctx.camera
-    pixel = line_pixel(obj, camera.width, ctx)
+    pixel = line_pixel(obj, camera.width, ctx.classes)
     hit = line_for(lines, obj.class_name, camera, (float(pixel[0]), float(pixel[1])), ctx.axis)
     if hit is None:
         return None
@@ -189,10 +191,14 @@ def onto_street_line(
     moved = draft_object(replace(obj, contact_px=pixel), name, ctx, Forced(front, DepthMethod.STREET_LINE))
     if moved is None:
         return None
-    return replace(moved, cues=(*moved.cues, _row_cue(line, front + moved.back_m, front, obj.class_name, ctx)))
+    return replace(
+        moved, cues=(*moved.cues, _row_cue(line, front + moved.back_m, front, obj.class_name, ctx))
+    )
 
 
-def _row_cue(line: StreetLine, centre_depth_m: float, front: float, class_name: str, ctx: PlacementContext) -> DepthCue:
+def _row_cue(
+    line: StreetLine, centre_depth_m: float, front: float, class_name: str, ctx: PlacementContext
+) -> DepthCue:
     """The row's depth as a cue. How far off it may be: its spread across the street, seen
     at the ray's angle to the row (a ray nearly along the row magnifies it)."""
     params = ctx.params
@@ -206,4 +212,3 @@ def _row_cue(line: StreetLine, centre_depth_m: float, front: float, class_name: 
     }[line.source]
     note = f"{what} {abs(line.offset_m):.2f} m {side} of the road axis (spread {line.spread_m:.2f} m)"
     return DepthCue("street_line", centre_depth_m, sigma, note)
-

@@ -150,7 +150,12 @@ def depth_from_silhouette(
 
 
 def depth_from_top_row(
-    camera: PinholeCamera, u: float, v_top: float, height_m: float, height_std_m: float, params: PlacementParams
+    camera: PinholeCamera,
+    u: float,
+    v_top: float,
+    height_m: float,
+    height_std_m: float,
+    params: PlacementParams,
 ) -> tuple[float, float] | None:
     """Depth of an upright object whose top, ``height_m`` above the ground, is seen at row ``v_top``.
 

@@ -31,7 +31,6 @@ from usdworld.layout.yaw import RoadAxis
 from usdworld.parameters.placement import PlacementParams
 
 
-
 def kerb_setback_m(class_name: str, classes: ClassTable, params: PlacementParams) -> float | None:
     """Where a row class stands behind the kerb when none of its row is seen, metres: street
     trees (``crown``) :attr:`~PlacementParams.tree_kerb_setback_m`, posts and signs
@@ -281,7 +280,12 @@ def parked_car_lines(
             if distance is None:
                 continue
             row = StreetLine(
-                class_name, side, round(side * (kerb + distance), 6), 0, params.parked_row_spread_m, "parked_cars"
+                class_name,
+                side,
+                round(side * (kerb + distance), 6),
+                0,
+                params.parked_row_spread_m,
+                "parked_cars",
             )
             lines.append(row)
     return unmeasured(lines, measured)

@@ -60,15 +60,23 @@ class PlacementParams:
         f"{_SYNTH} (87db2ec: occluder lower bound)",
     )
     # --- confidence of a placement by what decided its depth --------------------------------
-    confidence_contact: float = param(0.9, "1", "Confidence of a depth decided by the seen ground contact.", _SYNTH)
+    confidence_contact: float = param(
+        0.9, "1", "Confidence of a depth decided by the seen ground contact.", _SYNTH
+    )
     confidence_fused: float = param(0.8, "1", "Confidence of a depth fused from several cues.", _SYNTH)
     confidence_cnn: float = param(0.7, "1", "Confidence of a depth decided by the dense depth map.", _SYNTH)
-    confidence_height: float = param(0.6, "1", "Confidence of a depth decided by the class-height prior.", _SYNTH)
+    confidence_height: float = param(
+        0.6, "1", "Confidence of a depth decided by the class-height prior.", _SYNTH
+    )
     confidence_contact_partial: float = param(
         0.3, "1", "Confidence of a depth bounded by a hidden or cut bottom's visible ground point.", _SYNTH
     )
-    confidence_street_line: float = param(0.5, "1", "Confidence of a depth given by the class's street row.", _SYNTH)
-    confidence_top_row: float = param(0.3, "1", "Confidence of a depth from the top row and class height.", _SYNTH)
+    confidence_street_line: float = param(
+        0.5, "1", "Confidence of a depth given by the class's street row.", _SYNTH
+    )
+    confidence_top_row: float = param(
+        0.3, "1", "Confidence of a depth from the top row and class height.", _SYNTH
+    )
     confidence_behind: float = param(0.25, "1", "Confidence of a depth just behind the occluder.", _SYNTH)
     confidence_height_partial: float = param(
         0.2, "1", "Confidence of a depth bounded by a cut object's visible height.", _SYNTH
@@ -208,7 +216,10 @@ class PlacementParams:
         "convention: beyond any street scene on both ends",
     )
     silhouette_grid_points: int = param(
-        400, "count", "Grid points of that search (refined by interpolation).", "convention: sub-percent steps"
+        400,
+        "count",
+        "Grid points of that search (refined by interpolation).",
+        "convention: sub-percent steps",
     )
     near_plane_m: float = param(
         0.05,
@@ -260,7 +271,7 @@ class PlacementParams:
     ordering_similar_rows_px: float = param(
         2.0,
         "px",
-        "Contact rows closer than this count as the paper's \"similar Y\" in its ordering rules.",
+        'Contact rows closer than this count as the paper\'s "similar Y" in its ordering rules.',
         "convention: the paper gives no number; two pixels of label noise",
     )
 

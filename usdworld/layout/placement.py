@@ -41,6 +41,7 @@ from usdworld.layout.drafting import draft_object
 from usdworld.layout.occlusion import drop_unbounded, move_behind_occluders, place_behind_occluders
 from usdworld.layout.ordering import apply_ordering_rules
 from usdworld.layout.rows import onto_street_rows
+from usdworld.layout.surfaces import MAX_RANGE_M
 from usdworld.layout.yaw import RoadAxis
 from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.depth.fusion import DepthCue
@@ -112,7 +113,7 @@ def place_objects(
     depth_map: DepthMap | None = None,
     sidewalk_lift: bool = True,
     camera_sigma: tuple[float, float] = (0.0, 0.0),
-    max_partial_depth_m: float = 80.0,
+    max_partial_depth_m: float = MAX_RANGE_M,
     sidewalk_ground: np.ndarray | None = None,
 ) -> tuple[list[Placement], list[str]]:
     """Place every object in the world frame, then resolve footprint collisions.
@@ -131,7 +132,7 @@ def place_objects(
         camera_sigma: standard deviations of the camera height (m) and pitch (rad),
             which widen the ground-contact cue when the camera was estimated.
         max_partial_depth_m: objects whose depth is only an upper bound (cut or hidden
-            bottom) are dropped beyond this depth (the world's range).
+            bottom) are dropped beyond this depth (the world's range; the default is the meshed ground's).
         sidewalk_ground: (N, 2) float64 ground points of sidewalk pixels, or None; they
             give the rows (:mod:`usdworld.layout.street_lines`) no object measured.
 

@@ -6,6 +6,12 @@ import numpy as np
 import pytest
 
 from usdworld.layout.ordering import apply_ordering_rules
+from usdworld.parameters.placement import PlacementParams
+
+PAPER = {
+    "delta_m": PlacementParams().ordering_delta_m,
+    "similar_rows_px": PlacementParams().ordering_similar_rows_px,
+}
 
 
 def test_rule1_similar_rows_take_the_closer_depth():
@@ -13,6 +19,7 @@ def test_rule1_similar_rows_take_the_closer_depth():
         contact_v=np.array([300.0, 301.0]),
         depth_m=np.array([10.0, 12.5]),
         boxes_px=np.array([[0, 200, 50, 300], [400, 200, 450, 301]], dtype=float),
+        **PAPER,
     )
     np.testing.assert_allclose(result.depth_m, [10.0, 10.0])
     assert list(result.rule) == ["", "rule1"]
@@ -20,7 +27,10 @@ def test_rule1_similar_rows_take_the_closer_depth():
 
 def test_rule1_ignores_small_differences():
     result = apply_ordering_rules(
-        np.array([300.0, 301.0]), np.array([10.0, 10.9]), np.array([[0, 0, 1, 1], [5, 0, 6, 1]], dtype=float)
+        np.array([300.0, 301.0]),
+        np.array([10.0, 10.9]),
+        np.array([[0, 0, 1, 1], [5, 0, 6, 1]], dtype=float),
+        **PAPER,
     )
     np.testing.assert_allclose(result.depth_m, [10.0, 10.9])
 
@@ -33,6 +43,7 @@ def test_rule2_higher_overlapping_object_moves_behind():
         depth_m=np.array([15.0, 12.0]),
         boxes_px=np.array([[100, 250, 300, 400], [200, 200, 350, 300]], dtype=float),
         delta_m=1.0,
+        similar_rows_px=2.0,
     )
     np.testing.assert_allclose(result.depth_m, [15.0, 16.0])
     assert result.rule[1] == "rule2"
@@ -40,7 +51,10 @@ def test_rule2_higher_overlapping_object_moves_behind():
 
 def test_rule2_needs_horizontal_overlap():
     result = apply_ordering_rules(
-        np.array([400.0, 300.0]), np.array([15.0, 12.0]), np.array([[0, 0, 100, 400], [500, 0, 600, 300]], dtype=float)
+        np.array([400.0, 300.0]),
+        np.array([15.0, 12.0]),
+        np.array([[0, 0, 100, 400], [500, 0, 600, 300]], dtype=float),
+        **PAPER,
     )
     np.testing.assert_allclose(result.depth_m, [15.0, 12.0])
 
@@ -52,6 +66,8 @@ def test_order_independent(seed):
     d = rng.uniform(5, 40, 8)
     x0 = rng.uniform(0, 800, 8)
     boxes = np.column_stack([x0, v - 50, x0 + 120, v])
-    base = apply_ordering_rules(v, d, boxes).depth_m
+    base = apply_ordering_rules(v, d, boxes, **PAPER).depth_m
     perm = rng.permutation(8)
-    np.testing.assert_allclose(apply_ordering_rules(v[perm], d[perm], boxes[perm]).depth_m, base[perm])
+    np.testing.assert_allclose(
+        apply_ordering_rules(v[perm], d[perm], boxes[perm], **PAPER).depth_m, base[perm]
+    )

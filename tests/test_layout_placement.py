@@ -7,8 +7,10 @@ import numpy as np
 from usdworld.authoring.asset_library import library_dirs
 from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.geometry.camera import PinholeCamera
+from usdworld.io.class_table import load_class_table
 from usdworld.layout.placement import place_objects
 from usdworld.layout.yaw import RoadAxis
+from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.objects import ImageObject
 
 K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
@@ -42,7 +44,13 @@ def test_a_sliver_of_stuff_past_a_near_car_is_not_put_behind_it():
     sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
     ground_from_px = np.linalg.inv(CAM.px_from_ground())
     placements, skipped = place_objects(
-        objects, CAM, ground_from_px, RoadAxis(0.0, np.zeros(2), "camera_forward"), sizes
+        objects,
+        CAM,
+        ground_from_px,
+        RoadAxis(0.0, np.zeros(2), "camera_forward"),
+        sizes,
+        load_class_table(),
+        PlacementParams(),
     )
     placed = {p.obj.ref: p for p in placements}
     assert 2 not in placed and "tree_0001" in skipped
@@ -60,7 +68,15 @@ def test_a_person_under_a_crown_does_not_push_the_tree():
     objects = [person, tree]
     sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
     ground_from_px = np.linalg.inv(CAM.px_from_ground())
-    placements, _ = place_objects(objects, CAM, ground_from_px, RoadAxis(0.0, np.zeros(2), "camera_forward"), sizes)
+    placements, _ = place_objects(
+        objects,
+        CAM,
+        ground_from_px,
+        RoadAxis(0.0, np.zeros(2), "camera_forward"),
+        sizes,
+        load_class_table(),
+        PlacementParams(),
+    )
     placed = {p.obj.ref: p for p in placements}
     assert set(placed) == {1, 2}
     crown = placed[2].size_m[:2].max() / 2

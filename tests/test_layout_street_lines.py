@@ -12,10 +12,10 @@ from hypothesis import strategies as st
 from usdworld.authoring.asset_library import library_dirs
 from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.geometry.camera import PinholeCamera
+from usdworld.io.class_table import load_class_table
 from usdworld.layout.placement import place_objects
+from usdworld.layout.rows import line_pixel
 from usdworld.layout.street_lines import (
-    KERB_SETBACK_M,
-    MAX_SPREAD_M,
     StreetLine,
     depth_on_line,
     fit_street_lines,
@@ -25,11 +25,14 @@ from usdworld.layout.street_lines import (
     sidewalk_lines,
 )
 from usdworld.layout.yaw import RoadAxis
+from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.objects import ImageObject
 
 K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
 LEVEL = PinholeCamera(1024, 512, K, 1.5)
 FORWARD = RoadAxis(0.0, np.zeros(2), "camera_forward")
+TABLE = load_class_table()
+PARAMS = PlacementParams()
 
 
 def test_lateral_offsets_are_signed_distances_from_a_turned_axis():
@@ -43,7 +46,7 @@ def test_lateral_offsets_are_signed_distances_from_a_turned_axis():
 def test_one_line_per_class_and_side_at_the_median_offset():
     names = ["tree", "tree", "tree", "building", "building", "car"]
     pts = np.array([[10, -4.0], [20, -4.2], [30, 5.0], [15, 12.0], [40, 12.4], [12, -1.0]])
-    lines = fit_street_lines(names, pts, FORWARD)
+    lines = fit_street_lines(names, pts, FORWARD, TABLE, PARAMS)
     got = {(ln.class_name, ln.side): (ln.offset_m, ln.support) for ln in lines}
     assert got == {
         ("building", 1): (pytest.approx(12.2), 2),
@@ -54,8 +57,8 @@ def test_one_line_per_class_and_side_at_the_median_offset():
 
 def test_objects_scattered_across_a_side_make_no_row():
     pts = np.array([[10, -2.0], [20, -5.0], [30, -9.0]])
-    assert 2 * MAX_SPREAD_M["tree"] < 3.0
-    assert fit_street_lines(["tree"] * 3, pts, FORWARD) == []
+    assert 2 * PARAMS.row_max_spread_m < 3.0
+    assert fit_street_lines(["tree"] * 3, pts, FORWARD, TABLE, PARAMS) == []
 
 
 def test_a_ray_meets_the_row_at_the_depth_of_the_point_it_came_from():
@@ -131,7 +134,7 @@ def _place(objects: list[ImageObject], sidewalk: np.ndarray | None = None) -> tu
     sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
     ground_from_px = np.linalg.inv(LEVEL.px_from_ground())
     placements, skipped = place_objects(
-        objects, LEVEL, ground_from_px, FORWARD, sizes, sidewalk_ground=sidewalk
+        objects, LEVEL, ground_from_px, FORWARD, sizes, TABLE, PARAMS, sidewalk_ground=sidewalk
     )
     return {p.obj.ref: p for p in placements}, skipped
 
@@ -176,14 +179,14 @@ def _sidewalk(kerb: float, back: float, side: int) -> np.ndarray:
 def test_the_sidewalk_gives_rows_for_the_classes_no_object_measured():
     right = _sidewalk(4.0, 8.0, -1)
     measured = [StreetLine("tree", -1, -5.5, 2, 0.1)]
-    lines = {(ln.class_name, ln.side): ln for ln in sidewalk_lines(right, FORWARD, measured)}
+    lines = {(ln.class_name, ln.side): ln for ln in sidewalk_lines(right, FORWARD, TABLE, PARAMS, measured)}
     assert set(lines) == {("building", -1), ("pole", -1), ("traffic_sign", -1)}  # the trees' own row stands
     assert lines["building", -1].offset_m == pytest.approx(-7.8)  # the 95th percentile of 4..8 m
-    assert lines["pole", -1].offset_m == pytest.approx(-(4.2 + KERB_SETBACK_M["pole"]))
+    assert lines["pole", -1].offset_m == pytest.approx(-(4.2 + PARAMS.post_kerb_setback_m))
     assert all(ln.support == 0 and ln.source == "sidewalk" for ln in lines.values())
     assert lines["pole", -1].spread_m == pytest.approx(0.25 * 3.6)
-    assert sidewalk_lines(right[:10], FORWARD) == []  # too few points to measure
-    assert sidewalk_lines(None, FORWARD) == []
+    assert sidewalk_lines(right[:10], FORWARD, TABLE, PARAMS) == []  # too few points to measure
+    assert sidewalk_lines(None, FORWARD, TABLE, PARAMS) == []
 
 
 def test_a_tree_with_no_row_of_its_own_stands_behind_the_kerb_at_its_measured_height():
@@ -210,13 +213,18 @@ def test_parked_cars_give_the_kerb_where_no_sidewalk_shows():
     measured = [StreetLine("pole", -1, -6.5, 1, 0.1)]
     lines = {
         (ln.class_name, ln.side): ln
-        for ln in parked_car_lines(ground, headings, np.full(4, 1.8), FORWARD, np.zeros(2), measured)
+        for ln in parked_car_lines(
+            ground, headings, np.full(4, 1.8), FORWARD, np.zeros(2), TABLE, PARAMS, measured
+        )
     }
     assert set(lines) == {("tree", -1), ("traffic_sign", -1)}  # the poles' own row stands; no building line
     kerb = 5.0 + 0.9 + 0.3
-    assert lines["tree", -1].offset_m == pytest.approx(-(kerb + KERB_SETBACK_M["tree"]))
+    assert lines["tree", -1].offset_m == pytest.approx(-(kerb + PARAMS.tree_kerb_setback_m))
     assert all(ln.source == "parked_cars" and ln.support == 0 for ln in lines.values())
-    assert parked_car_lines(np.zeros((0, 2)), np.zeros(0), np.zeros(0), FORWARD, np.zeros(2)) == []
+    assert (
+        parked_car_lines(np.zeros((0, 2)), np.zeros(0), np.zeros(0), FORWARD, np.zeros(2), TABLE, PARAMS)
+        == []
+    )
 
 
 def test_a_tree_behind_parked_cars_with_no_sidewalk_in_view_stands_behind_their_kerb():
@@ -230,7 +238,7 @@ def test_a_tree_behind_parked_cars_with_no_sidewalk_in_view_stands_behind_their_
     assert tree.depth_method == "street_line"
     assert "the parked cars line" in {c.name: c for c in tree.cues}["street_line"].note
     # the tree row: the car's kerb side (its centre + half its width) + 0.3 m + 1 m
-    expected = parked.position_world[1] + parked.size_m[1] / 2 + 0.3 + KERB_SETBACK_M["tree"]
+    expected = parked.position_world[1] + parked.size_m[1] / 2 + 0.3 + PARAMS.tree_kerb_setback_m
     assert tree.position_world[1] == pytest.approx(expected, abs=0.1)
 
 
@@ -271,13 +279,11 @@ def test_a_lone_tree_off_the_sidewalk_row_does_not_make_a_row_of_its_own():
 
 
 def test_a_hidden_post_is_found_on_its_row_below_its_post_a_crown_below_its_middle():
-    from usdworld.layout.placement import _line_pixel
-
     tree = _obj((100, 50, 160, 120), 1, hidden=True)
     tree = ImageObject(**{**tree.__dict__, "contact_px": np.array([150.5, 119.5])})
-    assert _line_pixel(tree, 1000).tolist() == [130.0, 119.5]  # a trunk stands below its crown
+    assert line_pixel(tree, 1000, TABLE).tolist() == [130.0, 119.5]  # a trunk stands below its crown
     lamp = ImageObject(**{**tree.__dict__, "class_name": "pole", "source_label": "pole"})
-    assert _line_pixel(lamp, 1000).tolist() == [150.5, 119.5]  # a post where its lowest columns are
+    assert line_pixel(lamp, 1000, TABLE).tolist() == [150.5, 119.5]  # a post where its lowest columns are
 
 
 def _wall(x0: float, x1: float, y: float, height: float, ref: int, hidden_by: int = -1) -> ImageObject:

@@ -12,6 +12,7 @@ from usdworld.io.label_table import label_lookups
 from usdworld.io.types import Detection, Detections, InputFile
 from usdworld.layout.boxes import box_corners, fit_view_angle
 from usdworld.layout.yaw import view_angle_from_box, yaw_from_view_angle
+from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.objects import objects_from_detections
 
 K = np.array([[721.5, 0.0, 609.6], [0.0, 721.5, 172.9], [0.0, 0.0, 1.0]])
@@ -48,7 +49,7 @@ def test_turn_recovered_from_a_projected_box(depth: float, lateral: float, turn_
     dets = Detections((Detection("Car", box, amodal=True),), InputFile("detections", "d.txt", "0" * 64))
     (obj,) = objects_from_detections(dets, TELE.width, TELE.height, lookups=label_lookups())
     hidden = np.degrees(CAR[1] / depth)
-    assert np.degrees(fit_view_angle(TELE, centre, np.array(CAR), obj)) == pytest.approx(
+    assert np.degrees(fit_view_angle(TELE, centre, np.array(CAR), obj, PlacementParams())) == pytest.approx(
         turn_deg, abs=1.0 + hidden
     )
 

@@ -15,12 +15,16 @@ from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.class_table import load_class_table
 from usdworld.io.label_table import label_lookups
 from usdworld.io.types import Segmentation
-from usdworld.layout.placement import CURB_HEIGHT_M, FACADE_HEIGHT_NOTE, out_of_view_frontage, place_objects
-from usdworld.layout.priors import prior_for
+from usdworld.layout.cues import FACADE_HEIGHT_NOTE
+from usdworld.layout.facades import out_of_view_frontage
+from usdworld.layout.placement import place_objects
 from usdworld.layout.yaw import RoadAxis, choose_yaw
-from usdworld.parameters import PerceptionParams
+from usdworld.parameters import PerceptionParams, PlacementParams
 from usdworld.perception.facades import StreetView, base_frontage_m, facade_ranges
 from usdworld.perception.objects import ImageObject, objects_from_segmentation
+
+CURB_HEIGHT_M = PlacementParams().curb_height_m
+TABLE = load_class_table()
 
 W, H = 1024, 512
 K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
@@ -188,9 +192,11 @@ def test_a_facade_run_becomes_buildings_behind_their_fronts():
     sizes = asset_catalogue((o.class_name for o in buildings), library_dirs(None))
     ground_from_px = np.linalg.inv(CAM.px_from_ground())
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
-    placements, _ = place_objects(buildings, CAM, ground_from_px, axis, sizes)
+    placements, _ = place_objects(
+        buildings, CAM, ground_from_px, axis, sizes, load_class_table(), PlacementParams()
+    )
     assert len(placements) == 3
-    depth = prior_for("building").facade_depth_m
+    depth = TABLE["building"].facade_depth_m
     for p in sorted(placements, key=lambda p: p.position_world[0]):
         assert np.degrees(p.yaw) == pytest.approx(-90.0)
         # the footprint behind the wall takes the class's usual depth, whatever the
@@ -215,11 +221,19 @@ def test_a_building_running_out_of_the_image_keeps_its_seen_end():
     assert len(buildings) == 1 and buildings[0].box_px[0] == 0
     sizes = asset_catalogue((o.class_name for o in buildings), library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
-    (placed,), _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
-    lo, hi = prior_for("building").frontage_range_m
+    (placed,), _ = place_objects(
+        buildings,
+        CAM,
+        np.linalg.inv(CAM.px_from_ground()),
+        axis,
+        sizes,
+        load_class_table(),
+        PlacementParams(),
+    )
+    lo, hi = TABLE["building"].frontage_range_m
     assert (lo, hi) == (8.0, 25.0)
     assert placed.size_m[1] == pytest.approx(0.5 * (lo + hi), abs=0.3)
-    assert placed.size_m[0] == pytest.approx(prior_for("building").facade_depth_m)
+    assert placed.size_m[0] == pytest.approx(TABLE["building"].facade_depth_m)
     assert placed.position_world[0] + placed.size_m[1] / 2 == pytest.approx(20.0, abs=0.7)
     assert placed.position_world[0] == pytest.approx(
         20.0 - 16.5 / 2, abs=0.7
@@ -240,7 +254,15 @@ def test_stretched_buildings_are_authored_with_their_footprint(tmp_path):
     ]
     sizes = asset_catalogue((o.class_name for o in buildings), library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
-    placements, _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
+    placements, _ = place_objects(
+        buildings,
+        CAM,
+        np.linalg.inv(CAM.px_from_ground()),
+        axis,
+        sizes,
+        load_class_table(),
+        PlacementParams(),
+    )
     stage = Usd.Stage.CreateNew(str(tmp_path / "w.usda"))
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
@@ -279,12 +301,12 @@ def test_facade_priors_are_checked():
 
     from usdworld.errors import InputError
 
-    building = prior_for("building")
+    building = TABLE["building"]
     with pytest.raises(InputError, match="facade_depth_m: must be > 0"):
         dataclasses.replace(building, facade_depth_m=0.0)
     with pytest.raises(InputError, match="frontage_range_m"):
         dataclasses.replace(building, frontage_range_m=(20.0, 10.0))
-    assert prior_for("car").facade_depth_m is None and prior_for("car").frontage_range_m is None
+    assert TABLE["car"].facade_depth_m is None and TABLE["car"].frontage_range_m is None
 
 
 def test_a_facade_whose_base_is_seen_is_not_placed_by_its_height():
@@ -299,7 +321,15 @@ def test_a_facade_whose_base_is_seen_is_not_placed_by_its_height():
     assert buildings and not any(b.top_truncated for b in buildings)
     sizes = asset_catalogue((o.class_name for o in buildings), library_dirs(None))
     axis = RoadAxis(0.0, np.zeros(2), "vanishing_point")
-    placements, _ = place_objects(buildings, CAM, np.linalg.inv(CAM.px_from_ground()), axis, sizes)
+    placements, _ = place_objects(
+        buildings,
+        CAM,
+        np.linalg.inv(CAM.px_from_ground()),
+        axis,
+        sizes,
+        load_class_table(),
+        PlacementParams(),
+    )
     for p in placements:
         height = next(c for c in p.cues if c.name == "height")
         assert not height.available and height.note == FACADE_HEIGHT_NOTE

@@ -8,7 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from usdworld.authoring.asset_measures import variant_measures
-from usdworld.layout.placement import AssetSizes, _choose_variant
+from usdworld.layout.asset_sizes import AssetSizes, choose_variant
+from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.shape import top_shape_ratio
 
 
@@ -55,9 +56,32 @@ def test_variant_chosen_by_top_shape_when_height_is_unknown():
         top_shape_by_variant={"conifer": 1.06, "deciduous": 0.04},
     )
     hidden_cone = _cone(120, 0.25)[:70]  # a conifer whose lower half a car hides
-    assert _choose_variant(sizes, float("nan"), float("nan"), 0.0, top_shape_ratio(hidden_cone)) == "conifer"
-    assert _choose_variant(sizes, float("nan"), float("nan"), 0.0, top_shape_ratio(_disc(30))) == "deciduous"
-    assert _choose_variant(sizes, float("nan"), float("nan"), 0.0, None) == "deciduous"
+    assert (
+        choose_variant(
+            sizes,
+            float("nan"),
+            float("nan"),
+            0.0,
+            top_shape_ratio(hidden_cone),
+            PlacementParams().top_shape_offset,
+        )
+        == "conifer"
+    )
+    assert (
+        choose_variant(
+            sizes,
+            float("nan"),
+            float("nan"),
+            0.0,
+            top_shape_ratio(_disc(30)),
+            PlacementParams().top_shape_offset,
+        )
+        == "deciduous"
+    )
+    assert (
+        choose_variant(sizes, float("nan"), float("nan"), 0.0, None, PlacementParams().top_shape_offset)
+        == "deciduous"
+    )
 
 
 def test_mean_contact_reach_of_a_person_is_below_its_largest_half_extent():

@@ -332,6 +332,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     axis = road_axis(
         surface_points(road, fit.dst_from_src, camera, max_range_m, stride) if road is not None else None,
         vanishing_angle=vanishing_yaw(head.vanishing, camera),
+        params=params.placement,
     )
     placements, skipped = place_objects(
         head.objects,
@@ -339,6 +340,8 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         fit.dst_from_src,
         axis,
         head.catalogue,
+        table,
+        params.placement,
         dense.depth_map,
         camera_sigma=(head.camera.sigma_height_m, head.camera.sigma_pitch),
         max_partial_depth_m=max_range_m,

@@ -554,9 +554,9 @@ def convert_model(
 
 
 def _class_size(class_name: str) -> tuple[float, float, float] | None:
-    from usdworld.layout.priors import class_priors
+    from usdworld.io.class_table import load_class_table
 
-    prior = class_priors().get(class_name)
+    prior = load_class_table().get(class_name)
     return prior.size_m if prior is not None else None
 
 

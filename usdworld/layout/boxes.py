@@ -13,14 +13,10 @@ from __future__ import annotations
 import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
-from usdworld.layout.priors import ClassPrior
-from usdworld.layout.yaw import view_angle_from_box
+from usdworld.io.class_table import ClassPrior
+from usdworld.layout.yaw import RoadAxis, choose_yaw, view_angle_from_box, yaw_from_view_angle
+from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.objects import ImageObject
-
-#: Largest sideways correction of the box alignment, as a fraction of the object's width.
-MAX_ALIGN_SHIFT = 1.0
-#: Turns tried when fitting a box's aspect, degrees (0 = end on, 90 = side on).
-VIEW_ANGLES_DEG = np.arange(0.0, 90.5, 1.0)
 
 
 def box_corners(centre_xy: np.ndarray, yaw: float, size_lwh: np.ndarray) -> np.ndarray:
@@ -56,7 +52,7 @@ def box_view_angle(obj: ImageObject, prior: ClassPrior, image_width: int) -> flo
 
 
 def fit_view_angle(
-    camera: PinholeCamera, ground: np.ndarray, size_lwh: np.ndarray, obj: ImageObject
+    camera: PinholeCamera, ground: np.ndarray, size_lwh: np.ndarray, obj: ImageObject, params: PlacementParams
 ) -> float:
     """The turn from the line of sight whose projected box has the image box's aspect.
 
@@ -71,6 +67,7 @@ def fit_view_angle(
         ground: (2,) footprint centre, metres.
         size_lwh: (3,) the class's length, width and height, metres.
         obj: the image evidence (a usable box: :func:`box_aspect_usable`).
+        params: the turns tried (:attr:`~PlacementParams.view_angles_deg`).
 
     Returns:
         The angle in [0, pi/2] radians.
@@ -78,8 +75,9 @@ def fit_view_angle(
     x0, y0, x1, y1 = (float(b) for b in obj.box_px)
     observed = (x1 - x0) / (y1 - y0)
     bearing = float(np.arctan2(ground[1], ground[0]))
+    angles_deg = params.view_angles_deg
     aspects = []
-    for angle in np.radians(VIEW_ANGLES_DEG):
+    for angle in np.radians(angles_deg):
         px, depth = camera.project(box_corners(ground, bearing + angle, np.asarray(size_lwh)))
         ok = np.isfinite(px).all() and bool(np.all(depth > 0))
         aspects.append(np.ptp(px[:, 0]) / max(np.ptp(px[:, 1]), 1e-9) if ok else np.nan)
@@ -90,24 +88,29 @@ def fit_view_angle(
     if observed <= curve[0]:
         return 0.0
     if observed >= curve[-1]:
-        return float(np.radians(VIEW_ANGLES_DEG[peak]))
+        return float(np.radians(angles_deg[peak]))
     rising = curve[: peak + 1]
     k = int(np.searchsorted(rising, observed))
     k = min(max(k, 1), peak)
-    a0, a1 = VIEW_ANGLES_DEG[k - 1], VIEW_ANGLES_DEG[k]
+    a0, a1 = angles_deg[k - 1], angles_deg[k]
     t = (observed - rising[k - 1]) / max(rising[k] - rising[k - 1], 1e-12)
     return float(np.radians(a0 + np.clip(t, 0.0, 1.0) * (a1 - a0)))
 
 
 def align_box_columns(
-    camera: PinholeCamera, ground: np.ndarray, yaw: float, size: np.ndarray, obj: ImageObject
+    camera: PinholeCamera,
+    ground: np.ndarray,
+    yaw: float,
+    size: np.ndarray,
+    obj: ImageObject,
+    params: PlacementParams,
 ) -> np.ndarray:
     """Shift an object sideways so that its projected 3D box spans the same columns as the image box.
 
     The box centre column is not the projection of the object's centre when the object
     is seen at an angle (its near side widens the box). A few fixed-point steps move the
     centre perpendicular to the viewing ray until the projected and observed box centres
-    agree. Boxes cut by the left or right image border are left alone.
+    agree, by at most ``box_align_max_shift`` of the object's width. Boxes cut by the left or right image border are left alone.
 
     Args:
         camera: the source camera.
@@ -115,6 +118,7 @@ def align_box_columns(
         yaw: object yaw, radians.
         size: (3,) float64 length, width, height.
         obj: the image evidence.
+        params: the alignment's steps and largest shift.
 
     Returns:
         (2,) float64 corrected footprint centre.
@@ -124,7 +128,7 @@ def align_box_columns(
         return ground
     start = np.asarray(ground, dtype=np.float64)
     centre = start.copy()
-    for _ in range(4):
+    for _ in range(params.box_align_iterations):
         px, depth = camera.project(box_corners(centre, yaw, size))
         if not np.isfinite(px).all():
             return ground
@@ -133,6 +137,36 @@ def align_box_columns(
         left = np.array([-np.sin(bearing), np.cos(bearing)])
         centre = centre - left * error_px * float(np.mean(depth)) / camera.fx
     shift = centre - start
-    limit = MAX_ALIGN_SHIFT * float(size[1])
+    limit = params.box_align_max_shift * float(size[1])
     norm = float(np.linalg.norm(shift))
     return start + shift * (limit / norm) if norm > limit else centre
+
+
+def object_yaw(
+    prior: ClassPrior,
+    point: np.ndarray,
+    axis: RoadAxis,
+    obj: ImageObject,
+    camera: PinholeCamera,
+    params: PlacementParams,
+) -> tuple[float, str]:
+    """The class's yaw rule at ``point`` (:func:`usdworld.layout.yaw.choose_yaw`), turned to
+    match a whole box's aspect when there is one (:func:`fit_view_angle`).
+
+    Args:
+        prior: the object's class prior (its yaw mode and size).
+        point: (2,) float64 ground point of the object.
+        axis: the road axis.
+        obj: the image evidence.
+        camera: the source camera.
+        params: the turns tried by the box fit.
+
+    Returns:
+        (yaw in radians, source label; ``box_aspect_`` prefixed when the box turned it).
+    """
+    yaw, source = choose_yaw(prior.yaw, point, axis)
+    if not box_aspect_usable(obj, prior, camera.width):
+        return yaw, source
+    angle = fit_view_angle(camera, point, prior.size_m, obj, params)
+    bearing = float(np.arctan2(point[1], point[0]))
+    return yaw_from_view_angle(angle, bearing, yaw), f"box_aspect_{source}"

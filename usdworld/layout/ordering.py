@@ -38,8 +38,8 @@ def apply_ordering_rules(
     depth_m: np.ndarray,
     boxes_px: np.ndarray,
     *,
-    delta_m: float = 1.0,
-    similar_rows_px: float = 2.0,
+    delta_m: float,
+    similar_rows_px: float,
 ) -> OrderingResult:
     """Apply rules 1 and 2 of the paper's post-processing.
 
@@ -47,8 +47,9 @@ def apply_ordering_rules(
         contact_v: (N,) float64 contact rows, pixels.
         depth_m: (N,) float64 per-object depths, metres.
         boxes_px: (N, 4) float64 boxes ``xmin, ymin, xmax, ymax``.
-        delta_m: the paper's threshold delta (1 m).
-        similar_rows_px: rows closer than this count as "similar Y".
+        delta_m: the paper's threshold delta, metres (``PlacementParams.ordering_delta_m``).
+        similar_rows_px: rows closer than this count as "similar Y"
+            (``PlacementParams.ordering_similar_rows_px``).
 
     Returns:
         The corrected depths; input order is kept. The result does not depend on

@@ -19,11 +19,12 @@ from __future__ import annotations
 import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
+from usdworld.parameters.placement import PlacementParams
 
-#: Depth range searched, metres.
-DEPTH_RANGE_M = (0.3, 1000.0)
-#: Grid points of the search (log-spaced).
-GRID_POINTS = 400
+
+def _depth_grid(params: PlacementParams) -> np.ndarray:
+    """(G,) float64 candidate depths, log-spaced over ``silhouette_depth_range_m``, metres."""
+    return np.geomspace(*params.silhouette_depth_range_m, params.silhouette_grid_points)
 
 
 def top_offsets(
@@ -62,6 +63,7 @@ def silhouette_rows(
     depths_m: np.ndarray,
     height_m: float,
     offsets_m: tuple[float, float],
+    near_plane_m: float,
 ) -> np.ndarray:
     """Predicted pixel height of an upright object for each candidate contact depth.
 
@@ -72,6 +74,7 @@ def silhouette_rows(
         depths_m: (G,) candidate depths of the contact point along the optical axis.
         height_m: the object's height, metres.
         offsets_m: (near, far) edges of its top beyond the contact (:func:`top_offsets`).
+        near_plane_m: points nearer than this along the optical axis count as behind the camera.
 
     Returns:
         (G,) float64 pixel heights (NaN where a point falls behind the camera).
@@ -93,7 +96,7 @@ def silhouette_rows(
     rows = []
     for pts in points:
         px, depth = camera.project(pts)
-        rows.append(np.where(depth > 0.05, px[:, 1], np.nan))
+        rows.append(np.where(depth > near_plane_m, px[:, 1], np.nan))
     top_row = np.fmin(rows[1], rows[2])
     return rows[0] - top_row
 
@@ -104,6 +107,7 @@ def depth_from_silhouette(
     height_px: float,
     height_m: float,
     offsets_m: tuple[float, float],
+    params: PlacementParams,
 ) -> float | None:
     """The contact depth at which the object would look ``height_px`` tall.
 
@@ -113,6 +117,7 @@ def depth_from_silhouette(
         height_px: measured silhouette height (bottom row minus top row), pixels, > 0.
         height_m: the object's height, metres.
         offsets_m: (near, far) edges of its top beyond the contact (:func:`top_offsets`).
+        params: the depth grid searched and the near plane.
 
     Returns:
         Depth in metres along the optical axis, or None when no depth in range fits
@@ -122,11 +127,11 @@ def depth_from_silhouette(
         >>> from usdworld.geometry.camera import PinholeCamera
         >>> K = np.array([[1000.0, 0, 500], [0, 1000.0, 250], [0, 0, 1]])
         >>> cam = PinholeCamera(K=K, width=1000, height=500, height_m=1.5)
-        >>> round(depth_from_silhouette(cam, (500.0, 400.0), 100.0, 2.0, (0.0, 0.0)), 2)
+        >>> round(depth_from_silhouette(cam, (500.0, 400.0), 100.0, 2.0, (0.0, 0.0), PlacementParams()), 2)
         20.0
     """
-    grid = np.geomspace(*DEPTH_RANGE_M, GRID_POINTS)
-    h = silhouette_rows(camera, contact_px, grid, height_m, offsets_m)
+    grid = _depth_grid(params)
+    h = silhouette_rows(camera, contact_px, grid, height_m, offsets_m, params.near_plane_m)
     ok = np.isfinite(h) & (h > 0)
     if not ok.any():
         return None
@@ -145,7 +150,12 @@ def depth_from_silhouette(
 
 
 def depth_from_top_row(
-    camera: PinholeCamera, u: float, v_top: float, height_m: float, height_std_m: float
+    camera: PinholeCamera,
+    u: float,
+    v_top: float,
+    height_m: float,
+    height_std_m: float,
+    params: PlacementParams,
 ) -> tuple[float, float] | None:
     """Depth of an upright object whose top, ``height_m`` above the ground, is seen at row ``v_top``.
 
@@ -161,16 +171,18 @@ def depth_from_top_row(
         v_top: row of the object's top, pixels.
         height_m: the object's assumed height, metres.
         height_std_m: the spread of that height, metres.
+        params: the depth grid, the near plane and ``top_row_min_clearance_sigmas``.
 
     Returns:
         (depth, sigma) in metres along the optical axis, or None when the height is too
-        close to the camera's for the row to say anything (sigma above half the depth),
-        or no depth in range fits.
+        close to the camera's for the row to say anything (within
+        ``top_row_min_clearance_sigmas`` spreads: sigma above half the depth), or no depth
+        in range fits.
     """
     clearance = abs(height_m - camera.height_m)
-    if clearance <= 2.0 * height_std_m:
+    if clearance <= params.top_row_min_clearance_sigmas * height_std_m:
         return None
-    grid = np.geomspace(*DEPTH_RANGE_M, GRID_POINTS)
+    grid = _depth_grid(params)
     ray = camera.rays_world(np.array([[u, v_top]], dtype=np.float64))[0]
     ahead = np.array([ray[0], ray[1]], dtype=np.float64)
     ahead /= max(float(np.linalg.norm(ahead)), 1e-12)
@@ -179,7 +191,7 @@ def depth_from_top_row(
         return None
     base = camera.center_world[:2][None, :] + (grid / rate)[:, None] * ahead[None, :]
     px, depth = camera.project(np.column_stack([base, np.full(len(grid), height_m)]))
-    rows = np.where(depth > 0.05, px[:, 1], np.nan)
+    rows = np.where(depth > params.near_plane_m, px[:, 1], np.nan)
     # Rows approach the horizon from below (top under the camera) or above (over it).
     gap = rows - v_top
     signs = np.sign(gap)

@@ -10,7 +10,7 @@ bottom and its occluder give.
 
 Where no object of the class shows its contact on that side, the sidewalk gives the
 row: facades stand at its back edge, and street furniture and trees a customary
-distance behind the kerb (:data:`KERB_SETBACK_M`), measured on the sidewalk's ground
+distance behind the kerb (:func:`kerb_setback_m`), measured on the sidewalk's ground
 points (:func:`sidewalk_lines`). Where parked cars hide that side's sidewalk too, the
 cars give the kerb: they park along it (:func:`parked_car_lines`).
 
@@ -26,36 +26,24 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
+from usdworld.io.class_table import ClassTable
 from usdworld.layout.yaw import RoadAxis
-
-#: Classes that stand in rows along a street.
-LINE_CLASSES = frozenset({"building", "tree", "pole", "traffic_sign"})
-#: A line needs this many objects with a seen contact on its side of the street (one
-#: tree with its trunk in view sets the row for the others behind parked cars).
-MIN_SUPPORT = 1
-#: A row whose supporting offsets spread more than this (median absolute deviation,
-#: metres) is no row: the class stands anywhere on that side.
-MAX_SPREAD_M = {"building": 1.5, "tree": 0.75, "pole": 0.75, "traffic_sign": 0.75}
+from usdworld.parameters.placement import PlacementParams
 
 
-#: Where a class stands behind the kerb when none of its row is seen, metres (street
-#: trees are planted about a metre in, posts and signs half a metre); buildings stand
-#: at the sidewalk's back edge.
-KERB_SETBACK_M = {"tree": 1.0, "pole": 0.5, "traffic_sign": 0.5}
-#: The sidewalk's kerb and back edge: these percentiles of its points' distances from
-#: the road axis (a few stray label pixels do not move them).
-SIDEWALK_EDGE_PERCENTILES = (5.0, 95.0)
-#: A side's sidewalk is measured from at least this many ground points.
-MIN_SIDEWALK_POINTS = 50
-#: A row measured by one object alone is dropped when it stands further than this
-#: (metres) from the row the sidewalk gives (:func:`lone_rows_agreeing`).
-LONE_ROW_TOLERANCE_M = 1.5
-#: A parked car's kerb side is about this far from the kerb, metres.
-PARKED_KERB_GAP_M = 0.3
-#: A car parks along the kerb: its heading within this angle of the road's (radians).
-PARKED_HEADING_TOL = np.radians(10.0)
-#: ... and outside the camera's own lane: at least this far to its side, metres.
-PARKED_MIN_SIDEWAYS_M = 3.0
+def kerb_setback_m(class_name: str, classes: ClassTable, params: PlacementParams) -> float | None:
+    """Where a row class stands behind the kerb when none of its row is seen, metres: street
+    trees (``crown``) :attr:`~PlacementParams.tree_kerb_setback_m`, posts and signs
+    :attr:`~PlacementParams.post_kerb_setback_m`; None for facades (they stand at the
+    sidewalk's back edge) and classes that form no row."""
+    if not classes.has(class_name, "line") or classes.has(class_name, "facade"):
+        return None
+    return params.tree_kerb_setback_m if classes.has(class_name, "crown") else params.post_kerb_setback_m
+
+
+def max_spread_m(class_name: str, classes: ClassTable, params: PlacementParams) -> float:
+    """Largest spread of a row's members' offsets (median absolute deviation, metres)."""
+    return params.facade_row_max_spread_m if classes.has(class_name, "facade") else params.row_max_spread_m
 
 
 @dataclass(frozen=True)
@@ -113,7 +101,11 @@ def lateral_offsets(points_ground: np.ndarray, axis: RoadAxis) -> np.ndarray:
 
 
 def fit_street_lines(
-    class_names: Sequence[str], points_ground: np.ndarray, axis: RoadAxis
+    class_names: Sequence[str],
+    points_ground: np.ndarray,
+    axis: RoadAxis,
+    classes: ClassTable,
+    params: PlacementParams,
 ) -> list[StreetLine]:
     """The rows that objects with a seen ground contact form, per class and side.
 
@@ -122,22 +114,24 @@ def fit_street_lines(
         points_ground: (N, 2) float64 ground point of each object's seen contact (a
             facade's front wall, a trunk's foot).
         axis: the road axis.
+        classes: the class table (``line`` classes form rows; ``facade`` ones spread more).
+        params: :attr:`~PlacementParams.row_min_support` and the row spreads.
 
     Returns:
-        One line per (class, side) with at least :data:`MIN_SUPPORT` objects whose
-        offsets agree within :data:`MAX_SPREAD_M`, in class then side order.
+        One line per (``line``) class and side with at least ``row_min_support`` objects
+        whose offsets agree within :func:`max_spread_m`, in class then side order.
     """
     offsets = lateral_offsets(points_ground, axis)
     names = np.asarray(list(class_names), dtype=object)
     lines = []
-    for class_name in sorted(set(class_names) & LINE_CLASSES):
+    for class_name in sorted(set(class_names) & classes.with_role("line")):
         for side in (-1, 1):
             mine = offsets[(names == class_name) & (np.sign(offsets) == side)]
-            if len(mine) < MIN_SUPPORT:
+            if len(mine) < params.row_min_support:
                 continue
             centre = float(np.median(mine))
             spread = float(np.median(np.abs(mine - centre)))
-            if spread <= MAX_SPREAD_M[class_name]:
+            if spread <= max_spread_m(class_name, classes, params):
                 lines.append(StreetLine(class_name, side, centre, len(mine), spread))
     return lines
 
@@ -155,18 +149,25 @@ def unmeasured(rows: Sequence[StreetLine], measured: Sequence[StreetLine]) -> li
 
 
 def sidewalk_lines(
-    sidewalk_ground: np.ndarray | None, axis: RoadAxis, measured: Sequence[StreetLine] = ()
+    sidewalk_ground: np.ndarray | None,
+    axis: RoadAxis,
+    classes: ClassTable,
+    params: PlacementParams,
+    measured: Sequence[StreetLine] = (),
 ) -> list[StreetLine]:
     """Rows the sidewalks give, for the classes and sides no object measured.
 
     Args:
         sidewalk_ground: (N, 2) float64 ground points of sidewalk pixels (within range), or None.
         axis: the road axis.
+        classes: the class table (its ``line`` classes get rows).
+        params: the sidewalk's edges, point count and setbacks.
         measured: rows already measured by objects (their class and side get none here).
 
     Returns:
-        Per side with enough sidewalk points: a building line at the sidewalk's back edge
-        and a row per class of :data:`KERB_SETBACK_M` behind the kerb (within the sidewalk).
+        Per side with at least ``min_sidewalk_points``: a row per ``facade`` class at the
+        sidewalk's back edge and one per other row class its :func:`kerb_setback_m` behind
+        the kerb (within the sidewalk).
     """
     if sidewalk_ground is None or len(sidewalk_ground) == 0:
         return []
@@ -174,20 +175,29 @@ def sidewalk_lines(
     lines = []
     for side in (-1, 1):
         mine = np.abs(offsets[np.sign(offsets) == side])
-        if len(mine) < MIN_SIDEWALK_POINTS:
+        if len(mine) < params.min_sidewalk_points:
             continue
-        kerb, back = (float(v) for v in np.percentile(mine, SIDEWALK_EDGE_PERCENTILES))
-        spread = 0.25 * (back - kerb)
-        places = {"building": back, **{c: min(kerb + d, back) for c, d in KERB_SETBACK_M.items()}}
+        kerb, back = (float(v) for v in np.percentile(mine, params.sidewalk_edge_percentiles))
+        spread = params.sidewalk_row_spread_fraction * (back - kerb)
+        places = {}
+        for class_name in classes.with_role("line"):
+            setback = kerb_setback_m(class_name, classes, params)
+            places[class_name] = back if setback is None else min(kerb + setback, back)
         for class_name, distance in sorted(places.items()):
             lines.append(StreetLine(class_name, side, side * distance, 0, spread, "sidewalk"))
     return unmeasured(lines, measured)
 
 
-def lone_rows_agreeing(measured: Sequence[StreetLine], sidewalk: Sequence[StreetLine]) -> list[StreetLine]:
+def lone_rows_agreeing(
+    measured: Sequence[StreetLine],
+    sidewalk: Sequence[StreetLine],
+    classes: ClassTable,
+    params: PlacementParams,
+) -> list[StreetLine]:
     """The measured rows, less those of a single tree, post or sign that stand more than
-    :data:`LONE_ROW_TOLERANCE_M` off the row the sidewalk gives its class on that side
-    (a facade's own base line stands: the sidewalk's back edge is the rougher measure).
+    :attr:`~PlacementParams.lone_row_tolerance_m` off the row the sidewalk gives its class
+    on that side (a facade's own base line stands: the sidewalk's back edge is the rougher
+    measure).
 
     One tree's or post's "foot" may be ground seen past its crown or arm; the sidewalk,
     measured from many points, then says better where the row is.
@@ -195,15 +205,16 @@ def lone_rows_agreeing(measured: Sequence[StreetLine], sidewalk: Sequence[Street
     Example:
         >>> lone = StreetLine("tree", -1, -8.0, 1, 0.0)
         >>> walk = StreetLine("tree", -1, -5.0, 0, 0.5, "sidewalk")
-        >>> lone_rows_agreeing([lone], [walk])
+        >>> from usdworld.io.class_table import load_class_table
+        >>> lone_rows_agreeing([lone], [walk], load_class_table(), PlacementParams())
         []
     """
     by_key = {(line.class_name, line.side): line for line in sidewalk}
     kept = []
     for line in measured:
         walk = by_key.get((line.class_name, line.side))
-        lone = line.support == 1 and line.class_name in KERB_SETBACK_M
-        if lone and walk is not None and abs(line.offset_m - walk.offset_m) > LONE_ROW_TOLERANCE_M:
+        lone = line.support == 1 and kerb_setback_m(line.class_name, classes, params) is not None
+        if lone and walk is not None and abs(line.offset_m - walk.offset_m) > params.lone_row_tolerance_m:
             continue
         kept.append(line)
     return kept
@@ -215,16 +226,18 @@ def parked_car_lines(
     car_widths: np.ndarray,
     axis: RoadAxis,
     camera_ground: np.ndarray,
+    classes: ClassTable,
+    params: PlacementParams,
     measured: Sequence[StreetLine] = (),
 ) -> list[StreetLine]:
     """Rows of street furniture and trees behind the kerb that parked cars line.
 
     For a side of the street where neither its own objects nor a sidewalk gave a class
     its row, the outermost car parked along the road there (heading within
-    :data:`PARKED_HEADING_TOL` of the road's, either way, and at least
-    :data:`PARKED_MIN_SIDEWAYS_M` to the camera's side, out of its lane) marks the kerb:
-    its kerb side is :data:`PARKED_KERB_GAP_M` from it. Trees, posts and signs stand their
-    :data:`KERB_SETBACK_M` behind that; the building line stays unknown.
+    ``parked_heading_tol_deg`` of the road's, either way, and at least
+    ``parked_min_sideways_m`` to the camera's side, out of its lane) marks the kerb:
+    its kerb side is ``parked_kerb_gap_m`` from it. Trees, posts and signs stand their
+    :func:`kerb_setback_m` behind that; the building line stays unknown.
 
     Args:
         car_ground: (N, 2) float64 ground centres of cars placed by their seen contact.
@@ -232,6 +245,8 @@ def parked_car_lines(
         car_widths: (N,) float64 their widths, metres.
         axis: the road axis.
         camera_ground: (2,) float64 the camera's ground point.
+        classes: the class table (which classes stand behind the kerb, and how far).
+        params: the parked cars' thresholds and the setbacks.
         measured: rows already given (their class and side get none here).
 
     Returns:
@@ -240,7 +255,9 @@ def parked_car_lines(
     Example:
         >>> axis = RoadAxis(0.0, np.zeros(2), "camera_forward")
         >>> cars = np.array([[12.0, 5.0], [20.0, 4.0]])
-        >>> rows = parked_car_lines(cars, np.zeros(2), np.full(2, 1.8), axis, np.zeros(2))
+        >>> from usdworld.io.class_table import load_class_table
+        >>> table, params = load_class_table(), PlacementParams()
+        >>> rows = parked_car_lines(cars, np.zeros(2), np.full(2, 1.8), axis, np.zeros(2), table, params)
         >>> [(r.class_name, r.offset_m) for r in rows if r.class_name == "tree"]
         [('tree', 7.2)]
     """
@@ -248,20 +265,29 @@ def parked_car_lines(
         return []
     offsets = lateral_offsets(car_ground, axis)
     turn = np.abs(np.angle(np.exp(1j * (np.asarray(car_headings, dtype=np.float64) - axis.angle))))
-    along = np.minimum(turn, np.pi - turn) <= PARKED_HEADING_TOL
+    along = np.minimum(turn, np.pi - turn) <= params.parked_heading_tol
     camera_offset = float(lateral_offsets(np.asarray(camera_ground, dtype=np.float64)[None, :2], axis)[0])
-    along &= np.abs(offsets - camera_offset) >= PARKED_MIN_SIDEWAYS_M
+    along &= np.abs(offsets - camera_offset) >= params.parked_min_sideways_m
     outer = np.abs(offsets) + 0.5 * np.asarray(car_widths, dtype=np.float64)
     lines = []
     for side in (-1, 1):
         mine = along & (np.sign(offsets) == side)
         if not mine.any():
             continue
-        kerb = float(outer[mine].max()) + PARKED_KERB_GAP_M
-        for class_name, distance in sorted(KERB_SETBACK_M.items()):
-            lines.append(
-                StreetLine(class_name, side, round(side * (kerb + distance), 6), 0, 0.5, "parked_cars")
+        kerb = float(outer[mine].max()) + params.parked_kerb_gap_m
+        for class_name in sorted(classes.with_role("line")):
+            distance = kerb_setback_m(class_name, classes, params)
+            if distance is None:
+                continue
+            row = StreetLine(
+                class_name,
+                side,
+                round(side * (kerb + distance), 6),
+                0,
+                params.parked_row_spread_m,
+                "parked_cars",
             )
+            lines.append(row)
     return unmeasured(lines, measured)
 
 

@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from usdworld.parameters.placement import PlacementParams
+
 
 @dataclass(frozen=True)
 class RoadAxis:
@@ -22,13 +24,10 @@ class RoadAxis:
     source: str
 
 
-#: A street seen from a car runs away from the camera: an axis further than this from
-#: the camera's heading is a crossing (or a wrong estimate), not the street.
-MAX_AXIS_ANGLE = np.radians(45)
-
-
 def road_axis(
-    road_points_ground: np.ndarray | None, min_points: int = 50, vanishing_angle: float | None = None
+    road_points_ground: np.ndarray | None,
+    vanishing_angle: float | None = None,
+    params: PlacementParams = PlacementParams(),  # noqa: B008 (frozen)
 ) -> RoadAxis:
     """The road's direction and a point on its centre line.
 
@@ -40,15 +39,18 @@ def road_axis(
 
     Args:
         road_points_ground: (N, 2) float64 ground points of road pixels (within range), or None.
-        min_points: fewer points than this fall back to the camera's forward axis.
         vanishing_angle: world yaw of the street's vanishing direction, radians, or None.
+        params: ``road_axis_min_points`` (fewer fall back to the camera's forward axis) and
+            ``max_road_axis_angle_deg`` (an axis further from the camera's heading is a
+            crossing, or a wrong estimate, not the street).
 
     Returns:
         The axis; with nothing to go on, the camera forward axis through the origin.
     """
-    enough = road_points_ground is not None and len(road_points_ground) >= min_points
+    enough = road_points_ground is not None and len(road_points_ground) >= params.road_axis_min_points
+    max_angle = params.max_road_axis_angle
     center = np.median(np.asarray(road_points_ground, dtype=np.float64), axis=0) if enough else np.zeros(2)
-    if vanishing_angle is not None and abs(_wrap(vanishing_angle)) <= MAX_AXIS_ANGLE:
+    if vanishing_angle is not None and abs(_wrap(vanishing_angle)) <= max_angle:
         return RoadAxis(_wrap(vanishing_angle), center, "vanishing_point")
     if not enough:
         return RoadAxis(0.0, np.zeros(2), "camera_forward")
@@ -61,7 +63,7 @@ def road_axis(
     angle = float(np.arctan2(direction[1], direction[0]))
     # A street seen from a car runs away from the camera; an axis across the view
     # means the road region is a crossing, so keep the camera's heading instead.
-    if abs(angle) > MAX_AXIS_ANGLE:
+    if abs(angle) > max_angle:
         return RoadAxis(0.0, center, "camera_forward")
     return RoadAxis(angle, center, "road_pca")
 

@@ -20,18 +20,13 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from usdworld.io.class_table import ClassTable, load_class_table
+from usdworld.io.class_table import ClassTable
 from usdworld.io.label_table import LabelLookups
 from usdworld.io.types import Detections, Segmentation
 from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
 from usdworld.perception.classes import placed_class_for_label
 from usdworld.perception.crowns import crown_ranges
 from usdworld.perception.facades import StreetView, facade_ranges, fill_through_occluders
-
-#: Transitional: removed when layout/authoring take the class table (perception itself takes
-#: a ``ClassTable`` argument and reads no roles from here).
-CROWN_CLASSES = load_class_table().with_role("crown")
-TRUNK_CLASSES = load_class_table().with_role("trunk")
 
 logger = logging.getLogger(__name__)
 

@@ -1,0 +1,214 @@
+"""The depth of one object's front from its own evidence (step 1 of the paper, made robust).
+
+Every cue to the depth of the object's front is computed (the ground contact through the
+DLT homography ``ground_from_px``, the class-height prior by the silhouette, and a dense
+depth map's robust mean when one is given) and fused by inverse-variance weighting
+(:mod:`usdworld.perception.depth.fusion`); the contact cue is widened by the camera's own
+uncertainty when the camera was estimated. When no cue is valid (the bottom is cut or
+hidden) the front depth is a bound from above or the top-row estimate
+(:func:`partial_front_depth`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from usdworld.errors import LayoutError
+from usdworld.geometry.homography import apply_homography
+from usdworld.io.asset_catalogue import AssetSizes
+from usdworld.io.class_table import ClassPrior
+from usdworld.io.types import DepthMap
+from usdworld.layout.boxes import object_yaw
+from usdworld.layout.draft import (
+    DepthMethod,
+    Forced,
+    PlacementContext,
+    depth_of_ground_point,
+    method_confidence,
+    point_at_depth,
+)
+from usdworld.layout.silhouette import depth_from_silhouette, depth_from_top_row, top_offsets
+from usdworld.perception.depth.fusion import HEIGHT_MEAN_REL_SIGMA, DepthCue, fuse, object_depth_cues
+from usdworld.perception.objects import ImageObject
+
+#: Why a facade whose base is seen has no height cue.
+FACADE_HEIGHT_NOTE = "not used: a facade's base is seen"
+
+
+@dataclass(frozen=True)
+class FrontDepth:
+    """What an object's own evidence says about the depth of its front.
+
+    Attributes:
+        depth_m: front depth along the optical axis, metres (NaN: unplaceable).
+        method: what decided it.
+        confidence: the method's confidence (before the object's score).
+        cues: every cue computed, as front depths.
+    """
+
+    depth_m: float
+    method: DepthMethod
+    confidence: float
+    cues: tuple[DepthCue, ...]
+
+
+def contact_depth(obj: ImageObject, ctx: PlacementContext) -> tuple[np.ndarray, bool, float]:
+    """The object's contact pixel on the ground.
+
+    Returns:
+        ((2,) float64 ground point on the road plane, whether it lies ahead of the camera,
+        its front depth in metres, NaN when not; on the kerb top for a sidewalk contact).
+    """
+    camera = ctx.camera
+    contact_ground = apply_homography(ctx.ground_from_px, np.array([[float(x) for x in obj.contact_px]]))[0]
+    contact_ok = (
+        bool(np.all(np.isfinite(contact_ground))) and depth_of_ground_point(camera, contact_ground) > 0
+    )
+    front = depth_of_ground_point(camera, contact_ground) if contact_ok else float("nan")
+    if contact_ok and ctx.sidewalk_lift and obj.standing_on == "sidewalk":
+        # The homography maps to the road plane z = 0; the contact lies on the kerb top,
+        # which the viewing ray meets (h - kerb) / h of the way to the road plane.
+        front *= (camera.height_m - ctx.params.curb_height_m) / camera.height_m
+    return contact_ground, contact_ok, front
+
+
+def silhouette_depth(
+    obj: ImageObject,
+    prior: ClassPrior,
+    sizes: AssetSizes,
+    ctx: PlacementContext,
+    contact_ground: np.ndarray,
+    contact_ok: bool,
+) -> float | None:
+    """The silhouette height's depth, with the object's own depth extent (its roof's far edge
+    is its top row when the roof is below the camera); yaw guessed at the contact point (or
+    ``guess_depth_m`` along its ray), default variant at unit scale. None when not whole."""
+    u, v = (float(x) for x in obj.contact_px)
+    camera = ctx.camera
+    guess = contact_ground if contact_ok else point_at_depth(camera, u, v, ctx.params.guess_depth_m)
+    yaw = object_yaw(prior, guess, ctx.axis, obj, camera, ctx.params)[0]
+    rel_yaw = yaw - float(np.arctan2(guess[1], guess[0]))
+    dv = sizes.default_variant
+    offsets = top_offsets(sizes.contact_half(dv), sizes.top_half(dv), sizes.footprint(dv), rel_yaw, obj.box_only)
+    return depth_from_silhouette(camera, (u, v), obj.height_px, prior.size_m[2], offsets, ctx.params)
+
+
+def object_cues(
+    obj: ImageObject,
+    prior: ClassPrior,
+    sizes: AssetSizes,
+    ctx: PlacementContext,
+    contact_ground: np.ndarray,
+    contact_ok: bool,
+    front_contact: float,
+) -> list[DepthCue]:
+    """Cues for the depth of the object's front (its contact row / visible surface)."""
+    camera = ctx.camera
+    bottom_seen = not (obj.bottom_truncated or obj.bottom_occluded)
+    whole = bottom_seen and not obj.top_truncated
+    height_depth = None
+    if whole and obj.height_px > 0:
+        height_depth = silhouette_depth(obj, prior, sizes, ctx, contact_ground, contact_ok)
+    cues = object_depth_cues(
+        obj.mask,
+        np.zeros_like(obj.mask),
+        front_contact if (contact_ok and bottom_seen) else None,
+        crop_depth(ctx.depth_map, obj) if ctx.depth_map is not None else None,
+        prior.size_m[2],
+        obj.height_px if whole and obj.height_px > 0 else None,
+        camera.fy,
+        camera_height_m=camera.height_m,
+        class_height_std_m=prior.height_std_m,
+        height_depth_m=height_depth,
+        # A given camera height is independent of the class heights; an estimated one
+        # was fitted to them, so the contact cue already carries their mean's error.
+        class_mean_rel_sigma=HEIGHT_MEAN_REL_SIGMA if ctx.camera_sigma[0] == 0.0 else 0.0,
+    )
+    cues = [with_camera_uncertainty(c, ctx) for c in cues]
+    if ctx.classes.has(obj.class_name, "facade") and any(c.name == "contact" and c.available for c in cues):
+        # Buildings are 3 to 30 m tall: where a facade's base is seen, its height only
+        # drags a far one nearer (a tall building looks like a near one of usual height).
+        cues = [DepthCue("height", None, None, FACADE_HEIGHT_NOTE) if c.name == "height" else c for c in cues]
+    return cues
+
+
+def front_depth(obj: ImageObject, ctx: PlacementContext, forced: Forced | None) -> FrontDepth:
+    """The front depth, what decided it and every cue (``forced`` overrides the cues' verdict)."""
+    prior, sizes = ctx.classes[obj.class_name], ctx.asset_sizes[obj.class_name]
+    contact_ground, contact_ok, front_contact = contact_depth(obj, ctx)
+    cues = tuple(object_cues(obj, prior, sizes, ctx, contact_ground, contact_ok, front_contact))
+    if forced is not None:
+        return FrontDepth(
+            forced.front_depth_m, forced.method, method_confidence(forced.method, ctx.params), cues
+        )
+    try:
+        fused = fuse(list(cues))
+    except LayoutError:
+        depth, method = partial_front_depth(obj, prior, ctx, contact_ok, front_contact)
+        return FrontDepth(depth, method, method_confidence(method, ctx.params), cues)
+    method = DepthMethod(fused.method)
+    return FrontDepth(fused.depth_m, method, method_confidence(method, ctx.params), cues)
+
+
+def with_camera_uncertainty(cue: DepthCue, ctx: PlacementContext) -> DepthCue:
+    """Widen the contact cue by the camera's own height and pitch uncertainty.
+
+    A height error scales every contact depth (``d * s_h / h``); a pitch error shifts the
+    horizon, which moves a contact depth by ``d^2 * s_pitch / h``.
+    """
+    if cue.name != "contact" or not cue.available:
+        return cue
+    s_h, s_p = ctx.camera_sigma
+    h = ctx.camera.height_m
+    d = float(cue.depth_m)
+    extra = np.hypot(d * s_h / h, d * d * s_p / h)
+    if extra == 0:
+        return cue
+    return DepthCue(
+        cue.name, d, float(np.hypot(cue.sigma_m, extra)), cue.note + "; camera uncertainty included"
+    )
+
+
+def crop_depth(depth_map: DepthMap, obj: ImageObject) -> DepthMap:
+    """The depth map inside the object's box, aligned with its mask crop."""
+    x0, y0, x1, y1 = (int(b) for b in obj.box_px)
+    return DepthMap(depth_map.depth_m[y0:y1, x0:x1], depth_map.valid[y0:y1, x0:x1], depth_map.source)
+
+
+def partial_front_depth(
+    obj: ImageObject, prior: ClassPrior, ctx: PlacementContext, contact_ok: bool, front_contact: float
+) -> tuple[float, DepthMethod]:
+    """Front depth when no cue is valid (the bottom is cut or hidden).
+
+    The visible bottom's ground point and the depth the cut height gives both
+    over-estimate the depth (the visible bottom is above the true one; the visible
+    height is below the true one), so the smaller of them bounds it from above. When
+    the top is in view and the class's height stands well clear of the camera's (a
+    person's head, a tree's crown), the top row places the object itself
+    (:func:`usdworld.layout.silhouette.depth_from_top_row`, ``top_row``), within that
+    bound; the occluder bounds it from below later (:mod:`usdworld.layout.occlusion`).
+
+    Returns:
+        (front depth in metres, NaN when nothing bounds it; the method).
+    """
+    camera = ctx.camera
+    bounds: list[tuple[float, str]] = []
+    if contact_ok:
+        bounds.append((front_contact, DepthMethod.CONTACT_PARTIAL.value))
+    if obj.is_thing and obj.height_px > 0:
+        bounds.append((camera.fy * prior.size_m[2] / obj.height_px, DepthMethod.HEIGHT_PARTIAL.value))
+    top = None
+    if not obj.top_truncated:
+        x0, y0, x1, _ = (float(b) for b in obj.box_px)
+        v_top = y0 if obj.box_only else y0 - 0.5
+        top = depth_from_top_row(
+            camera, 0.5 * (x0 + x1), v_top, prior.size_m[2], prior.height_std_m, ctx.params
+        )
+    if top is not None and (not bounds or top[0] <= min(bounds)[0]):
+        return top[0], DepthMethod.TOP_ROW
+    if bounds:
+        depth, method = min(bounds)
+        return depth, DepthMethod(method)
+    return float("nan"), DepthMethod.UNPLACEABLE

@@ -1,0 +1,149 @@
+"""Occlusion order: the object hiding another's bottom bounds its depth from below.
+
+A hidden bottom leaves only bounds from above (the visible bottom's ground point, the cut
+height) or the weak top-row estimate; the object in front, when its own depth is known
+(not itself only a bound from above) and it is not a facade (``unbounding_occluder``: its
+bottom edge hides ground and things far behind it), says the hidden object stands at
+least just behind it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from usdworld.layout.draft import (
+    DepthMethod,
+    Draft,
+    Forced,
+    PlacementContext,
+    method_confidence,
+    point_at_depth,
+)
+from usdworld.layout.drafting import draft_object
+from usdworld.perception.objects import ImageObject
+
+
+def drafts_by_ref(drafts: list[Draft]) -> dict[int, Draft]:
+    """The drafts by their object's reference (the ``occluded_by`` of others); later ones win."""
+    return {d.obj.ref: d for d in drafts if d.obj.ref >= 0}
+
+
+def occluder(by_ref: dict[int, Draft], obj: ImageObject, ctx: PlacementContext) -> Draft | None:
+    """The placed draft of the object hiding ``obj``'s bottom, unless it is an ``unbounding_occluder``."""
+    occ = by_ref.get(obj.occluded_by) if obj.occluded_by >= 0 else None
+    if occ is None or ctx.classes.has(occ.obj.class_name, "unbounding_occluder"):
+        return None
+    return occ
+
+
+def bounding_occluder(by_ref: dict[int, Draft], obj: ImageObject, ctx: PlacementContext) -> Draft | None:
+    """:func:`occluder`, when its own depth can bound ``obj``'s from below: not when that
+    depth is itself only a bound from above (its bottom hidden or cut, :attr:`DepthMethod.is_partial`)."""
+    occ = occluder(by_ref, obj, ctx)
+    return None if occ is None or occ.method.is_partial else occ
+
+
+def behind_depth(occ: Draft, ctx: PlacementContext) -> float:
+    """Front depth just behind an occluder: its centre, its back half and ``behind_gap_m``, metres."""
+    return occ.depth_m + occ.back_m + ctx.params.behind_gap_m
+
+
+def sliver_behind(draft: Draft, ctx: PlacementContext) -> bool:
+    """True for stuff placed just behind its occluder whose visible part, at that depth, is
+    smaller in both width and height than the smallest allowed scale of its class: a
+    piece of a far tree or pole seen past a near car, which the occluder does not bound."""
+    obj = draft.obj
+    if obj.is_thing or draft.method is not DepthMethod.BEHIND:
+        return False
+    base = draft.size / (draft.scale * draft.stretch)
+    metres_per_px = draft.front_depth_m / ctx.camera.fy
+    seen = max(obj.width_px * metres_per_px / base[1], obj.height_px * metres_per_px / base[2])
+    return seen < ctx.classes[obj.class_name].scale_range[0]
+
+
+def move_behind_occluders(drafts: list[Draft], ctx: PlacementContext) -> list[Draft]:
+    """Pass: use the object hiding an object's bottom as a lower bound of its depth.
+
+    A contact bound (``contact_partial``) or top-row estimate short of the occluder moves
+    the object just behind it; a height-only bound (``height_partial``) is replaced by that
+    position. Drafts are taken in order, and an occluder moved earlier bounds by its new
+    depth.
+
+    Returns:
+        The drafts, in the same order.
+    """
+    out = list(drafts)
+    by_ref = drafts_by_ref(out)
+    for k, d in enumerate(out):
+        occ = bounding_occluder(by_ref, d.obj, ctx)
+        if occ is None or not d.method.is_partial:
+            continue
+        behind = behind_depth(occ, ctx)
+        if d.method in (DepthMethod.CONTACT_PARTIAL, DepthMethod.TOP_ROW) and d.front_depth_m >= behind:
+            continue
+        depth = behind + d.back_m
+        moved = replace(
+            d,
+            front_depth_m=behind,
+            depth_m=depth,
+            method=DepthMethod.BEHIND,
+            behind=occ.name,
+            confidence=method_confidence(DepthMethod.BEHIND, ctx.params) * float(d.obj.score),
+            ground=point_at_depth(ctx.camera, *d.obj.contact_px, depth),
+        )
+        out[k] = moved
+        if by_ref.get(d.obj.ref) is d:
+            by_ref[d.obj.ref] = moved
+    return out
+
+
+def drop_unbounded(
+    drafts: list[Draft],
+    unplaced: list[tuple[ImageObject, str]],
+    ctx: PlacementContext,
+    max_partial_depth_m: float,
+) -> tuple[list[Draft], list[tuple[ImageObject, str]]]:
+    """Pass: unplace the drafts whose depth says nothing useful.
+
+    A depth known only as an upper bound (a cut or hidden bottom) that lies beyond the
+    world's range, or "just behind" a near occluder for a sliver of stuff too small to be
+    the whole object there (:func:`sliver_behind`).
+
+    Returns:
+        (the drafts kept, ``unplaced`` followed by the dropped objects and names).
+    """
+    far = [
+        d
+        for d in drafts
+        if (d.method.is_partial and d.depth_m > max_partial_depth_m) or sliver_behind(d, ctx)
+    ]
+    kept = [d for d in drafts if not any(d is f for f in far)]
+    return kept, [*unplaced, *((d.obj, d.name) for d in far)]
+
+
+def place_behind_occluders(
+    drafts: list[Draft], unplaced: list[tuple[ImageObject, str]], ctx: PlacementContext
+) -> tuple[list[Draft], list[str]]:
+    """Pass: objects with no cue at all but a placed occluder go right behind it.
+
+    Never an ``unbounding_occluder`` (a sliver of facade seen past a tree could be
+    anywhere), nor a sliver (:func:`sliver_behind`).
+
+    Returns:
+        (the drafts with those placed appended, names of the objects left unplaced).
+    """
+    by_ref = drafts_by_ref(drafts)
+    out = list(drafts)
+    skipped: list[str] = []
+    for obj, name in unplaced:
+        bounding = not ctx.classes.has(obj.class_name, "unbounding_occluder")
+        occ = occluder(by_ref, obj, ctx) if bounding else None
+        if occ is None:
+            skipped.append(name)
+            continue
+        forced = draft_object(obj, name, ctx, Forced(behind_depth(occ, ctx), DepthMethod.BEHIND, occ.name))
+        if forced is None or sliver_behind(forced, ctx):
+            skipped.append(name)
+        else:
+            out.append(forced)
+    return out, skipped

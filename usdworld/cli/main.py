@@ -34,6 +34,9 @@ app = typer.Typer(
     add_completion=False,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
+    # Plain (click) help and usage errors: typer's rich formatting imports rich's markdown,
+    # syntax and pygments modules, a third of the start-up of `usdworld --help`.
+    rich_markup_mode=None,
     help="One street photo to a layered, editable OpenUSD world.",
 )
 

@@ -55,3 +55,12 @@ def test_mesh_arrays_match_the_trimesh_and_need_no_trimesh() -> None:
     assert not arrays.vertices.flags.writeable  # the cached arrays are shared
     loaded = _loaded_after("from usdworld.authoring.asset_library import load_mesh_arrays\nload_mesh_arrays('car')")
     assert "trimesh" not in loaded
+
+
+def test_a_named_sub_command_builds_only_its_own_command() -> None:
+    from usdworld.cli.main import COMMANDS, commands_for
+
+    assert commands_for(["-q", "edit", "W", "move", "car_0001"]) == ("edit",)
+    assert commands_for(["--debug", "build", "photo.png"]) == ("build",)
+    for args in ([], ["--help"], ["-q"], ["bogus"], ["--debug", "--help"]):
+        assert commands_for(args) == tuple(COMMANDS)

@@ -134,7 +134,8 @@ def triangulate_polygons(
     Returns:
         (T, 3) int64 corners (positions in ``indices``, wound like their polygon) and (T,) int64
         polygon ids, non-decreasing. A simple polygon of n corners gives n - 2 triangles that
-        cover exactly its area.
+        cover exactly its area; a self-intersecting one gives what earcut makes of it (it may
+        leave parts out).
     """
     counts = np.asarray(counts, dtype=np.int64)
     indices = np.asarray(indices, dtype=np.int64)

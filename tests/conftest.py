@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, settings
 
-import usdworld  # noqa: F401  (registers the schema plugin before any stage is opened)
+import usdworld.authoring  # noqa: F401  (registers the schema plugin before any stage is opened)
 
 settings.register_profile("ci", max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
 
-import usdworld  # noqa: F401  (registers the schema plugin first)
+import usdworld.authoring  # noqa: F401  (registers the schema plugin first)
 from usdworld.authoring.camera import define_camera
 from usdworld.errors import UsdWorldError
 from usdworld.geometry.camera import PinholeCamera

@@ -33,7 +33,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-import usdworld  # noqa: F401  (registers the schema plugin first)
+import usdworld.authoring  # noqa: F401  (registers the schema plugin first)
 from usdworld.render import Lighting, Renderer, RenderScene
 from usdworld.synth import author_stage, make_street_scene
 

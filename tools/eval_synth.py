@@ -47,7 +47,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-import usdworld  # noqa: F401  (registers the schema plugin first)
+import usdworld.authoring  # noqa: F401  (registers the schema plugin first)
 
 #: Classes of the headline mIoU (Cityscapes label ids).
 STUDY = {"car": 26, "person": 24, "vegetation": 21, "building": 11}

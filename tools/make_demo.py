@@ -25,7 +25,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-import usdworld  # noqa: F401  (registers the schema plugin first)
+import usdworld.authoring  # noqa: F401  (registers the schema plugin first)
 from usdworld.synth import make_street_scene, write_cityscapes_frame
 
 SEED = 9

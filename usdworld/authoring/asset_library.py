@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from pxr import Kind, Usd, UsdGeom, UsdSemantics
 
+from usdworld.authoring.mesh_reader import MeshTopology, read_topology
 from usdworld.authoring.stages import open_stage
 from usdworld.errors import InputError
 from usdworld.resources import asset_library_dir
@@ -193,35 +194,45 @@ def _srgb8(linear: np.ndarray) -> np.ndarray:
     return np.round(s * 255.0).astype(np.uint8)
 
 
-def _triangulate(counts: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Fan-triangulate polygons: returns (T, 3) vertex indices and (T,) source polygon ids."""
-    counts = counts.astype(np.int64)
-    keep = counts >= 3
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    poly = np.repeat(np.arange(len(counts))[keep], counts[keep] - 2)
-    first = np.repeat(starts[keep], counts[keep] - 2)
-    k = np.arange(len(poly)) - np.repeat(np.cumsum(counts[keep] - 2) - (counts[keep] - 2), counts[keep] - 2)
-    tris = np.stack([indices[first], indices[first + 1 + k], indices[first + 2 + k]], axis=1)
-    return tris, poly
-
-
-def _face_colors(mesh: UsdGeom.Mesh, poly_ids: np.ndarray, counts: np.ndarray) -> np.ndarray:
+def _face_colors(mesh: UsdGeom.Mesh, topology: MeshTopology) -> np.ndarray:
     """(T, 3) linear RGB per triangle from displayColor (grey when unauthored)."""
+    poly_ids = topology.face_of_tri
     primvar = mesh.GetDisplayColorPrimvar()
     values = primvar.ComputeFlattened() if primvar and primvar.HasValue() else None
     if values is None or len(values) == 0:
         return np.full((len(poly_ids), 3), 0.5)
     colors = np.asarray(values, dtype=np.float64).reshape(-1, 3)
     interp = primvar.GetInterpolation()
-    if interp == UsdGeom.Tokens.uniform and len(colors) == len(counts):
+    if interp == UsdGeom.Tokens.uniform and len(colors) == topology.n_faces:
         return colors[poly_ids]
     if interp in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying, UsdGeom.Tokens.faceVarying):
         return np.repeat(colors.mean(axis=0, keepdims=True), len(poly_ids), axis=0)
     return np.repeat(colors[:1], len(poly_ids), axis=0)
 
 
+@dataclass(frozen=True)
+class AssetMesh:
+    """All geometry of one asset variant as plain arrays, in the asset frame (read-only).
+
+    Attributes:
+        vertices: (V, 3) float64 positions (the asset's units: metres for the built-in library).
+        faces: (F, 3) int64 vertex indices, counter-clockwise seen from the front.
+        face_colors: (F, 4) uint8 sRGB-encoded colour of each face (alpha 255).
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    face_colors: np.ndarray
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """(2, 3) float64 [min, max] corners of the box around the vertices faces use."""
+        used = self.vertices[np.unique(self.faces)]
+        return np.array([used.min(axis=0), used.max(axis=0)])
+
+
 @functools.lru_cache(maxsize=64)
-def _mesh_cached(path_str: str, mtime_ns: int, variant: str | None) -> trimesh.Trimesh:
+def _mesh_cached(path_str: str, mtime_ns: int, variant: str | None) -> AssetMesh:
     path = Path(path_str)
     stage, root = _open(path)
     if variant is not None:
@@ -246,31 +257,54 @@ def _mesh_cached(path_str: str, mtime_ns: int, variant: str | None) -> trimesh.T
             continue
         if UsdGeom.Imageable(prim).ComputePurpose() in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy):
             continue
-        points = mesh.GetPointsAttr().Get(time)
-        counts = mesh.GetFaceVertexCountsAttr().Get(time)
-        indices = mesh.GetFaceVertexIndicesAttr().Get(time)
-        if not points or not counts or not indices:
+        topology = read_topology(mesh, time)
+        if topology is None:
             continue
-        counts_np = np.asarray(counts, dtype=np.int64)
-        tris, poly_ids = _triangulate(counts_np, np.asarray(indices, dtype=np.int64))
-        if mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded:
+        tris = topology.triangles
+        if topology.left_handed:
             tris = tris[:, ::-1]
         # USD matrices act on row vectors: p_root = [p, 1] @ local_to_world @ inv(root_to_world)
         m = np.asarray(xforms.GetLocalToWorldTransform(prim), dtype=np.float64) @ root_inv
-        pts = np.asarray(points, dtype=np.float64) @ m[:3, :3] + m[3, :3]
+        pts = topology.points @ m[:3, :3] + m[3, :3]
         vertices.append(pts)
         faces.append(tris + offset)
-        colors.append(_face_colors(mesh, poly_ids, counts_np))
+        colors.append(_face_colors(mesh, topology))
         offset += len(pts)
     if not faces:
         raise InputError(f"{path}: variant '{variant}' has no mesh geometry")
     rgb = _srgb8(np.concatenate(colors))
     rgba = np.concatenate([rgb, np.full((len(rgb), 1), 255, dtype=np.uint8)], axis=1)
-    import trimesh
-
-    result = trimesh.Trimesh(np.concatenate(vertices), np.concatenate(faces), face_colors=rgba, process=False)
+    result = AssetMesh(np.concatenate(vertices), np.concatenate(faces), rgba)
+    for array in (result.vertices, result.faces, result.face_colors):
+        array.flags.writeable = False  # shared by every caller of the cache
     del stage
     return result
+
+
+def load_mesh_arrays(
+    class_name: str, variant: str | None = None, libraries: tuple[Path, ...] | None = None
+) -> AssetMesh:
+    """All geometry of a class asset as arrays in the asset frame (cached; no trimesh import).
+
+    What :func:`load_mesh` returns, without building a ``trimesh.Trimesh`` (importing trimesh
+    takes a quarter of a second; measuring an asset does not need it).
+
+    Args:
+        class_name: the class, e.g. ``"car"``.
+        variant: a ``model`` variant; ``None`` uses the asset's default selection.
+        libraries: library folders to search (default: the built-in library).
+
+    Returns:
+        The shared, read-only arrays (copy them to change them).
+
+    Raises:
+        InputError: no asset for the class, no such variant, or no mesh geometry.
+    """
+    path = asset_path(class_name, libraries)
+    if variant is None:
+        info = asset_info(class_name, libraries)
+        variant = info.default_variant or None
+    return _mesh_cached(*_stamp(path), variant)
 
 
 def load_mesh(
@@ -279,7 +313,8 @@ def load_mesh(
     """All geometry of a class asset as one triangle mesh in the asset frame (cached).
 
     Mesh prims under the root are composed with their transforms relative to the root,
-    fan-triangulated, and concatenated; invisible, guide and proxy prims are skipped.
+    triangulated (:mod:`usdworld.authoring.mesh_reader`) and concatenated; invisible, guide
+    and proxy prims are skipped.
 
     Args:
         class_name: the class, e.g. ``"car"``.
@@ -294,11 +329,12 @@ def load_mesh(
     Raises:
         InputError: no asset for the class, no such variant, or no mesh geometry.
     """
-    path = asset_path(class_name, libraries)
-    if variant is None:
-        info = asset_info(class_name, libraries)
-        variant = info.default_variant or None
-    return _mesh_cached(*_stamp(path), variant).copy()
+    import trimesh
+
+    arrays = load_mesh_arrays(class_name, variant, libraries)
+    return trimesh.Trimesh(
+        arrays.vertices.copy(), arrays.faces.copy(), face_colors=arrays.face_colors.copy(), process=False
+    )
 
 
 def define_asset_root(stage: Usd.Stage, class_name: str) -> Usd.Prim:

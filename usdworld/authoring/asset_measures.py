@@ -97,7 +97,7 @@ def _side_view_top_shape(verts: np.ndarray, faces: np.ndarray) -> float:
 def _cached(
     class_name: str, variant: str | None, path_str: str, mtime_ns: int, libraries: tuple[Path, ...] | None
 ) -> VariantMeasures:
-    mesh = asset_library.load_mesh(class_name, variant, libraries)
+    mesh = asset_library.load_mesh_arrays(class_name, variant, libraries)
     return measure_mesh(mesh.vertices, mesh.faces)
 
 

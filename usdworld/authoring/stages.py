@@ -1,12 +1,23 @@
-"""Opening USD files with one-line errors (every reader of user-supplied stages goes through here)."""
+"""Opening USD files with one-line errors (every reader of user-supplied stages goes through here),
+and the registration of usdworld's schema plugin."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from pxr import Usd
+from pxr import Plug, Usd
 
 from usdworld.errors import InputError
+from usdworld.resources import schemas_dir
+
+
+def register_schemas() -> None:
+    """Register the codeless schema plugin (``schemas/plugInfo.json``) with OpenUSD.
+
+    Called when :mod:`usdworld.authoring` is imported; must run before the first stage is
+    opened in the process. Registering the same folder again does nothing.
+    """
+    Plug.Registry().RegisterPlugins(str(schemas_dir()))
 
 
 def open_stage(path: str | Path, what: str = "USD stage") -> Usd.Stage:

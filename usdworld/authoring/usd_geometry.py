@@ -3,8 +3,8 @@
 A USD Mesh holds polygons of any size, normals at one of five interpolations, an optional
 left-handed orientation, and a look that comes from a bound UsdPreviewSurface or from
 ``primvars:displayColor``. The functions here turn one Mesh prim into plain numpy arrays
-(fan-triangulated, counter-clockwise seen from the front) so that writers of other formats
-never touch these details.
+(triangulated by :mod:`usdworld.authoring.mesh_reader`, counter-clockwise seen from the
+front) so that writers of other formats never touch these details.
 
 Example::
 
@@ -14,11 +14,13 @@ Example::
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 from pxr import Usd, UsdGeom, UsdShade
+
+from usdworld.authoring.mesh_reader import MeshTopology, expand_primvar, read_normals, read_topology
 
 #: UsdPreviewSurface fallbacks (UsdPreviewSurface spec) used when an input is not authored.
 PREVIEW_DEFAULTS = {"diffuseColor": (0.18, 0.18, 0.18), "metallic": 0.0, "roughness": 0.5, "opacity": 1.0}
@@ -60,28 +62,6 @@ class Look:
     opacity: float
 
 
-def triangulate(counts: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Fan-triangulate polygons.
-
-    Args:
-        counts: (F,) int, vertices per polygon (polygons with fewer than 3 are skipped).
-        indices: (sum(counts),) int, point index of each face corner.
-
-    Returns:
-        (T, 3) int64 corner positions in ``indices`` (not point indices) and (T,) int64
-        polygon ids.
-    """
-    counts = np.asarray(counts, dtype=np.int64)
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
-    keep = counts >= 3
-    n_tris = np.where(keep, counts - 2, 0)
-    poly = np.repeat(np.arange(len(counts), dtype=np.int64), n_tris)
-    first = starts[poly]
-    k = np.arange(len(poly), dtype=np.int64) - np.repeat(np.cumsum(n_tris) - n_tris, n_tris)
-    corners = np.stack([first, first + 1 + k, first + 2 + k], axis=1)
-    return corners, poly
-
-
 #: Triangles whose doubled area is below (this x the mesh's size)^2 are dropped as degenerate.
 DEGENERATE_REL = 1e-7
 
@@ -108,23 +88,14 @@ def read_mesh(mesh: UsdGeom.Mesh, time: Usd.TimeCode | None = None) -> MeshArray
         The arrays, or None when the mesh has no points or no polygon with 3+ vertices.
     """
     time = Usd.TimeCode.Default() if time is None else time
-    points = mesh.GetPointsAttr().Get(time)
-    counts = mesh.GetFaceVertexCountsAttr().Get(time)
-    indices = mesh.GetFaceVertexIndicesAttr().Get(time)
-    if not points or not counts or not indices:
+    topology = read_topology(mesh, time)
+    if topology is None:
         return None
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    counts_np = np.asarray(counts, dtype=np.int64)
-    idx = np.asarray(indices, dtype=np.int64)
-    if counts_np.sum() != len(idx) or idx.min() < 0 or idx.max() >= len(pts):
-        return None
-    corners, poly = triangulate(counts_np, idx)
-    if len(corners) == 0:
-        return None
-    left = mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded
-    if left:
+    pts = topology.points
+    corners, poly = topology.corners, topology.face_of_tri
+    if topology.left_handed:
         corners = corners[:, ::-1]
-    tris = idx[corners]
+    tris = topology.face_vertex_indices[corners]
     a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
     cross = np.cross(b - a, c - a)
     area2 = np.linalg.norm(cross, axis=1)
@@ -134,7 +105,7 @@ def read_mesh(mesh: UsdGeom.Mesh, time: Usd.TimeCode | None = None) -> MeshArray
         return None
     corners, poly, tris, cross = corners[keep], poly[keep], tris[keep], cross[keep]
     face_n = _unit(cross)
-    normals = _authored_normals(mesh, time, corners, poly, idx, len(pts), len(counts_np))
+    normals = _authored_normals(mesh, time, replace(topology, corners=corners, face_of_tri=poly))
     if normals is None:
         normals = np.repeat(face_n[:, None, :], 3, axis=1)
     else:
@@ -145,35 +116,13 @@ def read_mesh(mesh: UsdGeom.Mesh, time: Usd.TimeCode | None = None) -> MeshArray
     return MeshArrays(pts, tris, normals, double_sided)
 
 
-def _authored_normals(
-    mesh: UsdGeom.Mesh,
-    time: Usd.TimeCode,
-    corners: np.ndarray,
-    poly: np.ndarray,
-    idx: np.ndarray,
-    n_points: int,
-    n_faces: int,
-) -> np.ndarray | None:
-    """(T, 3, 3) unit normals per triangle corner from the authored normals, or None."""
-    primvar = UsdGeom.PrimvarsAPI(mesh).GetPrimvar("normals")
-    if primvar and primvar.HasAuthoredValue():
-        values = primvar.ComputeFlattened(time)
-        interp = primvar.GetInterpolation()
-    else:
-        values = mesh.GetNormalsAttr().Get(time)
-        interp = mesh.GetNormalsInterpolation()
-    if values is None or len(values) == 0:
+def _authored_normals(mesh: UsdGeom.Mesh, time: Usd.TimeCode, kept: MeshTopology) -> np.ndarray | None:
+    """(T, 3, 3) unit normals per corner of the kept triangles from the authored normals, or None."""
+    authored = read_normals(mesh, time)
+    if authored is None:
         return None
-    n = np.asarray(values, dtype=np.float64).reshape(-1, 3)
-    if interp == UsdGeom.Tokens.faceVarying and len(n) == len(idx):
-        out = n[corners]
-    elif interp in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying) and len(n) == n_points:
-        out = n[idx[corners]]
-    elif interp == UsdGeom.Tokens.uniform and len(n) == n_faces:
-        out = np.repeat(n[poly][:, None, :], 3, axis=1)
-    elif interp == UsdGeom.Tokens.constant:
-        out = np.broadcast_to(n[0], (len(corners), 3, 3)).copy()
-    else:
+    out = expand_primvar(authored[0], authored[1], kept)
+    if out is None:
         return None
     return _unit(np.where(np.isfinite(out), out, 0.0))
 

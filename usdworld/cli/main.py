@@ -10,40 +10,38 @@ them as they happen.
 
 from __future__ import annotations
 
+import importlib
 import logging
 import sys
 import traceback
 import warnings
+from collections.abc import Sequence
 
 import typer
 
-from usdworld.cli import (
-    assets_cmd,
-    batch_cmd,
-    build_cmd,
-    demo_cmd,
-    depth_cmd,
-    edit_cmd,
-    evaluate_cmd,
-    export_cmd,
-    flythrough_cmd,
-    info_cmd,
-    render_cmd,
-    serve_cmd,
-    synth_cmd,
-    validate_cmd,
-    vary_cmd,
-)
-
-app = typer.Typer(
-    add_completion=False,
-    no_args_is_help=True,
-    pretty_exceptions_enable=False,
-    help="One street photo to a layered, editable OpenUSD world.",
-)
+#: Each sub-command and the module (in ``usdworld.cli``) that defines it, in the order
+#: ``usdworld --help`` lists them.
+COMMANDS = {
+    "build": "build_cmd",
+    "depth": "depth_cmd",
+    "batch": "batch_cmd",
+    "demo": "demo_cmd",
+    "info": "info_cmd",
+    "validate": "validate_cmd",
+    "render": "render_cmd",
+    "flythrough": "flythrough_cmd",
+    "synth": "synth_cmd",
+    "evaluate": "evaluate_cmd",
+    "export": "export_cmd",
+    "assets": "assets_cmd",
+    "edit": "edit_cmd",
+    "vary": "vary_cmd",
+    "serve": "serve_cmd",
+}
+#: Options of the ``usdworld`` command itself (they come before the sub-command).
+ROOT_FLAGS = ("--debug", "--quiet", "-q")
 
 
-@app.callback()
 def _root(
     debug: bool = typer.Option(False, "--debug", help="Show tracebacks and debug logging."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="Only print warnings and errors."),
@@ -54,21 +52,42 @@ def _root(
         logging.getLogger(noisy).setLevel(logging.WARNING)
 
 
-build_cmd.register(app)
-depth_cmd.register(app)
-batch_cmd.register(app)
-demo_cmd.register(app)
-info_cmd.register(app)
-validate_cmd.register(app)
-render_cmd.register(app)
-flythrough_cmd.register(app)
-synth_cmd.register(app)
-evaluate_cmd.register(app)
-export_cmd.register(app)
-assets_cmd.register(app)
-edit_cmd.register(app)
-vary_cmd.register(app)
-serve_cmd.register(app)
+def make_app(commands: Sequence[str] = tuple(COMMANDS)) -> typer.Typer:
+    """The ``usdworld`` typer app with the given sub-commands (all by default).
+
+    Args:
+        commands: names from :data:`COMMANDS`.
+    """
+    app = typer.Typer(
+        add_completion=False,
+        no_args_is_help=True,
+        pretty_exceptions_enable=False,
+        # Plain (click) help and usage errors: typer's rich formatting imports rich's markdown,
+        # syntax and pygments modules, a third of the start-up of `usdworld --help`.
+        rich_markup_mode=None,
+        help="One street photo to a layered, editable OpenUSD world.",
+    )
+    app.callback()(_root)
+    for name in commands:
+        importlib.import_module(f"usdworld.cli.{COMMANDS[name]}").register(app)
+    return app
+
+
+def commands_for(args: Sequence[str]) -> tuple[str, ...]:
+    """The sub-commands the app needs for these arguments.
+
+    Typer builds every registered command (signatures, type hints, parameters) on each run, so
+    a run that names its sub-command gets an app with that one only. Help, no arguments or an
+    unknown name get them all, so that the listing and the "no such command" error are whole.
+
+    Args:
+        args: the command line after ``usdworld``.
+    """
+    for arg in args:
+        if arg in ROOT_FLAGS:
+            continue
+        return (arg,) if arg in COMMANDS else tuple(COMMANDS)
+    return tuple(COMMANDS)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -82,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
         with warnings.catch_warnings(record=not debug) as caught:
             try:
                 # Standalone mode: typer/click print usage errors and --help themselves and exit.
-                app(args=args, prog_name="usdworld", standalone_mode=True)
+                make_app(commands_for(args))(args=args, prog_name="usdworld", standalone_mode=True)
             finally:
                 held = list(caught or [])
     except SystemExit as exc:

@@ -1,0 +1,66 @@
+"""Start-up stays light: what importing usdworld and running the CLI's help load (timings: tools/bench_startup.py)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from usdworld.authoring import asset_library
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _loaded_after(code: str) -> set[str]:
+    """Top-level module names loaded by a fresh interpreter that runs ``code``."""
+    probe = f"{code}\nimport json, sys\nprint(json.dumps(sorted({{m.split('.')[0] for m in sys.modules}})))"
+    out = subprocess.run(
+        [sys.executable, "-c", probe], cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True, text=True, check=True
+    )
+    return set(json.loads(out.stdout.splitlines()[-1]))
+
+
+def test_import_usdworld_loads_neither_pxr_nor_numpy() -> None:
+    loaded = _loaded_after("import usdworld")
+    assert not loaded & {"pxr", "numpy"}
+
+
+def test_help_loads_no_domain_library() -> None:
+    code = "from usdworld.cli.main import main\nimport contextlib, io\nwith contextlib.redirect_stdout(io.StringIO()):\n    main(['--help'])"
+    loaded = _loaded_after(code)
+    assert not loaded & {"pxr", "numpy", "cv2", "scipy", "trimesh", "pydantic"}
+    assert "rich" not in loaded  # plain help: typer's rich formatting costs a third of the start-up
+
+
+def test_schemas_are_registered_by_the_authoring_package() -> None:
+    code = (
+        "import usdworld.authoring\nfrom pxr import Usd\n"
+        "found = Usd.SchemaRegistry().FindAppliedAPIPrimDefinition('UsdWorldProvenanceAPI') is not None\n"
+        "assert found, 'schema not registered'"
+    )
+    _loaded_after(code)  # raises CalledProcessError when the assertion fails
+
+
+def test_mesh_arrays_match_the_trimesh_and_need_no_trimesh() -> None:
+    mesh = asset_library.load_mesh("car")
+    arrays = asset_library.load_mesh_arrays("car")
+    np.testing.assert_array_equal(arrays.vertices, mesh.vertices)
+    np.testing.assert_array_equal(arrays.faces, mesh.faces)
+    np.testing.assert_array_equal(arrays.face_colors, mesh.visual.face_colors)
+    np.testing.assert_array_equal(arrays.bounds, mesh.bounds)
+    assert not arrays.vertices.flags.writeable  # the cached arrays are shared
+    loaded = _loaded_after("from usdworld.authoring.asset_library import load_mesh_arrays\nload_mesh_arrays('car')")
+    assert "trimesh" not in loaded
+
+
+def test_a_named_sub_command_builds_only_its_own_command() -> None:
+    from usdworld.cli.main import COMMANDS, commands_for
+
+    assert commands_for(["-q", "edit", "W", "move", "car_0001"]) == ("edit",)
+    assert commands_for(["--debug", "build", "photo.png"]) == ("build",)
+    for args in ([], ["--help"], ["-q"], ["bogus"], ["--debug", "--help"]):
+        assert commands_for(args) == tuple(COMMANDS)

@@ -48,6 +48,7 @@ from usdworld.layout.priors import prior_for
 from usdworld.layout.surfaces import MAX_RANGE_M, build_surfaces, fill_behind_occluders, occluded_ground_mask
 from usdworld.layout.yaw import road_axis
 from usdworld.perception.classes import label_lookups
+from usdworld.perception.dedupe import merge_duplicates
 from usdworld.perception.facades import StreetView
 from usdworld.perception.objects import (
     ImageObject,
@@ -178,7 +179,7 @@ def _objects(
         dets = read_detections_json(request.detections, image)
     else:
         dets = read_kitti_labels(request.detections, image)
-    things = objects_from_detections(dets, image.width, image.height, seg)
+    things = merge_duplicates(objects_from_detections(dets, image.width, image.height, seg))
     stuff = [o for o in objects_from_segmentation(seg, view) if not o.is_thing] if seg is not None else []
     return sort_objects(things + stuff)
 

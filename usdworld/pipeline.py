@@ -52,6 +52,7 @@ from usdworld.layout.yaw import road_axis
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.output_dir import prepare_output as _prepare_output
 from usdworld.output_dir import swap_in as _swap_in
+from usdworld.perception.dedupe import merge_duplicates
 from usdworld.perception.facades import StreetView
 from usdworld.perception.objects import (
     ImageObject,
@@ -200,7 +201,10 @@ def _objects(
         dets = read_detections_json(request.detections, image)
     else:
         dets = read_kitti_labels(request.detections, image)
-    things = objects_from_detections(dets, image.width, image.height, seg, lookups=lookups, params=params.perception)
+    things = merge_duplicates(
+        objects_from_detections(dets, image.width, image.height, seg, lookups=lookups, params=params.perception),
+        params.collision,
+    )
     stuff = (
         [o for o in objects_from_segmentation(seg, view, table, lookups, params.perception) if not o.is_thing]
         if seg is not None
@@ -348,6 +352,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         sidewalk_ground=surface_points(sidewalk, fit.dst_from_src, camera, max_range_m, stride)
         if sidewalk is not None
         else None,
+        collision=params.collision,
     )
     filled = None
     if head.seg is not None:

@@ -5,18 +5,41 @@ moved by the smallest ground displacement that clears every object already settl
 searching the positions flush against their box edges. The result is deterministic,
 does not depend on the input order, leaves no overlap beyond the tolerance, and is
 idempotent: resolving an already resolved layout moves nothing.
+
+Dense scenes stay near-linear: the settled boxes sit in a uniform grid (:class:`_Grid`),
+so a box is tested only against those in the cells it touches, and the candidate spots
+are visited in rings of growing distance instead of being sorted all at once. Both only
+skip work that cannot change the answer, so the result is the same, bit for bit, as
+testing every pair and sorting every candidate (``tests/test_layout_collision.py`` keeps
+that brute-force reference and compares the two).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-#: Boxes may overlap by at most this much (metres).
-TOLERANCE_M = 0.01
-#: Gap left between boxes that had to be separated (metres); below TOLERANCE_M.
-_CLEARANCE_M = 0.005
+from usdworld.parameters.collision import CollisionParams
+
+#: Boxes may overlap by at most this much (metres); the default of ``CollisionParams.tolerance_m``.
+TOLERANCE_M = CollisionParams().tolerance_m
+
+#: Candidates are checked in batches of this many, nearest first.
+_BATCH = 64
+#: First ring radius of the candidate search, metres; the radius doubles until a spot is
+#: free. Any positive value gives the same result; this one only sets how much is sorted.
+_FIRST_RING_M = 1.0
+#: Grid cells span this many times the median box half extent (a typical box touches <= 4 cells).
+_CELL_PER_HALF = 2.0
+#: A box touching more cells than this is kept in a list tested against every query.
+_MAX_CELLS = 64
+#: Coordinates beyond this magnitude (metres) are not indexed (tested against everything),
+#: so float rounding (an ulp of 1e8 is 1.5e-8 m) stays far below the query padding.
+_INDEX_LIMIT_M = 1e8
+#: Query boxes are padded by this much (metres) so that rounding never hides a pair.
+_PAD_M = 1e-6
 
 
 @dataclass(frozen=True)
@@ -26,10 +49,13 @@ class CollisionResult:
     Attributes:
         displacement: (N, 2) float64 ground displacement of each box, metres.
         centers: (N, 2) float64 box centres after resolution.
+        pair_checks: how many (candidate spot, settled box) overlap tests were made; a
+            measure of the work, near-linear in N for a dense scene.
     """
 
     displacement: np.ndarray
     centers: np.ndarray
+    pair_checks: int = 0
 
 
 def footprint_half_extents(size_lw: np.ndarray, yaw: np.ndarray) -> np.ndarray:
@@ -65,23 +91,88 @@ def overlaps(centers: np.ndarray, half: np.ndarray, tol: float = TOLERANCE_M) ->
     return list(zip(i.tolist(), j.tolist()))
 
 
-def _clear(candidates: np.ndarray, half: np.ndarray, placed_c: np.ndarray, placed_h: np.ndarray) -> np.ndarray:
-    """(K,) bool: candidate centres that overlap none of the placed boxes."""
-    if len(placed_c) == 0:
-        return np.ones(len(candidates), dtype=bool)
-    gap = np.abs(candidates[:, None, :] - placed_c[None, :, :]) - (half[None, None, :] + placed_h[None, :, :])
-    return ~np.any(np.all(gap < -TOLERANCE_M, axis=2), axis=1)
+class _Grid:
+    """Uniform grid over the settled boxes' AABBs: which boxes may touch a query box.
+
+    A query returns a superset of the boxes whose AABB intersects the (padded) query box;
+    the exact overlap test is then made on those alone.
+    """
+
+    def __init__(self, cell_m: float) -> None:
+        self.cell = cell_m
+        self.cells: dict[tuple[int, int], list[int]] = {}
+        self.wide: list[int] = []  # boxes not indexed: tested against every query
+        self.placed: list[int] = []
+
+    def _cells(self, x0: float, y0: float, x1: float, y1: float) -> tuple[range, range] | None:
+        """Cell ranges covering [x0, x1] x [y0, y1], or None when not indexable."""
+        if not all(math.isfinite(v) and abs(v) <= _INDEX_LIMIT_M for v in (x0, y0, x1, y1)):
+            return None
+        ix = range(math.floor(x0 / self.cell), math.floor(x1 / self.cell) + 1)
+        iy = range(math.floor(y0 / self.cell), math.floor(y1 / self.cell) + 1)
+        return (ix, iy) if len(ix) * len(iy) <= _MAX_CELLS else None
+
+    def insert(self, k: int, center: np.ndarray, half: np.ndarray) -> None:
+        """Add box ``k`` (centre and half extents, (2,) float64 each)."""
+        self.placed.append(k)
+        span = self._cells(center[0] - half[0], center[1] - half[1], center[0] + half[0], center[1] + half[1])
+        if span is None:
+            self.wide.append(k)
+            return
+        for ix in span[0]:
+            for iy in span[1]:
+                self.cells.setdefault((ix, iy), []).append(k)
+
+    def query(self, x0: float, y0: float, x1: float, y1: float) -> list[int]:
+        """Settled boxes that may intersect [x0, x1] x [y0, y1] (repeats possible)."""
+        span = self._cells(x0 - _PAD_M, y0 - _PAD_M, x1 + _PAD_M, y1 + _PAD_M)
+        if span is None:
+            return list(self.placed)
+        found = list(self.wide)
+        for ix in span[0]:
+            for iy in span[1]:
+                found.extend(self.cells.get((ix, iy), ()))
+        return found
 
 
-def _candidates(c0: np.ndarray, h: np.ndarray, pc: np.ndarray, ph: np.ndarray) -> np.ndarray:
-    """(K, 2) candidate centres: the original coordinates or flush against placed box edges."""
-    xs = np.concatenate([[c0[0]], pc[:, 0] - ph[:, 0] - h[0] - _CLEARANCE_M, pc[:, 0] + ph[:, 0] + h[0] + _CLEARANCE_M])
-    ys = np.concatenate([[c0[1]], pc[:, 1] - ph[:, 1] - h[1] - _CLEARANCE_M, pc[:, 1] + ph[:, 1] + h[1] + _CLEARANCE_M])
-    X, Y = np.meshgrid(xs, ys, indexing="ij")
-    return np.column_stack([X.ravel(), Y.ravel()])
+class _Settled:
+    """The boxes settled so far, indexed, with the overlap test against them."""
+
+    def __init__(self, out: np.ndarray, half: np.ndarray, tol: float) -> None:
+        med = float(np.median(np.max(half, axis=1))) if len(half) else 0.0
+        self.grid = _Grid(max(_CELL_PER_HALF * med, 0.1) if math.isfinite(med) else 1.0)
+        self.out, self.half, self.tol = out, half, tol
+        self.rank = np.full(len(out), -1, dtype=np.int64)
+        self.checks = 0
+
+    def add(self, i: int) -> None:
+        self.rank[i] = len(self.grid.placed)
+        self.grid.insert(i, self.out[i], self.half[i])
+
+    def around(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """(M,) int64 settled boxes that may touch the box from ``lo`` to ``hi`` ((2,) float64 each)."""
+        return np.unique(np.array(self.grid.query(lo[0], lo[1], hi[0], hi[1]), dtype=np.int64))
+
+    def clear(self, cand: np.ndarray, h: np.ndarray, ids: np.ndarray) -> np.ndarray:
+        """(K,) bool: candidate centres ((K, 2) float64, half extents ``h``) that overlap none of
+        the settled boxes ``ids`` ((M,) int64, at least those that may touch a candidate)."""
+        self.checks += len(cand) * len(ids)
+        if len(ids) == 0:
+            return np.ones(len(cand), dtype=bool)
+        gap = np.abs(cand[:, None, :] - self.out[ids][None, :, :]) - (h[None, None, :] + self.half[ids][None, :, :])
+        return ~np.any(np.all(gap < -self.tol, axis=2), axis=1)
+
+    def near(self, c0: np.ndarray, h: np.ndarray, reach: float) -> np.ndarray:
+        """Settled boxes, in settling order, with ``|c - c0| < half + h + reach`` on both axes."""
+        ids = self.around(c0 - h - reach, c0 + h + reach)
+        ids = ids[np.argsort(self.rank[ids])]
+        keep = np.all(np.abs(self.out[ids] - c0) < self.half[ids] + h + reach, axis=1)
+        return ids[keep]
 
 
-def resolve_collisions(centers: np.ndarray, half: np.ndarray, priority: np.ndarray) -> CollisionResult:
+def resolve_collisions(
+    centers: np.ndarray, half: np.ndarray, priority: np.ndarray, params: CollisionParams = CollisionParams()
+) -> CollisionResult:
     """Move boxes apart with minimal displacement.
 
     Args:
@@ -89,6 +180,7 @@ def resolve_collisions(centers: np.ndarray, half: np.ndarray, priority: np.ndarr
         half: (N, 2) float64 half extents along x and y.
         priority: (N,) float64 sort key, smaller settles first (e.g. depth divided by
             confidence). Ties are broken by the box coordinates, never by input order.
+        params: tolerance, clearance and search neighbourhood.
 
     Returns:
         The displacements and the new centres.
@@ -98,38 +190,76 @@ def resolve_collisions(centers: np.ndarray, half: np.ndarray, priority: np.ndarr
     priority = np.asarray(priority, dtype=np.float64).reshape(-1)
     order = np.lexsort((half[:, 1], half[:, 0], centers[:, 1], centers[:, 0], priority))
     out = centers.copy()
-    placed: list[int] = []
+    settled = _Settled(out, half, params.tolerance_m)
     for i in order:
         c0, h = centers[i], half[i]
-        pc, ph = out[placed], half[placed]
-        if _clear(c0[None, :], h, pc, ph)[0]:
-            placed.append(int(i))
+        if settled.clear(c0[None, :], h, settled.around(c0 - h, c0 + h))[0]:
+            settled.add(int(i))
             continue
-        near = np.all(np.abs(pc - c0) < ph + h + 50.0, axis=1)
-        best = _nearest_clear(c0, _candidates(c0, h, pc[near], ph[near]), h, pc, ph)
+        near = settled.near(c0, h, params.neighbourhood_m)
+        best = _nearest_clear(c0, h, out[near], half[near], settled, params.clearance_m)
         if best is None:  # pushed out past the neighbourhood: consider every box's edges
-            best = _nearest_clear(c0, _candidates(c0, h, pc, ph), h, pc, ph)
+            every = np.array(settled.grid.placed, dtype=np.int64)
+            best = _nearest_clear(c0, h, out[every], half[every], settled, params.clearance_m)
         out[i] = best
-        placed.append(int(i))
-    return CollisionResult(out - centers, out)
-
-
-#: Candidates are checked in batches of this many, nearest first.
-_BATCH = 64
+        settled.add(int(i))
+    return CollisionResult(out - centers, out, settled.checks)
 
 
 def _nearest_clear(
-    c0: np.ndarray, cand: np.ndarray, h: np.ndarray, pc: np.ndarray, ph: np.ndarray
+    c0: np.ndarray, h: np.ndarray, pc: np.ndarray, ph: np.ndarray, settled: _Settled, clearance: float
 ) -> np.ndarray | None:
-    """The candidate nearest ``c0`` (ties by x, then y) that overlaps no placed box, or None.
+    """The candidate nearest ``c0`` (ties by x, then y) that overlaps no settled box, or None.
 
-    Candidates are checked nearest first, a batch at a time, so that a free spot close
-    by is found without checking the far ones.
+    The candidates are the grid of the original coordinates and the positions flush
+    against the edges of the boxes ``pc``/``ph`` ((M, 2) float64 each). They are visited
+    in rings: every candidate within a radius, sorted by (distance, x, y), a batch at a
+    time; then the next ring, twice as wide. The order is that of sorting all candidates
+    at once (the distance is computed as ``np.linalg.norm`` does), so the first free one
+    is the same.
     """
-    order = np.lexsort((cand[:, 1], cand[:, 0], np.linalg.norm(cand - c0, axis=1)))
-    for start in range(0, len(order), _BATCH):
-        batch = cand[order[start : start + _BATCH]]
-        ok = np.nonzero(_clear(batch, h, pc, ph))[0]
-        if len(ok):
-            return batch[ok[0]]
-    return None
+    xs, ix = _distinct(np.concatenate([[c0[0]], pc[:, 0] - ph[:, 0] - h[0] - clearance, pc[:, 0] + ph[:, 0] + h[0] + clearance]))
+    ys, iy = _distinct(np.concatenate([[c0[1]], pc[:, 1] - ph[:, 1] - h[1] - clearance, pc[:, 1] + ph[:, 1] + h[1] + clearance]))
+    dx, dy = xs - c0[0], ys - c0[1]
+    dx2, dy2 = dx * dx, dy * dy
+    rx, ry = np.sqrt(dx2), np.sqrt(dy2)  # a candidate's distance is at least each of these
+    done, reach = -np.inf, _FIRST_RING_M
+    while True:
+        last = not reach < np.inf or (bool(np.all(rx <= reach)) and bool(np.all(ry <= reach)))
+        sx = slice(None) if last else rx <= reach
+        sy = slice(None) if last else ry <= reach
+        dist = np.sqrt(dx2[sx][:, None] + dy2[sy][None, :]).ravel()
+        X, Y = (a.ravel() for a in np.meshgrid(xs[sx], ys[sy], indexing="ij"))
+        IX, IY = (a.ravel() for a in np.meshgrid(ix[sx], iy[sy], indexing="ij"))
+        new = ~(dist <= done) if last else (dist <= reach) & ~(dist <= done)
+        sel = np.nonzero(new)[0]
+        sel = sel[np.lexsort((IY[sel], IX[sel], Y[sel], X[sel], dist[sel]))]
+        if len(sel) == 0:
+            ids = sel
+        else:  # the settled boxes that may touch any candidate of this ring
+            ring = np.column_stack([X[sel], Y[sel]])
+            ids = settled.around(ring.min(axis=0) - h, ring.max(axis=0) + h)
+        for start in range(0, len(sel), _BATCH):
+            batch = np.column_stack([X[sel[start : start + _BATCH]], Y[sel[start : start + _BATCH]]])
+            ok = np.nonzero(settled.clear(batch, h, ids))[0]
+            if len(ok):
+                return batch[ok[0]]
+        if last:
+            return None
+        done, reach = reach, reach * 2.0
+
+
+def _distinct(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Values that differ in their bits, each with the index of its first occurrence.
+
+    Args:
+        values: (K,) float64.
+
+    Returns:
+        (M,) float64 values and (M,) int64 indices into ``values``. Equal bits give equal
+        results everywhere, so one copy suffices; 0.0 and -0.0 stay apart, and the first
+        index breaks their tie as the position in the full candidate list would.
+    """
+    values = np.ascontiguousarray(values, dtype=np.float64)
+    _, first = np.unique(values.view(np.int64), return_index=True)
+    return values[first], first

@@ -20,6 +20,7 @@ from usdworld.io.class_table import ClassTable
 from usdworld.io.types import DepthMap
 from usdworld.io.asset_catalogue import AssetSizes
 from usdworld.layout.yaw import RoadAxis
+from usdworld.parameters.collision import CollisionParams
 from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.depth.fusion import DepthCue
 from usdworld.perception.objects import ImageObject
@@ -94,6 +95,10 @@ def depth_method_label(method: DepthMethod, behind: str | None, rule: str) -> st
     return f"{base}+{rule}" if rule else base
 
 
+#: The collision defaults, for contexts made without them.
+DEFAULT_COLLISION = CollisionParams()
+
+
 @dataclass(frozen=True)
 class PlacementContext:
     """What every pass of the placement reads: the camera, the ground, the class table and the thresholds.
@@ -108,6 +113,7 @@ class PlacementContext:
         depth_map: optional dense metric depth (adds the ``cnn`` cue and the ordering rules).
         camera_sigma: standard deviations of the camera height (m) and pitch (rad).
         sidewalk_lift: lift objects standing on the sidewalk to the kerb height.
+        collision: the footprint collision thresholds.
     """
 
     camera: PinholeCamera
@@ -119,6 +125,7 @@ class PlacementContext:
     depth_map: DepthMap | None = None
     camera_sigma: tuple[float, float] = (0.0, 0.0)
     sidewalk_lift: bool = True
+    collision: CollisionParams = DEFAULT_COLLISION
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,7 @@ from usdworld.io.types import DepthMap
 from usdworld.io.asset_catalogue import AssetSizes
 from usdworld.layout.collision import footprint_half_extents, resolve_collisions
 from usdworld.layout.draft import (
+    DEFAULT_COLLISION,
     DepthMethod,
     Draft,
     PlacementContext,
@@ -42,6 +43,7 @@ from usdworld.layout.occlusion import drop_unbounded, move_behind_occluders, pla
 from usdworld.layout.ordering import apply_ordering_rules
 from usdworld.layout.rows import onto_street_rows
 from usdworld.layout.yaw import RoadAxis
+from usdworld.parameters.collision import CollisionParams
 from usdworld.parameters.placement import PlacementParams
 from usdworld.parameters.scene import SceneParams
 from usdworld.perception.depth.fusion import DepthCue
@@ -118,6 +120,7 @@ def place_objects(
     camera_sigma: tuple[float, float] = (0.0, 0.0),
     max_partial_depth_m: float = DEFAULT_SCENE.max_range_m,
     sidewalk_ground: np.ndarray | None = None,
+    collision: CollisionParams = DEFAULT_COLLISION,
 ) -> tuple[list[Placement], list[str]]:
     """Place every object in the world frame, then resolve footprint collisions.
 
@@ -138,6 +141,7 @@ def place_objects(
             bottom) are dropped beyond this depth (the world's range; the default is the meshed ground's).
         sidewalk_ground: (N, 2) float64 ground points of sidewalk pixels, or None; they
             give the rows (:mod:`usdworld.layout.street_lines`) no object measured.
+        collision: the footprint collision thresholds.
 
     Returns:
         Placements in the same order as ``objects`` and the names of objects that
@@ -145,7 +149,7 @@ def place_objects(
         Names are given before skipping, so they stay stable.
     """
     ctx = PlacementContext(
-        camera, ground_from_px, axis, asset_sizes, classes, params, depth_map, camera_sigma, sidewalk_lift
+        camera, ground_from_px, axis, asset_sizes, classes, params, depth_map, camera_sigma, sidewalk_lift, collision
     )
     drafts, unplaced = draft_all(objects, ctx)
     drafts = move_behind_occluders(drafts, ctx)
@@ -219,7 +223,7 @@ def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> list[Place
             for d in drafts
         ]
     )
-    resolved = resolve_collisions(centers, half, priority)
+    resolved = resolve_collisions(centers, half, priority, params=ctx.collision)
     placements = []
     for d, disp, center in zip(drafts, resolved.displacement, resolved.centers):
         obj = d.obj

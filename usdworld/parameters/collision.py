@@ -4,9 +4,56 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from usdworld.parameters.base import param  # noqa: F401  (used as fields are added)
+from usdworld.parameters.base import param
 
 
 @dataclass(frozen=True)
 class CollisionParams:
     """Thresholds of the collision stage; each field documents its unit, meaning and origin."""
+
+    tolerance_m: float = param(
+        0.01,
+        "m",
+        "Footprint boxes may overlap by at most this much on both axes before they count as colliding "
+        "(also the editor's fit check).",
+        "convention: below a centimetre, invisible at street scale",
+    )
+    clearance_m: float = param(
+        0.005,
+        "m",
+        "Gap left between two boxes that had to be separated; below tolerance_m so that a separated "
+        "pair never counts as overlapping again.",
+        "convention: half of tolerance_m",
+    )
+    neighbourhood_m: float = param(
+        50.0,
+        "m",
+        "A box that overlaps is first tried flush against the edges of the settled boxes within this "
+        "distance (beyond their half extents); only when none of those spots is free are every "
+        "settled box's edges tried.",
+        "convention: well beyond the size of any placed class, so the fallback is rare",
+    )
+    duplicate_iou: float = param(
+        0.95,
+        "fraction",
+        "Two thing detections of one class whose boxes have at least this intersection over union "
+        "are one object seen twice (a detector's raw output without suppression, a label file listed "
+        "twice) and are merged whatever their number: two real objects cannot both fill 95 % of one "
+        "box, since the farther one projects smaller and higher.",
+        "geometry: two cars one car length (4.5 m) apart at 60 m differ in box size by 7 %, IoU < 0.9",
+    )
+    dense_detections: int = param(
+        200,
+        "count",
+        "Above this many thing detections in one image the input is treated as a detector's raw "
+        "output, and same-class boxes with IoU of at least dense_iou are merged as well.",
+        "convention: KITTI's densest frames have about 40 labelled objects, Cityscapes' about 100 "
+        "persons; 200 leaves room for a crowded car park",
+    )
+    dense_iou: float = param(
+        0.7,
+        "fraction",
+        "IoU at or above which two same-class detections are merged in a dense input (see dense_detections).",
+        "published: the usual non-maximum suppression threshold of detector proposals (Ren et al., "
+        "Faster R-CNN, NeurIPS 2015, 0.7)",
+    )

@@ -149,7 +149,7 @@ def test_asset_path_names_the_unknown_class_and_the_available_ones() -> None:
     with pytest.raises(InputError) as err:
         al.asset_path("unicorn")
     message = str(err.value)
-    assert "'unicorn'" in message and "car, fence" in message and "\n" not in message
+    assert "'unicorn'" in message and "car, construction_vehicle, fence" in message and "\n" not in message
 
 
 def test_library_dirs_puts_the_user_library_first(tmp_path: Path) -> None:

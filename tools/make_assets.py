@@ -693,6 +693,122 @@ def motorcycle_street() -> Model:
     return m
 
 
+def van_panel() -> Model:
+    """A van: the car builder at the KITTI Van mean size, a tall boxy body with a short hood."""
+    return _car(
+        5.07,
+        1.9,
+        2.21,
+        "paint_white",
+        0.34,
+        3.2,
+        0.25,
+        1.12,
+        1.05,
+        (-2.5, 1.55),
+        (-2.5, 1.15),
+        (0.95, 0.92),
+        roof_rails=False,
+    )
+
+
+def tram_low_floor() -> Model:
+    """A low-floor tram section at the KITTI Tram mean size: one long rail car with a cab at
+    each end, a floor 0.35 m above the rail and a pantograph on the roof."""
+    m = Model()
+    hl, hw, r = 8.085, 1.265, 0.2
+    z0, z1 = 0.35, 3.2
+
+    def body(grow: float) -> Manifold:
+        rr = r + grow
+        pts = []
+        for s in (1.0, -1.0):
+            pts += [
+                (s * (hl - r), hw - r, z0 + r),
+                (s * (hl - 0.15 - r), hw - r, z1 - r),
+                (s * (hl - 1.5), hw - r, z0 + r),
+            ]
+        return blob(mirror_y(pts), rr, 12)
+
+    m.add("paint_white", body(0.0))
+    m.add("stripe", body(0.008) ^ box(-hl - 1, hl + 1, -2, 2, 0.6, 0.85))
+    band = (body(0.012) ^ box(-7.0, 7.0, -2, 2, 1.15, 2.6)) - pillar_cuts(np.arange(-6.3, 6.4, 1.4), 0.14, hw, 0, 4)
+    cabs = body(0.012) ^ union([box(7.4, 9, -2, 2, 1.1, 2.75), box(-9, -7.4, -2, 2, 1.1, 2.75)])
+    m.add("glass", union([band, cabs]))
+    m.add("door", body(0.016) ^ union([box(c - 0.65, c + 0.65, -2, 2, 0.4, 2.7) for c in (-4.2, 0.0, 4.2)]))
+    m.add("bogie", *[box(c - 1.0, c + 1.0, -0.95, 0.95, 0.12, 0.38) for c in (-5.6, 5.6)])
+    for c in (-5.6, 5.6):
+        for dx in (-0.6, 0.6):
+            for sgn in (1.0, -1.0):
+                m.add("wheel_steel", wheel_y(c + dx, sgn * 0.62, sgn * 0.76, 0.3, 0.3, seg=20))
+    m.add(
+        "trim",
+        box(-1.2, 1.2, -0.7, 0.7, 3.15, 3.3),
+        rod((-0.9, 0.0, 3.3), (0.4, 0.0, 3.47), 0.03, seg=8),
+        rod((0.4, 0.0, 3.47), (-0.5, 0.0, 3.49), 0.025, seg=8),
+        rod((0.4, -0.75, 3.5), (0.4, 0.75, 3.5), 0.03, seg=8),
+    )
+    for sgn in (1.0, -1.0):
+        y0, y1 = sorted((sgn * 0.7, sgn * 1.0))
+        m.add("headlight", box(hl - 0.05, hl + 0.006, y0, y1, 0.7, 0.85))
+        m.add("taillight", box(-hl - 0.006, -hl + 0.05, y0, y1, 0.7, 0.85))
+    return m
+
+
+def trailer_box() -> Model:
+    """A semi-trailer at the nuScenes trailer mean size: a box on three rear axles, landing
+    legs and a king pin at the front."""
+    m = Model()
+    hl, hw = 6.005, 1.435
+    axles = (-3.2, -4.3, -5.4)
+    cargo = rbox(-hl, hl, -hw, hw, 1.25, 3.82, 0.04, 4)
+    ribs = [box(x, x + 0.06, -hw - 0.004, hw + 0.004, 1.3, 3.77) for x in np.arange(-5.4, 5.6, 1.0)]
+    m.add("paint_white", union([cargo, *ribs]))
+    m.add(
+        "chassis",
+        box(-hl + 0.2, hl - 0.3, -0.55, 0.55, 0.95, 1.25),
+        box(-5.9, -2.7, -1.1, 1.1, 0.75, 0.95),
+        box(-hl, -hl + 0.15, -1.2, 1.2, 0.55, 0.75),
+        *[box(3.6, 3.75, sgn * 1.0 - 0.08, sgn * 1.0 + 0.08, 0.0, 1.0) for sgn in (1.0, -1.0)],
+        rod((hl - 0.9, 0.0, 0.95), (hl - 0.9, 0.0, 0.75), 0.05, seg=10),
+    )
+    for sgn in (1.0, -1.0):
+        y0, y1 = sorted((sgn * 0.9, sgn * 1.2))
+        m.add("taillight", box(-hl - 0.004, -hl + 0.03, y0, y1, 0.6, 0.72))
+    add_car_wheels(m, axles, hw - 0.02, 0.5, 0.55)
+    return m
+
+
+def construction_loader() -> Model:
+    """A construction vehicle at the nuScenes construction_vehicle mean size: a wheel loader,
+    engine box and cab on four large wheels, a boom and a bucket at the front."""
+    m = Model()
+    hw = 1.365
+    axles = (1.45, -1.55)
+    m.add(
+        "paint_yellow",
+        rbox(-3.19, -0.55, -1.05, 1.05, 0.7, 2.15, 0.08, 4),
+        rbox(-0.7, 1.9, -0.9, 0.9, 0.55, 1.3, 0.05, 4),
+        rbox(-0.6, 0.85, -0.85, 0.85, 1.3, 3.13, 0.06, 4),
+        *[
+            rod((0.6, sgn * 0.75, 1.55), (2.55, sgn * 0.75, 1.05), 0.12, seg=10)
+            for sgn in (1.0, -1.0)
+        ],
+    )
+    cab_glass = rbox(-0.612, 0.862, -0.862, 0.862, 1.288, 3.142, 0.06, 4) ^ box(-1, 1, -2, 2, 1.9, 2.95)
+    m.add("glass", cab_glass - pillar_cuts([0.12], 0.12, 0.9, 0, 4))
+    m.add(
+        "metal",
+        prism_xz([(2.45, 0.12), (3.19, 0.12), (3.19, 0.55), (2.8, 1.15), (2.45, 1.15)], -hw + 0.05, hw - 0.05)
+        - box(2.6, 3.3, -hw + 0.15, hw - 0.15, 0.25, 1.3),
+    )
+    m.add("chassis", box(-2.9, 1.7, -0.6, 0.6, 0.45, 0.75))
+    m.add("headlight", *[box(0.83, 0.87, sgn * 0.6 - 0.1, sgn * 0.6 + 0.1, 2.9, 3.02) for sgn in (1.0, -1.0)])
+    m.add("taillight", *[box(-3.2, -3.17, sgn * 0.8 - 0.1, sgn * 0.8 + 0.1, 1.8, 1.95) for sgn in (1.0, -1.0)])
+    add_car_wheels(m, axles, hw, 0.72, 0.5)
+    return m
+
+
 def bicycle_city() -> Model:
     m = Model()
     add_bicycle(m)
@@ -1044,6 +1160,10 @@ ASSETS: dict[str, tuple[tuple[str, Builder], ...]] = {
     "person": (("walking", person_walking), ("standing", person_standing)),
     "rider": (("bicycle", rider_bicycle),),
     "misc": (("crates", misc_crates),),
+    "van": (("panel", van_panel),),
+    "tram": (("low_floor", tram_low_floor),),
+    "trailer": (("box", trailer_box),),
+    "construction_vehicle": (("loader", construction_loader),),
     "tree": (("deciduous", tree_deciduous), ("conifer", tree_conifer)),
     "building": (("residential", building_residential), ("office", building_office)),
     "pole": (("plain", pole_plain), ("street_lamp", pole_street_lamp)),

@@ -50,6 +50,7 @@ def make_report(model: WorldModel, params: Parameters) -> dict[str, Any]:
                 "contact_px": [_num(c) for c in o.contact_px],
                 "mask_area": o.mask_area,
                 "bottom_truncated": o.bottom_truncated,
+                "cut_sides": list(o.cut_sides),
                 "bottom_occluded": o.bottom_occluded,
                 "standing_on": o.standing_on,
                 "position_world": [_num(c) for c in p.position_world],

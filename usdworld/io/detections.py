@@ -4,7 +4,8 @@ KITTI ``label_2`` (one object per line, fields separated by spaces)::
 
     type truncated occluded alpha x1 y1 x2 y2 h w l x y z rotation_y [score]
 
-Only ``type``, the 2D box ``x1 y1 x2 y2`` (pixels) and the optional ``score`` are kept;
+Only ``type``, ``truncated`` (the fraction of the object outside the image, 0..1; KITTI
+writes 0..1 floats), the 2D box ``x1 y1 x2 y2`` (pixels) and the optional ``score`` are kept;
 ``DontCare`` lines are skipped and the 3D fields are ignored. KITTI's 2D boxes are the
 image projections of the annotated 3D boxes (clipped to the image): they are *amodal*,
 so an occluded object's box bottom is still where it meets the road.
@@ -260,7 +261,7 @@ def read_kitti_labels(path: PathLike, image: SourceImage | None = None) -> Detec
         if label == "DontCare":
             continue
         values = []
-        for idx in (4, 5, 6, 7, 15):
+        for idx in (1, 4, 5, 6, 7, 15):
             if idx >= len(fields):
                 continue
             try:
@@ -273,9 +274,14 @@ def read_kitti_labels(path: PathLike, image: SourceImage | None = None) -> Detec
                     f"{where}: {field_name} = {fields[idx]!r} is not a finite number; fix the line"
                 )
             values.append(v)
+        truncated, values = values[0], values[1:]
+        if truncated > 1.0:
+            raise InputError(f"{where}: truncated = {fields[1]!r} must be in [0, 1] (the fraction outside the image)")
+        # Detector result files write -1 ("not given") here.
+        truncated = max(truncated, 0.0)
         box = _check_box(values[:4], image, where)
         score = _check_score(values[4], where) if len(values) == 5 else 1.0
-        items.append(Detection(label=label, box_px=box, score=score, amodal=True))
+        items.append(Detection(label=label, box_px=box, score=score, amodal=True, truncated=truncated))
     return Detections(items=tuple(items), file=file)
 
 

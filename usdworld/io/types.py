@@ -87,6 +87,9 @@ class Detection:
         amodal: the box bounds the whole object, hidden parts included (KITTI labels are
             projections of 3D boxes), so its bottom edge is the object's ground contact
             even where another object hides it; False for boxes of the visible part.
+        truncated: how much of the object lies outside the image, in [0, 1] (KITTI's
+            ``truncated`` field; 0 when the input does not say). An object with
+            ``truncated > 0`` is cut by the image border on the side(s) its box touches.
     """
 
     label: str
@@ -94,9 +97,13 @@ class Detection:
     score: float = 1.0
     mask: np.ndarray | None = None
     amodal: bool = False
+    truncated: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "box_px", _frozen_array(np.asarray(self.box_px, dtype=np.float64)))
+        object.__setattr__(self, "truncated", float(self.truncated))
+        if not 0.0 <= self.truncated <= 1.0:
+            raise ValueError(f"detection {self.label}: truncated must be in [0, 1], got {self.truncated}")
         if self.mask is not None:
             object.__setattr__(self, "mask", _frozen_array(np.asarray(self.mask, dtype=bool)))
 

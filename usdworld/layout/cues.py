@@ -12,6 +12,7 @@ hidden) the front depth is a bound from above or the top-row estimate
 from __future__ import annotations
 
 from dataclasses import dataclass
+from statistics import NormalDist
 
 import numpy as np
 
@@ -146,6 +147,11 @@ def front_depth(obj: ImageObject, ctx: PlacementContext, forced: Forced | None) 
     try:
         fused = fuse(list(cues))
     except LayoutError:
+        if obj.bottom_truncated:
+            cut = cut_off_front_depth(obj, prior, sizes, ctx, contact_ok, front_contact)
+            if cut is not None:
+                depth, method, cue = cut
+                return FrontDepth(depth, method, method_confidence(method, ctx.params), (*cues, cue))
         depth, method = partial_front_depth(obj, prior, ctx, contact_ok, front_contact)
         return FrontDepth(depth, method, method_confidence(method, ctx.params), cues)
     method = DepthMethod(fused.method)
@@ -212,3 +218,125 @@ def partial_front_depth(
         depth, method = min(bounds)
         return depth, DepthMethod(method)
     return float("nan"), DepthMethod.UNPLACEABLE
+
+
+# --- objects cut by the image border --------------------------------------------------------
+
+
+def _top_row_line(obj: ImageObject, ctx: PlacementContext) -> tuple[float, float] | None:
+    """Height above the road of the top row's viewing ray as a line in depth: ``z(d) = a + b d``.
+
+    Returns:
+        (a, b): a in metres (the camera height), b in metres per metre of optical depth;
+        None when the ray does not go ahead of the camera.
+    """
+    camera = ctx.camera
+    x0, y0, x1, _ = (float(b) for b in obj.box_px)
+    v_top = y0 if obj.box_only else y0 - 0.5
+    ray = camera.rays_world(np.array([[0.5 * (x0 + x1), v_top]], dtype=np.float64))[0]
+    along = float(ray @ camera.rotation_world_from_cam[:, 2])
+    if along <= 1e-9:
+        return None
+    return float(camera.center_world[2]), float(ray[2] / along)
+
+
+def _width_cue(
+    obj: ImageObject, prior: ClassPrior, ctx: PlacementContext, guess_depth_m: float
+) -> tuple[float, float] | None:
+    """Depth from the box's width when both its sides are seen: a road-aligned class's
+    footprint (length ``l``, width ``w``) at heading ``rel`` to the viewing ray spans
+    ``l |sin rel| + w |cos rel|`` across it. Its spread is the class's relative size spread
+    (its height spread over its height: one uniform scale, as ``scale_range`` assumes).
+
+    Returns:
+        (depth, sigma) in metres, or None (a side cut, a class not aligned with the road, or
+        no width).
+    """
+    if obj.sides_cut or prior.yaw != "road" or obj.width_px <= 0:
+        return None
+    camera = ctx.camera
+    u = 0.5 * float(obj.box_px[0] + obj.box_px[2])
+    v = float(obj.box_px[1])
+    guess = point_at_depth(camera, u, v, guess_depth_m)
+    yaw = object_yaw(prior, guess, ctx.axis, obj, camera, ctx.params)[0]
+    rel = yaw - float(np.arctan2(guess[1], guess[0]))
+    span = prior.size_m[0] * abs(np.sin(rel)) + prior.size_m[1] * abs(np.cos(rel))
+    depth = camera.fx * span / obj.width_px
+    return depth, depth * prior.height_std_m / prior.size_m[2]
+
+
+def truncated_normal_median(mean: float, sigma: float, lo: float, hi: float) -> float:
+    """Median of a normal distribution (mean, sigma) restricted to ``[lo, hi]`` (lo < hi).
+
+    Where the interval lies far in one tail (its probability underflows), the end nearer
+    the mean.
+    """
+    dist = NormalDist(mean, sigma)
+    p_lo, p_hi = dist.cdf(lo), dist.cdf(hi)
+    if p_hi - p_lo < 1e-12:
+        return hi if mean > hi else lo
+    return float(min(max(dist.inv_cdf(0.5 * (p_lo + p_hi)), lo), hi))
+
+
+def cut_off_front_depth(
+    obj: ImageObject,
+    prior: ClassPrior,
+    sizes: AssetSizes,
+    ctx: PlacementContext,
+    contact_ok: bool,
+    front_contact: float,
+) -> tuple[float, DepthMethod, DepthCue] | None:
+    """Front depth of an object whose bottom is cut by the image border, from the cues still seen.
+
+    A box cut by the border bounds the object from the cut side only: the visible bottom's
+    ground point and the cut height's depth bound its depth from above (``hi``, the smaller).
+    Within ``(near plane, hi]`` the cues still measured are multiplied as Gaussians in depth:
+
+    * the top row (when the top is seen): the ray through it stands ``z(d) = a + b d`` above
+      the road at depth ``d``; the class height ``H ~ N(mean, std)`` makes that
+      ``d ~ N((mean - a) / b, std / |b|)``: broad for a car's roof near the camera's height,
+      sharp for a person's head or a van's roof well clear of it;
+    * the width across the image (when both sides are seen): :func:`_width_cue`.
+
+    The depth is the median of that product restricted to the interval (a uniform prior in
+    depth within the bounds); with no cue still seen, None (the bound alone decides,
+    :func:`partial_front_depth`). A dense depth map, when given, is fused before this is
+    reached (:func:`front_depth`).
+
+    Returns:
+        (front depth in metres, :attr:`DepthMethod.CUT_OFF`, a ``cut_off`` cue whose note
+        names the cut sides, the cues used and the bounds), or None.
+    """
+    camera = ctx.camera
+    bounds: list[tuple[float, str]] = []
+    if contact_ok and np.isfinite(front_contact):
+        bounds.append((front_contact, "contact"))
+    if obj.is_thing and obj.height_px > 0:
+        bounds.append((camera.fy * prior.size_m[2] / obj.height_px, "cut height"))
+    if not bounds:
+        return None
+    hi, hi_name = min(bounds)
+    lo = ctx.params.near_plane_m
+    if not hi > lo:
+        return None
+    gaussians: list[tuple[float, float, str]] = []
+    if not obj.top_truncated:
+        line = _top_row_line(obj, ctx)
+        if line is not None and abs(line[1]) > 1e-9:
+            a, b = line
+            gaussians.append(((prior.size_m[2] - a) / b, prior.height_std_m / abs(b), "top row"))
+    width = _width_cue(obj, prior, ctx, 0.5 * (lo + hi))
+    if width is not None:
+        gaussians.append((width[0], width[1], "width"))
+    if not gaussians:
+        return None
+    weights = np.array([1.0 / s**2 for _, s, _ in gaussians])
+    mean = float(np.sum(weights * np.array([m for m, _, _ in gaussians])) / weights.sum())
+    sigma = float(1.0 / np.sqrt(weights.sum()))
+    depth = truncated_normal_median(mean, sigma, lo, hi)
+    used = " + ".join(name for _, _, name in gaussians)
+    note = (
+        f"cut at {', '.join(obj.cut_sides)}: {used} within ({lo:g}, {hi:.2f}] m "
+        f"(upper bound from the {hi_name}); unbounded estimate {mean:.2f} +- {sigma:.2f} m"
+    )
+    return depth, DepthMethod.CUT_OFF, DepthCue("cut_off", depth, max(min(sigma, hi - lo), 1e-6), note)

@@ -43,6 +43,9 @@ class DepthMethod(enum.Enum):
     HEIGHT_PARTIAL = "height_partial"
     #: Bottom hidden: the top row and the class height.
     TOP_ROW = "top_row"
+    #: Bottom cut by the image border: the cues still seen (top row, width across the
+    #: image) within the cut contact's and cut height's bounds (:func:`usdworld.layout.cues.cut_off_front_depth`).
+    CUT_OFF = "cut_off"
     #: Where its viewing ray meets its class's street row.
     STREET_LINE = "street_line"
     #: Just behind the object hiding its bottom (:attr:`Draft.behind`).
@@ -67,7 +70,9 @@ class DepthMethod(enum.Enum):
         return self in (DepthMethod.CONTACT, DepthMethod.FUSED)
 
 
-_PARTIAL = frozenset({DepthMethod.CONTACT_PARTIAL, DepthMethod.HEIGHT_PARTIAL, DepthMethod.TOP_ROW})
+_PARTIAL = frozenset(
+    {DepthMethod.CONTACT_PARTIAL, DepthMethod.HEIGHT_PARTIAL, DepthMethod.TOP_ROW, DepthMethod.CUT_OFF}
+)
 _ORDERED = frozenset({DepthMethod.CNN, *_PARTIAL})
 
 
@@ -81,6 +86,7 @@ def method_confidence(method: DepthMethod, params: PlacementParams) -> float:
         DepthMethod.CONTACT_PARTIAL: params.confidence_contact_partial,
         DepthMethod.STREET_LINE: params.confidence_street_line,
         DepthMethod.TOP_ROW: params.confidence_top_row,
+        DepthMethod.CUT_OFF: params.confidence_top_row,
         DepthMethod.BEHIND: params.confidence_behind,
         DepthMethod.HEIGHT_PARTIAL: params.confidence_height_partial,
         DepthMethod.UNPLACEABLE: 0.0,

@@ -2,43 +2,17 @@
 
 The Cityscapes table is data (``usdworld/data/cityscapes_labels.csv``), read with its
 lookup arrays by :mod:`usdworld.io.label_table` at the edge and passed in here; this
-module maps detector labels (KITTI, free-form JSON) onto the same placed classes.
+module maps detector labels (KITTI, nuScenes, COCO, free-form JSON) onto the same placed
+classes through the detector label table (``usdworld/data/detector_labels.csv``, read by
+:mod:`usdworld.io.detector_labels`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from usdworld.io.detector_labels import detector_labels
 from usdworld.io.label_table import LabelLookups
-
-#: Detector / KITTI label (lower case) -> placed class. Cityscapes names are
-#: accepted too (see :func:`placed_class_for_label`).
-DETECTOR_LABELS: dict[str, str] = {
-    "car": "car",
-    "van": "car",
-    "truck": "truck",
-    "bus": "bus",
-    "tram": "train",
-    "train": "train",
-    "pedestrian": "person",
-    "person": "person",
-    "person_sitting": "person",
-    "cyclist": "rider",
-    "rider": "rider",
-    "bicycle": "bicycle",
-    "motorcycle": "motorcycle",
-    "motorbike": "motorcycle",
-    "misc": "misc",
-    "tree": "tree",
-    "building": "building",
-    "pole": "pole",
-    "traffic_light": "traffic_light",
-    "traffic light": "traffic_light",
-    "traffic_sign": "traffic_sign",
-    "traffic sign": "traffic_sign",
-    "fence": "fence",
-    "wall": "fence",
-}
 
 
 def placed_class_for_label(label: str, lookups: LabelLookups) -> str | None:
@@ -50,8 +24,9 @@ def placed_class_for_label(label: str, lookups: LabelLookups) -> str | None:
         lookups: the Cityscapes table's arrays (:func:`usdworld.io.label_table.label_lookups`).
     """
     key = label.strip().lower()
-    if key in DETECTOR_LABELS:
-        return DETECTOR_LABELS[key]
+    table = detector_labels()
+    if key in table:
+        return table[key] or None
     hits = np.nonzero(lookups.names == key)[0]
     if len(hits) and lookups.placed[hits[0]]:
         return str(lookups.placed[hits[0]])

@@ -53,6 +53,9 @@ class ImageObject:
         ref: identifier of the object within its image (unique, stable for the same input).
         box_only: the object comes from a 2D box without a mask (its box bottom follows
             the projected 3D box, not the visible ground contact).
+        left_truncated: the left side touches the image border (or the input marks the
+            object cut there): the box bounds the object only from the right.
+        right_truncated: the right side touches the image border (or is marked cut).
     """
 
     class_name: str
@@ -69,9 +72,11 @@ class ImageObject:
     occluded_by: int = -1
     ref: int = -1
     box_only: bool = False
+    left_truncated: bool = False
+    right_truncated: bool = False
 
     def __post_init__(self) -> None:
-        for name in ("bottom_truncated", "bottom_occluded", "top_truncated"):
+        for name in ("bottom_truncated", "bottom_occluded", "top_truncated", "left_truncated", "right_truncated"):
             object.__setattr__(self, name, bool(getattr(self, name)))
         object.__setattr__(self, "instance_id", int(self.instance_id))
         object.__setattr__(self, "score", float(self.score))
@@ -97,6 +102,17 @@ class ImageObject:
     @property
     def is_thing(self) -> bool:
         return self.instance_id >= 0
+
+    @property
+    def cut_sides(self) -> tuple[str, ...]:
+        """The sides cut by the image border, of ``left``, ``right``, ``top``, ``bottom`` in that order."""
+        flags = (self.left_truncated, self.right_truncated, self.top_truncated, self.bottom_truncated)
+        return tuple(side for side, cut in zip(("left", "right", "top", "bottom"), flags) if cut)
+
+    @property
+    def sides_cut(self) -> bool:
+        """True when the left or the right side is cut: the box's width bounds the object from one side only."""
+        return self.left_truncated or self.right_truncated
 
 
 def _column_bottoms(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -450,6 +466,8 @@ def objects_from_segmentation(
                 standing_on=contact.standing_on,
                 occluded_by=contact.occluder if contact.occluder else -1,
                 ref=idx,
+                left_truncated=x0 <= 0,
+                right_truncated=x1 >= W,
             )
         )
     return sort_objects(objects)
@@ -466,6 +484,33 @@ def sort_objects(objects: list[ImageObject]) -> list[ImageObject]:
             float(o.contact_px[1]),
         ),
     )
+
+
+def border_sides(
+    box_px: np.ndarray, width: int, height: int, truncated: float = 0.0
+) -> tuple[bool, bool, bool, bool]:
+    """Which sides of a detection box are cut by the image border.
+
+    A side within one pixel of the border is cut (KITTI clips its boxes to
+    ``[0, W - 1] x [0, H - 1]``). An object the input marks truncated (``truncated > 0``,
+    KITTI's fraction outside the image) whose box touches no border still leaves the image:
+    the side nearest the border is taken as cut.
+
+    Args:
+        box_px: (4,) float64 ``xmin, ymin, xmax, ymax`` in pixels.
+        width: image width, pixels.
+        height: image height, pixels.
+        truncated: fraction of the object outside the image, [0, 1].
+
+    Returns:
+        (left, right, top, bottom) cut flags.
+    """
+    x0, y0, x1, y1 = (float(b) for b in box_px)
+    gaps = np.array([x0, width - x1, y0, height - y1])
+    cut = gaps <= 1.0
+    if truncated > 0 and not cut.any():
+        cut[int(np.argmin(gaps))] = True
+    return bool(cut[0]), bool(cut[1]), bool(cut[2]), bool(cut[3])
 
 
 def objects_from_detections(
@@ -539,6 +584,7 @@ def objects_from_detections(
             v = int(min(max(bottom, 0), height - 1))
             u = int(min(max((fbox[0] + fbox[2]) / 2, 0), width - 1))
             standing_on = str(lookups.names[labels[v, u]])
+        cut = border_sides(fbox, width, height, det.truncated)
         objects.append(
             ImageObject(
                 class_name=class_name,
@@ -547,9 +593,11 @@ def objects_from_detections(
                 box_px=box,
                 mask=crop,
                 contact_px=np.array([(fbox[0] + fbox[2]) / 2.0, bottom]),
-                bottom_truncated=bottom >= height - 1.0,
+                bottom_truncated=cut[3],
                 bottom_occluded=occluders >= params.occluded_fraction,
-                top_truncated=fbox[1] <= 1.0,
+                top_truncated=cut[2],
+                left_truncated=cut[0],
+                right_truncated=cut[1],
                 standing_on=standing_on,
                 score=float(det.score),
                 occluded_by=occluder if occluders >= params.occluded_fraction else -1,

@@ -19,6 +19,7 @@ import math
 import shutil
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, UsdUtils, Vt
@@ -27,9 +28,11 @@ import usdworld
 from usdworld.authoring.camera import define_camera
 from usdworld.authoring.provenance import PROVENANCE_API, SCENE_API, apply_with_values
 from usdworld.errors import AuthoringError
-from usdworld.layout.model import WorldModel
-from usdworld.layout.placement import Placement
-from usdworld.layout.surfaces import SurfaceMesh
+
+if TYPE_CHECKING:  # annotations only: the editor imports this module, and layout's imports cost it 0.2 s
+    from usdworld.layout.model import WorldModel
+    from usdworld.layout.placement import Placement
+    from usdworld.layout.surfaces import SurfaceMesh
 
 ROOT_LAYER = "world.usda"
 BASE_LAYER = "layers/base.usda"

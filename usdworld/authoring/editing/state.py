@@ -19,7 +19,6 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
 from usdworld.authoring import asset_library
-from usdworld.authoring.asset_measures import variant_measures
 from usdworld.authoring.editing.restyle import COLOR_KEY
 from usdworld.authoring.world import GROUND_PATH, OBJECTS_PATH
 from usdworld.errors import EditRefused, InputError, RefusalReason
@@ -174,6 +173,8 @@ class WorldState:
             return self.size(class_name, variant)
         key = (class_name, variant)
         if key not in self._trunk_sizes:
+            from usdworld.authoring.asset_measures import variant_measures  # cv2: only for trunk classes
+
             try:
                 half = variant_measures(class_name, variant or None, self.libraries).contact_half
                 self._trunk_sizes[key] = (2.0 * half[0], 2.0 * half[1])

@@ -48,6 +48,7 @@ from usdworld.layout.camera_cues import height_observations, road_top_row, stree
 from usdworld.layout.model import WorldModel
 from usdworld.layout.placement import place_objects
 from usdworld.layout.surfaces import SURFACE_CLASSES, build_surfaces, fill_hidden_ground, surface_points
+from usdworld.layout.heading import check_traffic
 from usdworld.layout.yaw import road_axis
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.output_dir import prepare_output as _prepare_output
@@ -87,6 +88,8 @@ class BuildRequest:
         max_range_m: farthest ground distance meshed (``--max-range``); when given it
             replaces ``params.scene.max_range_m``.
         params: the tuned numbers (``--params FILE``).
+        traffic: the side traffic keeps to, ``right`` or ``left`` (``--traffic``): which
+            way vehicles face (:mod:`usdworld.layout.heading`).
     """
 
     image: Path
@@ -104,8 +107,10 @@ class BuildRequest:
     library: Path | None = None
     max_range_m: float | None = None
     params: Parameters = DEFAULT_PARAMETERS
+    traffic: str = "right"
 
     def __post_init__(self) -> None:
+        check_traffic(self.traffic)
         if self.instances is not None and self.labels is None:
             raise InputError("--instances needs --labels (the labelIds PNG of the same frame)")
         if self.polygons is not None and self.labels is not None:
@@ -337,6 +342,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         surface_points(road, fit.dst_from_src, camera, max_range_m, stride) if road is not None else None,
         vanishing_angle=vanishing_yaw(head.vanishing, camera),
         params=params.placement,
+        traffic=request.traffic,
     )
     placements, skipped = place_objects(
         head.objects,

@@ -56,6 +56,7 @@ def make_report(model: WorldModel, params: Parameters) -> dict[str, Any]:
                 "position_world": [_num(c) for c in p.position_world],
                 "yaw_deg": _num(np.degrees(p.yaw)),
                 "yaw_source": p.yaw_source,
+                "yaw_confidence": _num(p.yaw_confidence),
                 "depth_m": _num(p.depth_m),
                 "depth_method": p.depth_method,
                 "depth_cues": {

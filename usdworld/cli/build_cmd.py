@@ -27,6 +27,9 @@ def build(
     max_range: Optional[float] = typer.Option(
         None, "--max-range", help="Farthest ground distance meshed, metres (default: scene.max_range_m, 80; at most 1000)."
     ),
+    traffic: str = typer.Option(
+        "right", "--traffic", help="The side traffic keeps to, right or left: which way vehicles face."
+    ),
     params: Optional[Path] = typer.Option(
         None, "--params", help="Parameters JSON {section: {field: value}} over the defaults (docs/parameters.md)."
     ),
@@ -53,6 +56,7 @@ def build(
         depth_weights=depth_weights,
         library=library,
         max_range_m=max_range,
+        traffic=traffic,
         params=read_parameters(params) if params is not None else DEFAULT_PARAMETERS,
     )
     result = run_build(request)

@@ -34,8 +34,8 @@ from pathlib import Path
 from usdworld.errors import InputError
 from usdworld.resources import data_dir
 
-#: How a class may be oriented (:func:`usdworld.layout.yaw.choose_yaw`).
-YAW_MODES = ("road", "face_road", "camera", "none")
+#: How a class may be oriented (:func:`usdworld.layout.yaw.heading_for`).
+YAW_MODES = ("road", "along_road", "face_road", "camera", "none")
 #: Roles a class may play (module docstring).
 ROLES = frozenset(
     {"crown", "topped", "trunk", "post", "post_contact", "facade", "line", "thin_occluder", "unbounding_occluder"}
@@ -53,8 +53,8 @@ class ClassPrior:
         size_m: (length along the object's forward axis, width, height) in metres.
         height_std_m: spread of real heights, metres.
         scale_range: (min, max) uniform scale allowed relative to ``size_m``.
-        yaw: ``road``, ``face_road``, ``camera`` or ``none``: how the object is oriented
-            (:func:`usdworld.layout.yaw.choose_yaw`).
+        yaw: ``road``, ``along_road``, ``face_road``, ``camera`` or ``none``: how the object is oriented
+            (:func:`usdworld.layout.yaw.heading_for`).
         kind: ``thing`` or ``stuff``.
         rigid_height: True when the height is reliable enough to calibrate the camera.
         facade_depth_m: for classes that face the road, the footprint's extent behind the

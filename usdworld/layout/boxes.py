@@ -14,7 +14,8 @@ import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.class_table import ClassPrior
-from usdworld.layout.yaw import RoadAxis, choose_yaw, view_angle_from_box, yaw_from_view_angle
+from usdworld.layout.heading import Heading
+from usdworld.layout.yaw import RoadAxis, heading_for, view_angle_from_box, yaw_from_view_angle
 from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.objects import ImageObject
 
@@ -150,23 +151,41 @@ def object_yaw(
     camera: PinholeCamera,
     params: PlacementParams,
 ) -> tuple[float, str]:
-    """The class's yaw rule at ``point`` (:func:`usdworld.layout.yaw.choose_yaw`), turned to
-    match a whole box's aspect when there is one (:func:`fit_view_angle`).
+    """(yaw in radians, source label) of :func:`object_heading`."""
+    h = object_heading(prior, point, axis, obj, camera, params)
+    return h.yaw, h.source
+
+
+def object_heading(
+    prior: ClassPrior,
+    point: np.ndarray,
+    axis: RoadAxis,
+    obj: ImageObject,
+    camera: PinholeCamera,
+    params: PlacementParams,
+) -> Heading:
+    """The class's heading rule at ``point`` (:func:`usdworld.layout.yaw.heading_for`: the
+    side of the road and the traffic direction), turned to match a whole box's aspect when
+    there is one (:func:`fit_view_angle`).
+
+    The aspect gives the turn from the line of sight modulo 180 degrees (front and back
+    look alike in a box); the side rule picks which way round.
 
     Args:
         prior: the object's class prior (its yaw mode and size).
         point: (2,) float64 ground point of the object.
-        axis: the road axis.
+        axis: the road axis and the traffic side.
         obj: the image evidence.
         camera: the source camera.
-        params: the turns tried by the box fit.
+        params: the turns tried by the box fit and the lane width.
 
     Returns:
-        (yaw in radians, source label; ``box_aspect_`` prefixed when the box turned it).
+        The heading (source ``box_aspect_`` prefixed when the box turned it; the side
+        rule's confidence, which is about front versus back).
     """
-    yaw, source = choose_yaw(prior.yaw, point, axis)
+    h = heading_for(prior.yaw, point, axis, params)
     if not box_aspect_usable(obj, prior, camera.width):
-        return yaw, source
+        return h
     angle = fit_view_angle(camera, point, prior.size_m, obj, params)
     bearing = float(np.arctan2(point[1], point[0]))
-    return yaw_from_view_angle(angle, bearing, yaw), f"box_aspect_{source}"
+    return Heading(yaw_from_view_angle(angle, bearing, h.yaw), f"box_aspect_{h.source}", h.confidence)

@@ -174,6 +174,8 @@ class Draft:
         upper_m: a bound from above on the front depth (inf when none).
         behind: the occluder's name when ``method`` is :attr:`DepthMethod.BEHIND`.
         rule: ``''`` or the ordering rule(s) that changed the depth (``rule1``, ``rule1+rule2``).
+        yaw_confidence: how sure the yaw's facing direction is, in [0, 1]
+            (:class:`usdworld.layout.heading.Heading`).
     """
 
     obj: ImageObject
@@ -196,6 +198,7 @@ class Draft:
     upper_m: float
     behind: str | None = None
     rule: str = ""
+    yaw_confidence: float = 1.0
 
     @property
     def depth_method(self) -> str:

@@ -10,14 +10,14 @@ Every cue in the provenance is given at the centre too.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from usdworld.io.class_table import ClassPrior
 from usdworld.io.asset_catalogue import AssetSizes
 from usdworld.layout.asset_sizes import choose_variant
-from usdworld.layout.boxes import align_box_columns, object_yaw
+from usdworld.layout.boxes import align_box_columns, object_heading, object_yaw
 from usdworld.layout.cues import FrontDepth, front_depth
 from usdworld.layout.draft import (
     DepthMethod,
@@ -67,11 +67,15 @@ def draft_object(
     prior, sizes = ctx.classes[obj.class_name], ctx.asset_sizes[obj.class_name]
     u, v = (float(x) for x in obj.contact_px)
     # Yaw at the front point; variant and scale from the visible height and aspect there.
+    # A person's heading along the street is a tie-break, not a measurement: their
+    # footprint is sized and centred as when facing the camera, so it moves no depth.
     front_ground = point_at_depth(ctx.camera, u, v, front.depth_m)
-    yaw, _ = object_yaw(prior, front_ground, ctx.axis, obj, ctx.camera, ctx.params)
+    centring = replace(prior, yaw="camera") if prior.yaw == "along_road" else prior
+    yaw, _ = object_yaw(centring, front_ground, ctx.axis, obj, ctx.camera, ctx.params)
     sized = _size(obj, prior, sizes, ctx, front, front_ground, yaw)
     ground, depth, back = _centre(obj, prior, sizes, ctx, front.depth_m, front_ground, yaw, sized)
-    yaw, yaw_source = object_yaw(prior, ground, ctx.axis, obj, ctx.camera, ctx.params)
+    heading = object_heading(prior, ground, ctx.axis, obj, ctx.camera, ctx.params)
+    yaw, yaw_source = heading.yaw, heading.source
     if obj.is_thing:
         ground = align_box_columns(ctx.camera, ground, yaw, sized.size, obj, ctx.params)
     centre_cues = tuple(
@@ -101,6 +105,7 @@ def draft_object(
         # The visible bottom's ground point bounds a hidden or cut bottom's depth from above.
         upper_m=front.depth_m if front.method is DepthMethod.CONTACT_PARTIAL else float("inf"),
         behind=forced.behind if forced is not None else None,
+        yaw_confidence=heading.confidence,
     )
 
 
@@ -205,8 +210,9 @@ def _centre(
         depth = depth_of_ground_point(camera, ground)
         return ground, depth, depth - front
     reach = size[:2] if obj.box_only else 2.0 * sizes.contact_half(variant) * scale
-    if prior.yaw == "camera" and not obj.box_only:
-        # Turned to face the camera only for want of its real heading: expect any heading.
+    if prior.yaw in ("camera", "along_road") and not obj.box_only:
+        # Turned to face the camera, or along the street either way, only for want of its
+        # real heading: expect any heading.
         ahead = sizes.mean_reach(variant) * scale
     else:
         ahead = _forward_half_extent(reach, yaw, camera.yaw)

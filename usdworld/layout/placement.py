@@ -78,6 +78,7 @@ class Placement:
         confidence: in [0, 1].
         behind: the occluder's name when ``method`` is ``BEHIND``.
         rule: ``''`` or the ordering rule(s) that changed the depth.
+        yaw_confidence: how sure the yaw's facing direction is, in [0, 1].
     """
 
     name: str
@@ -97,6 +98,7 @@ class Placement:
     confidence: float = 0.0
     behind: str | None = None
     rule: str = ""
+    yaw_confidence: float = 1.0
 
     @property
     def depth_method(self) -> str:
@@ -236,6 +238,7 @@ def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> list[Place
                 position_world=np.array([center[0], center[1], z]),
                 yaw=d.yaw,
                 yaw_source=d.yaw_source,
+                yaw_confidence=d.yaw_confidence,
                 scale=d.scale,
                 stretch=d.stretch,
                 scale_measured=d.scale_measured,

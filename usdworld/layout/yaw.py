@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from usdworld.layout.heading import Heading, along_road_heading, check_traffic, traffic_heading
 from usdworld.parameters.placement import PlacementParams
 
 
@@ -17,17 +18,23 @@ class RoadAxis:
         angle: direction of the road axis in radians (world yaw, in (-pi/2, pi/2]).
         center_ground: (2,) float64 a point on the road's centre line.
         source: how it was found (``vanishing_point``, ``road_pca`` or ``camera_forward``).
+        traffic: the side traffic keeps to, ``right`` or ``left`` (``--traffic``).
     """
 
     angle: float
     center_ground: np.ndarray
     source: str
+    traffic: str = "right"
+
+    def __post_init__(self) -> None:
+        check_traffic(self.traffic)
 
 
 def road_axis(
     road_points_ground: np.ndarray | None,
     vanishing_angle: float | None = None,
     params: PlacementParams = PlacementParams(),  # noqa: B008 (frozen)
+    traffic: str = "right",
 ) -> RoadAxis:
     """The road's direction and a point on its centre line.
 
@@ -43,6 +50,7 @@ def road_axis(
         params: ``road_axis_min_points`` (fewer fall back to the camera's forward axis) and
             ``max_road_axis_angle_deg`` (an axis further from the camera's heading is a
             crossing, or a wrong estimate, not the street).
+        traffic: the side traffic keeps to, ``right`` or ``left``.
 
     Returns:
         The axis; with nothing to go on, the camera forward axis through the origin.
@@ -51,9 +59,9 @@ def road_axis(
     max_angle = params.max_road_axis_angle
     center = np.median(np.asarray(road_points_ground, dtype=np.float64), axis=0) if enough else np.zeros(2)
     if vanishing_angle is not None and abs(_wrap(vanishing_angle)) <= max_angle:
-        return RoadAxis(_wrap(vanishing_angle), center, "vanishing_point")
+        return RoadAxis(_wrap(vanishing_angle), center, "vanishing_point", traffic)
     if not enough:
-        return RoadAxis(0.0, np.zeros(2), "camera_forward")
+        return RoadAxis(0.0, np.zeros(2), "camera_forward", traffic)
     pts = np.asarray(road_points_ground, dtype=np.float64)
     centred = pts - pts.mean(axis=0)
     _, _, vt = np.linalg.svd(centred, full_matrices=False)
@@ -64,38 +72,57 @@ def road_axis(
     # A street seen from a car runs away from the camera; an axis across the view
     # means the road region is a crossing, so keep the camera's heading instead.
     if abs(angle) > max_angle:
-        return RoadAxis(0.0, center, "camera_forward")
-    return RoadAxis(angle, center, "road_pca")
+        return RoadAxis(0.0, center, "camera_forward", traffic)
+    return RoadAxis(angle, center, "road_pca", traffic)
 
 
-def choose_yaw(mode: str, position_ground: np.ndarray, axis: RoadAxis) -> tuple[float, str]:
-    """Yaw of one object and a word on how it was chosen.
+def choose_yaw(
+    mode: str,
+    position_ground: np.ndarray,
+    axis: RoadAxis,
+    params: PlacementParams = PlacementParams(),  # noqa: B008 (frozen)
+) -> tuple[float, str]:
+    """Yaw of one object and a word on how it was chosen (:func:`heading_for` without its confidence)."""
+    h = heading_for(mode, position_ground, axis, params)
+    return h.yaw, h.source
+
+
+def heading_for(
+    mode: str,
+    position_ground: np.ndarray,
+    axis: RoadAxis,
+    params: PlacementParams = PlacementParams(),  # noqa: B008 (frozen)
+) -> Heading:
+    """Heading of one object by its class's yaw mode.
 
     Args:
-        mode: the class prior's yaw mode: ``road`` (align with the road; right-hand
-            traffic, so objects left of the road centre line face the camera),
-            ``face_road`` (the asset's forward axis across the road, towards its centre
-            line: a building's front), ``camera`` (face the camera) or ``none`` (keep the
-            asset axes).
+        mode: the class prior's yaw mode: ``road`` (a vehicle: along the road, moving
+            with the traffic of its side, :func:`usdworld.layout.heading.traffic_heading`),
+            ``along_road`` (a person: along the road, either way,
+            :func:`usdworld.layout.heading.along_road_heading`), ``face_road`` (the
+            asset's forward axis across the road, towards its centre line: a building's
+            front), ``camera`` (face the camera) or ``none`` (keep the asset axes).
         position_ground: (2,) float64 object position on the ground.
-        axis: the road axis.
+        axis: the road axis and the traffic side.
+        params: ``lane_width_m`` (the camera's lane).
 
     Returns:
-        (yaw in radians, source label).
+        The heading; its source is prefixed by the axis's source for the road modes
+        (``vanishing_point_traffic_right_same_side``).
     """
     if mode == "camera":
         bearing = float(np.arctan2(position_ground[1], position_ground[0]))
-        return _wrap(bearing + np.pi), "facing_camera"
-    if mode in ("road", "face_road"):
+        return Heading(_wrap(bearing + np.pi), "facing_camera", 1.0)
+    if mode in ("road", "along_road"):
+        rule = traffic_heading if mode == "road" else along_road_heading
+        h = rule(position_ground, axis.angle, axis.center_ground, axis.traffic, params.lane_width_m)
+        return Heading(h.yaw, f"{axis.source}_{h.source}", h.confidence)
+    if mode == "face_road":
         d = np.array([np.cos(axis.angle), np.sin(axis.angle)])
         rel = np.asarray(position_ground, dtype=np.float64) - axis.center_ground
         left = d[0] * rel[1] - d[1] * rel[0] > 0
-        if mode == "face_road":
-            return _wrap(axis.angle + (-np.pi / 2 if left else np.pi / 2)), f"{axis.source}_facing_road"
-        if left:
-            return _wrap(axis.angle + np.pi), f"{axis.source}_left_oncoming"
-        return _wrap(axis.angle), f"{axis.source}_right_with_traffic"
-    return 0.0, "none"
+        return Heading(_wrap(axis.angle + (-np.pi / 2 if left else np.pi / 2)), f"{axis.source}_facing_road", 1.0)
+    return Heading(0.0, "none", 1.0)
 
 
 def view_angle_from_box(box_w_px: float, box_h_px: float, size_lwh: tuple[float, float, float]) -> float:

@@ -274,6 +274,16 @@ class PlacementParams:
         'Contact rows closer than this count as the paper\'s "similar Y" in its ordering rules.',
         "convention: the paper gives no number; two pixels of label noise",
     )
+    # --- headings ----------------------------------------------------------------------
+    lane_width_m: float = param(
+        3.5,
+        "m",
+        "Width of one traffic lane: the line dividing the two directions of traffic lies at least "
+        "half of it to the camera's oncoming side, and a heading's confidence grows to 1 one lane "
+        "away from that line (layout.heading).",
+        "published: RAA 2008 (German motorway design guideline) and the AASHTO Green Book "
+        "(2018): standard lanes 3.5 m and 3.6 m",
+    )
 
     @property
     def row_outlier_m(self) -> float:

@@ -275,6 +275,18 @@ class PlacementParams:
         "convention: the paper gives no number; two pixels of label noise",
     )
 
+    ground_height_sigma_m: float = param(
+        0.14,
+        "m",
+        "Spread of the road surface's height under an object about the camera's ground plane. The "
+        "plane is the road under the camera (a given plane is fitted round the car; an estimated one "
+        "to all contacts); an object one or two lanes over stands on a road that falls away across "
+        "its crossfall. A ground contact's depth scales with the camera's height above the object's "
+        "own ground, so this widens the contact cue by depth * sigma / camera height, given camera or not.",
+        "published: road crossfall 1.5-2.5 % (AASHTO, A Policy on Geometric Design of Highways and "
+        "Streets, 2018, sec. 4.2.2); 2 % across two 3.5 m lanes is 0.14 m",
+    )
+
     @property
     def row_outlier_m(self) -> float:
         """A tree or pole whose seen contact lies further than this (metres) beyond its class's

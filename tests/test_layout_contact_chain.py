@@ -87,7 +87,7 @@ def test_projected_kitti_car_is_placed_at_its_true_depth(centre_xy: tuple[float,
 def test_road_unevenness_widens_the_contact_cue_of_a_given_camera() -> None:
     """A ground dz higher under the object moves its contact depth by d dz / h: with the
     camera given (no camera sigma) the cue is widened by that much alone."""
-    params = PlacementParams()
+    params = PlacementParams(ground_height_sigma_m=0.14)
     ctx = PlacementContext(
         CAM, np.eye(3), RoadAxis(0.0, np.zeros(2), "camera_forward"), {}, load_class_table(), params
     )

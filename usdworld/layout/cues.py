@@ -159,22 +159,27 @@ def front_depth(obj: ImageObject, ctx: PlacementContext, forced: Forced | None) 
 
 
 def with_camera_uncertainty(cue: DepthCue, ctx: PlacementContext) -> DepthCue:
-    """Widen the contact cue by the camera's own height and pitch uncertainty.
+    """Widen the contact cue by the camera's own height and pitch uncertainty and by the
+    road's unevenness.
 
     A height error scales every contact depth (``d * s_h / h``); a pitch error shifts the
-    horizon, which moves a contact depth by ``d^2 * s_pitch / h``.
+    horizon, which moves a contact depth by ``d^2 * s_pitch / h``. The road under the object
+    is not the camera's ground plane: a surface ``dz`` higher there meets the contact's ray
+    ``d * dz / h`` nearer, so its spread :attr:`PlacementParams.ground_height_sigma_m`
+    widens the cue by ``d * s_ground / h`` even when the camera (or its road plane) is given.
     """
     if cue.name != "contact" or not cue.available:
         return cue
     s_h, s_p = ctx.camera_sigma
     h = ctx.camera.height_m
     d = float(cue.depth_m)
-    extra = np.hypot(d * s_h / h, d * d * s_p / h)
+    camera = float(np.hypot(d * s_h / h, d * d * s_p / h))
+    ground = d * ctx.params.ground_height_sigma_m / h
+    extra = float(np.hypot(camera, ground))
     if extra == 0:
         return cue
-    return DepthCue(
-        cue.name, d, float(np.hypot(cue.sigma_m, extra)), cue.note + "; camera uncertainty included"
-    )
+    notes = (["camera uncertainty"] if camera > 0 else []) + (["road unevenness"] if ground > 0 else [])
+    return DepthCue(cue.name, d, float(np.hypot(cue.sigma_m, extra)), cue.note + f"; {' and '.join(notes)} included")
 
 
 def crop_depth(depth_map: DepthMap, obj: ImageObject) -> DepthMap:

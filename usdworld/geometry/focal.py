@@ -257,10 +257,11 @@ def box_shape_cue(
 
     A grid over (log f, camera height, pitch) scores the Cauchy residuals of every
     vehicle's predicted box width and top row (spreads: the class size's, relative
-    ``params.shape_length_rel_std`` for length and width, ``height_std_m`` for height,
+    ``params.shape_length_rel_std`` for length and width, ``params.shape_yaw_std_deg`` of turn off the street, ``height_std_m`` for height,
     plus ``params.edge_noise_px``), with the camera-height and pitch priors and, when
-    given, the horizon row. The focal length's posterior (flat prior in log f: the prior
-    is fused separately) gives the cue's mean and spread.
+    given, the horizon row. The profile likelihood of log f (best height and horizon row
+    per focal length; the focal prior is fused separately) gives the cue's mean and spread
+    from its mode and curvature.
 
     Args:
         width: image width, pixels.
@@ -281,28 +282,53 @@ def box_shape_cue(
     diag = float(np.hypot(width, height))
     n_f, n_h, n_p = params.shape_grid
     fs = diag * np.exp(np.linspace(*np.log(params.shape_focal_range), n_f))
-    hs = np.linspace(*params.height_range_m, n_h)
-    ps = np.radians(np.linspace(-2 * params.pitch_prior_std_deg, 2 * params.pitch_prior_std_deg, n_p))
-    F, Hc, P = (a.ravel() for a in np.meshgrid(fs, hs, ps, indexing="ij"))
-    v_h = c[1] - F * np.tan(P)
+    mean_h, std_h = params.height_prior_m
+    hs = np.linspace(max(params.height_range_m[0], mean_h - 3 * std_h), mean_h + 3 * std_h, n_h)
+    # horizon rows on a uniform pixel grid (not pitch angles: summing over angles would give
+    # short focal lengths more horizon candidates per pixel and so more likelihood)
+    half = np.tan(np.radians(2 * params.pitch_prior_std_deg)) * 1.5 * prior_cue(width, height, params).f_px
+    rows = c[1] + np.linspace(-half, half, n_p)
+    F, Hc, v_h = (a.ravel() for a in np.meshgrid(fs, hs, rows, indexing="ij"))
+    P = np.arctan((c[1] - v_h) / F)
     yaw = np.arctan((street_u - c[0]) / F) if street_u is not None else np.zeros_like(F)
     w_pred, top_pred, depth = project_street_boxes(F, Hc, v_h, yaw, c, shapes)
     w_meas = shapes.box_px[:, 2] - shapes.box_px[:, 0]
-    sig_w = np.hypot(params.shape_length_rel_std * w_pred, params.edge_noise_px)
+    # a vehicle turned by d_yaw from the street shows d_yaw * L more or less of its side (f / Z px per metre)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        turn_px = F[:, None] * shapes.size_m[None, :, 0] * np.sin(np.radians(params.shape_yaw_std_deg)) / depth
+    sig_w = np.sqrt((params.shape_length_rel_std * w_pred) ** 2 + turn_px**2 + params.edge_noise_px**2)
     with np.errstate(invalid="ignore", divide="ignore"):
         sig_t = np.hypot(F[:, None] * shapes.height_std_m[None, :] / np.maximum(depth, 0.1), params.edge_noise_px)
         rw = (w_pred - w_meas[None, :]) / sig_w
         rt = (top_pred - shapes.box_px[None, :, 1]) / sig_t
-    data = np.where(np.isfinite(rw), np.log1p(rw**2), params.unprojectable_cost)
-    data += np.where(np.isfinite(rt), np.log1p(rt**2), params.unprojectable_cost)
+    # Cauchy negative log densities, with log sigma: the spreads grow with the focal length,
+    # and without their normalisation a longer focal length would explain misfits for free.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        data = np.where(np.isfinite(rw), np.log1p(rw**2) + np.log(sig_w), params.unprojectable_cost)
+        data += np.where(np.isfinite(rt), np.log1p(rt**2) + np.log(sig_t), params.unprojectable_cost)
     mean_h, std_h = params.height_prior_m
     cost = data.sum(axis=1) + 0.5 * ((Hc - mean_h) / std_h) ** 2 + 0.5 * (np.degrees(P) / params.pitch_prior_std_deg) ** 2
     if horizon is not None:
         cost += np.log1p(((v_h - horizon[0]) / horizon[1]) ** 2)
-    post = np.exp(-(cost - cost.min())).reshape(n_f, n_h * n_p).sum(axis=1)
-    post /= post.sum()
+    # The profile likelihood of log f (the best camera height and horizon row for each focal
+    # length), summarised by its mode and curvature (a Laplace approximation). Moments over
+    # the bounded grid would pull a weak cue towards the grid's middle, and a marginal over
+    # the nuisance parameters weighs focal lengths by how many of them fit; the profile's
+    # mode and curvature do neither, and a flat profile shows as a large sigma.
     logf = np.log(fs)
-    mean = float(post @ logf)
-    sigma = float(np.sqrt(post @ (logf - mean) ** 2))
+    log_lik = -(cost - cost.min()).reshape(n_f, n_h * n_p).min(axis=1)
+    k = int(np.argmax(log_lik))
+    if k < 2 or k > n_f - 3:
+        return None  # no maximum inside the searched range
+    near = np.zeros(n_f, dtype=bool)
+    near[k - 2 : k + 3] = True  # the mode and two grid steps each side
+    near |= log_lik >= log_lik[k] - 2.0  # and all within two log-units (about two sigmas)
+    a, b, _ = np.polyfit(logf[near], log_lik[near], 2)
+    if a >= 0:
+        return None
+    mean = float(np.clip(-b / (2 * a), logf[0], logf[-1]))
+    sigma = float(np.sqrt(-1.0 / (2 * a)))
+    if sigma > params.focal_max_sigma_log:
+        return None  # the shapes add (almost) nothing to the prior
     sigma = max(sigma, params.focal_min_sigma_log)
     return FocalCue("box_shapes", float(np.exp(mean)), sigma, f"{len(shapes)} vehicle box(es) of known size along the street")

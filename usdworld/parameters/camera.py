@@ -161,6 +161,12 @@ class CameraParams:
         "Smallest spread a cue measured from the photo (vanishing points, object shapes) may claim.",
         "convention: model error of a level-camera, street-aligned model (5 %)",
     )
+    focal_max_sigma_log: float = param(
+        1.0,
+        "1 (log f)",
+        "A photo's cue less certain than this (x2.7 either way) is not a measurement and is left out.",
+        "convention: weaker than the prior by a factor of three",
+    )
     vertical_max_tilt_deg: float = param(
         20.0,
         "deg",
@@ -177,6 +183,13 @@ class CameraParams:
         "Relative spread of a vehicle's length and width around its class size (the object-shape focal cue).",
         "published: KITTI car length 3.88 +- 0.43 m, width 1.63 +- 0.10 m (Geiger et al. 2012 label statistics)",
     )
+    shape_yaw_std_deg: float = param(
+        8.0,
+        "deg",
+        "Spread of a vehicle's heading around the street's direction (lane changes, bends, parking at an angle): "
+        "it widens or narrows the side a box shows.",
+        "convention: a lane change over 30 m at 50 km/h turns a car by about 6-8 deg",
+    )
     shape_focal_range: tuple[float, float] = param(
         (0.25, 2.0),
         "1",
@@ -184,7 +197,7 @@ class CameraParams:
         "convention: 150 deg diagonal to a short telephoto",
     )
     shape_grid: tuple[int, int, int] = param(
-        (56, 23, 33), "count", "Object-shape cue grid: focal lengths (log spaced), camera heights, pitches.",
+        (56, 37, 49), "count", "Object-shape cue grid: focal lengths (log spaced), camera heights (3 prior sigmas), horizon rows (within 2 pitch-prior sigmas at 1.5x the prior focal length).",
         "convention: resolution only",
     )
     shape_min_objects: int = param(

@@ -1,4 +1,4 @@
-"""The horizon from the photo itself: the vanishing point of the street's lines.
+"""The horizon from the photo itself: the vanishing point of the street's lines (and the vertical's).
 
 Lane markings, kerbs, roof lines and window rows run along the street; in the image
 they converge on one vanishing point, which lies on the horizon. With a level roll the
@@ -11,6 +11,11 @@ segments finds the point most segments point at (within ``vp_angle_tol_deg`` of
 fit over its inliers refines it. The estimate is
 kept only when enough segments from both sides of the point agree, so a single facade
 or a fence does not decide it.
+
+The vertical's vanishing point (:func:`find_vertical_vanishing_point`: poles and building
+edges, within ``vertical_max_tilt_deg`` of the image vertical; homogeneous, as it is at
+infinity for a level camera) and the street's are images of orthogonal directions; together
+they measure the focal length (:func:`vanishing_focal_cue`) when no camera file gives it.
 
 Frames: image pixels (u right, v down, origin at the top-left corner).
 """

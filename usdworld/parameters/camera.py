@@ -1,8 +1,10 @@
 """Tuned numbers of the camera stage (see :mod:`usdworld.parameters.base` for the field conventions).
 
 The camera stage is :mod:`usdworld.geometry.estimate` (height and pitch from objects of known
-height, the road's top row and the horizon) and :mod:`usdworld.geometry.vanishing` (the
-street's vanishing point from the photo's line segments).
+height, the road's top row and the horizon), :mod:`usdworld.geometry.vanishing` (the
+street's and the vertical vanishing points from the photo's line segments) and
+:mod:`usdworld.geometry.focal` (the focal length without a camera file: prior, EXIF,
+vanishing points and vehicle box shapes, fused).
 """
 
 from __future__ import annotations
@@ -22,7 +24,9 @@ class CameraParams:
     default_hfov_deg: float = param(
         60.0,
         "deg",
-        "Horizontal field of view assumed when no intrinsics are given.",
+        "Horizontal field of view assumed for cutting facades before the camera is estimated, when no "
+        "intrinsics are given (layout/camera_cues.street_view); the camera itself uses the focal-length "
+        "cues and prior below.",
         "convention: a typical dash or phone camera's field of view (commit 07357ff)",
     )
     height_prior_mean_m: float = param(

@@ -41,3 +41,25 @@ def test_no_exif_and_unreadable(tmp_path):
     assert read_exif_focal(_jpeg(tmp_path / "d.jpg", {0x920A: Fraction(4, 1)}), 400, 300) is None  # no resolution
     (tmp_path / "e.jpg").write_bytes(b"not an image")
     assert read_exif_focal(tmp_path / "e.jpg", 400, 300) is None
+
+
+def test_build_without_camera_file_takes_the_exif_focal_length(tmp_path):
+    """End to end: a JPEG stating 26 mm (35 mm equivalent) and no camera file -> K from EXIF, recorded in report.json."""
+    import json
+
+    from usdworld.pipeline import BuildRequest, build
+
+    rng = np.random.default_rng(0)
+    path = tmp_path / "photo.jpg"
+    image = Image.fromarray(rng.integers(0, 255, (240, 320, 3), dtype=np.uint8))
+    exif = Image.Exif()
+    exif.get_ifd(0x8769)[0xA405] = 26
+    image.save(path, exif=exif)
+    result = build(BuildRequest(image=path, output=tmp_path / "out"))
+    expected = 26 * 400.0 / FILM_DIAGONAL_MM
+    cam = result.model.camera
+    assert cam.focal is not None and "exif" in cam.focal.sources
+    assert cam.camera.fx == pytest.approx(expected, rel=0.02)  # the prior (30 %) barely moves a 3 % cue
+    focal = json.loads((tmp_path / "out" / "report.json").read_text())["camera"]["focal"]
+    assert [c["source"] for c in focal["used"]][:2] == ["prior", "exif"]
+    assert "EXIF 35 mm-equivalent focal length 26 mm" in cam.method

@@ -23,11 +23,15 @@ Frames: image pixels (u right, v down, origin at the top-left corner).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
 from usdworld.parameters.camera import DEFAULT_CAMERA, CameraParams
+
+if TYPE_CHECKING:
+    from usdworld.geometry.focal import FocalCue
 
 
 @dataclass(frozen=True)
@@ -266,7 +270,7 @@ def vanishing_focal_cue(
     width: int,
     height: int,
     params: CameraParams = DEFAULT_CAMERA,
-):
+) -> FocalCue | None:
     """The focal length the street's and the vertical vanishing points give together.
 
     The street runs horizontally, so its direction is orthogonal to the vertical:

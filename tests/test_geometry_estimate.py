@@ -47,7 +47,8 @@ def test_one_outlier_does_not_drag_the_fit():
 def test_nothing_to_go_on_gives_documented_defaults():
     empty = HeightObservations(*(np.zeros(0) for _ in range(5)))
     est = estimate_camera(1000, 500, None, None, None, None, None, empty)
-    assert est.camera.fx == pytest.approx(500.0 / np.tan(np.radians(CameraParams().default_hfov_deg / 2)))
+    assert est.camera.fx == pytest.approx(CameraParams().focal_prior_diag_ratio * np.hypot(1000, 500))
+    assert est.focal is not None and est.focal.sources == ("prior",)
     assert est.camera.height_m == pytest.approx(CameraParams().height_prior_m[0], abs=0.01)
     assert est.camera.pitch == pytest.approx(0.0, abs=1e-3)
     assert "K" in est.estimated and "nothing to go on" in est.method

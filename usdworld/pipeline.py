@@ -32,7 +32,7 @@ from usdworld.errors import InputError, OutputError
 from usdworld.geometry.camera import PinholeCamera, ground_correspondences
 from usdworld.geometry.estimate import CameraEstimate, estimate_camera
 from usdworld.geometry.homography import HomographyFit, estimate_homography
-from usdworld.geometry.vanishing import VanishingPoint, street_vanishing_point
+from usdworld.geometry.vanishing import VanishingPoint, detect_segments, find_vanishing_point
 from usdworld.io.asset_catalogue import AssetCatalogue
 from usdworld.io.camera_files import read_camera
 from usdworld.io.class_table import ClassTable, load_class_table
@@ -44,6 +44,9 @@ from usdworld.io.label_table import label_lookups
 from usdworld.io.labels import read_polygons, read_segmentation
 from usdworld.io.limits import MAX_RANGE_CAP_M
 from usdworld.io.types import CameraSpec, InputFile, Segmentation, SourceImage
+from usdworld.geometry.focal import FocalEstimate
+from usdworld.io.exif import read_exif_focal
+from usdworld.layout.focal_cues import estimate_focal
 from usdworld.layout.camera_cues import height_observations, road_top_row, street_view, vanishing_yaw
 from usdworld.layout.model import WorldModel
 from usdworld.layout.placement import place_objects
@@ -227,6 +230,7 @@ def _camera(
     vanishing: VanishingPoint | None,
     table: ClassTable,
     params: Parameters,
+    focal: FocalEstimate | None = None,
 ) -> CameraEstimate:
     if spec is None:
         spec_values: tuple = (None, None, None, None, None)
@@ -240,6 +244,7 @@ def _camera(
         road_top_row(_label_mask(seg, "road"), params.scene),
         vanishing=vanishing,  # the photo's own lines measure the horizon when the pitch is not given
         params=params.camera,
+        focal=focal,
     )
 
 
@@ -297,11 +302,16 @@ def read_scene_head(
     image = read_image(request.image)
     seg = _read_segmentation(request, image)
     spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
-    vanishing = street_vanishing_point(image.rgb, params.camera)
+    segments = detect_segments(image.rgb, params.camera)
+    vanishing = find_vanishing_point(segments, image.width, image.height, params.camera)
     view = street_view(spec, image.width, image.height, vanishing, params.placement.curb_height_m, params.camera)
     objects = _objects(request, image, seg, view, table, params)
     catalogue = asset_catalogue((o.class_name for o in objects), libraries)
-    camera = _camera(spec, image, objects, seg, catalogue, vanishing, table, params)
+    focal = None
+    if spec is None or spec.K is None:  # no intrinsics given: the photo's own cues (EXIF, lines, vehicles)
+        exif = read_exif_focal(request.image, image.width, image.height)
+        focal = estimate_focal(image.width, image.height, objects, table, vanishing, segments, exif, params.camera)
+    camera = _camera(spec, image, objects, seg, catalogue, vanishing, table, params, focal)
     return SceneHead(image, seg, spec, vanishing, objects, catalogue, camera)
 
 

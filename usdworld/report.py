@@ -17,6 +17,22 @@ from usdworld.parameters import Parameters
 
 
 
+def _focal_entry(focal) -> dict | None:
+    """How the focal length was estimated (every cue, used or dropped), or None when K was given."""
+    if focal is None:
+        return None
+
+    def cue(c) -> dict:
+        return {"source": c.source, "f_px": _num(c.f_px), "sigma_log": _num(c.sigma_log), "detail": c.detail}
+
+    return {
+        "f_px": _num(focal.f_px),
+        "sigma_log": _num(focal.sigma_log),
+        "used": [cue(c) for c in focal.used],
+        "dropped": [cue(c) for c in focal.dropped],
+    }
+
+
 def _num(x: float | None) -> float | None:
     """A JSON number: rounded to 6 decimals, None when missing or not finite."""
     if x is None:
@@ -83,6 +99,7 @@ def make_report(model: WorldModel, params: Parameters) -> dict[str, Any]:
             "sigma_height_m": _num(model.camera.sigma_height_m),
             "sigma_pitch_deg": _num(np.degrees(model.camera.sigma_pitch)),
             "method": model.camera.method,
+            "focal": _focal_entry(model.camera.focal),
         },
         "dlt": {
             "source": model.dlt_source,

@@ -23,7 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdworld.errors import CalibrationError
-from usdworld.geometry.camera import PinholeCamera, intrinsics_from_fov
+from usdworld.geometry.camera import PinholeCamera
+from usdworld.geometry.focal import FocalEstimate, fuse_focal, principal_point, prior_cue
 from usdworld.geometry.vanishing import VanishingPoint, horizon_measurement
 from usdworld.parameters.camera import DEFAULT_CAMERA, CameraParams
 
@@ -94,6 +95,7 @@ class CameraEstimate:
         residual_px: median absolute top-row residual of those objects, pixels (0 without).
         sigma_height_m: standard deviation of the camera height (0 when it was given).
         sigma_pitch: standard deviation of the pitch, radians (0 when it was given).
+        focal: how the focal length was estimated (its cues, fused), or None when K was given.
     """
 
     camera: PinholeCamera
@@ -103,6 +105,13 @@ class CameraEstimate:
     residual_px: float
     sigma_height_m: float = 0.0
     sigma_pitch: float = 0.0
+    focal: FocalEstimate | None = None
+
+
+def intrinsics_from_focal(width: int, height: int, f_px: float) -> np.ndarray:
+    """(3, 3) float64 K with square pixels of focal ``f_px`` and the principal point at the image centre."""
+    cx, cy = principal_point(width, height)
+    return np.array([[f_px, 0.0, cx], [0.0, f_px, cy], [0.0, 0.0, 1.0]])
 
 
 def predicted_top_rows(
@@ -258,13 +267,16 @@ def estimate_camera(
     road_top_v: float | None = None,
     vanishing: VanishingPoint | None = None,
     params: CameraParams = DEFAULT_CAMERA,
+    focal: FocalEstimate | None = None,
 ) -> CameraEstimate:
     """Complete a partially known camera.
 
     Args:
         width: image width in pixels.
         height: image height in pixels.
-        K: (3, 3) float64 camera matrix, or None to assume ``params.default_hfov_deg``.
+        K: (3, 3) float64 camera matrix, or None: then the focal length is ``focal`` (the
+            photo's cues fused with the prior, :mod:`usdworld.geometry.focal`), or the prior
+            alone, with the principal point at the image centre.
         height_m: camera height in metres, or None to estimate.
         pitch: radians (positive looking down), or None to estimate.
         roll: radians, or None (then 0 is assumed).
@@ -273,6 +285,7 @@ def estimate_camera(
         road_top_v: highest image row (smallest v) of the road region, or None.
         vanishing: the street's vanishing point, or None.
         params: the priors, noise levels and search grids.
+        focal: the fused focal length when ``K`` is None (ignored when K is given).
 
     Returns:
         The camera and a record of what was estimated and how.
@@ -280,9 +293,13 @@ def estimate_camera(
     estimated = []
     notes = []
     if K is None:
-        K = intrinsics_from_fov(width, height, params.default_hfov_deg)
+        if focal is None:
+            focal = fuse_focal([prior_cue(width, height, params)], params)
+        K = intrinsics_from_focal(width, height, focal.f_px)
         estimated.append("K")
-        notes.append(f"intrinsics assumed: {params.default_hfov_deg:g} deg horizontal FOV, centred principal point")
+        notes.append(f"intrinsics estimated, centred principal point: {focal.describe()}")
+    else:
+        focal = None
     if roll is None:
         estimated.append("roll")
         notes.append("roll assumed level (0)")
@@ -326,4 +343,4 @@ def estimate_camera(
         height_m, pitch = h_est, p_est
     method = "; ".join(notes) if notes else "all camera parameters given"
     camera = PinholeCamera(width, height, np.asarray(K), float(height_m), float(pitch), float(roll), float(yaw))
-    return CameraEstimate(camera, tuple(estimated), method, n_used, residual, sigma_h, sigma_p)
+    return CameraEstimate(camera, tuple(estimated), method, n_used, residual, sigma_h, sigma_p, focal)

@@ -1,4 +1,4 @@
-"""The horizon from the photo itself: the vanishing point of the street's lines.
+"""The horizon from the photo itself: the vanishing point of the street's lines (and the vertical's).
 
 Lane markings, kerbs, roof lines and window rows run along the street; in the image
 they converge on one vanishing point, which lies on the horizon. With a level roll the
@@ -12,17 +12,26 @@ fit over its inliers refines it. The estimate is
 kept only when enough segments from both sides of the point agree, so a single facade
 or a fence does not decide it.
 
+The vertical's vanishing point (:func:`find_vertical_vanishing_point`: poles and building
+edges, within ``vertical_max_tilt_deg`` of the image vertical; homogeneous, as it is at
+infinity for a level camera) and the street's are images of orthogonal directions; together
+they measure the focal length (:func:`vanishing_focal_cue`) when no camera file gives it.
+
 Frames: image pixels (u right, v down, origin at the top-left corner).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
 from usdworld.parameters.camera import DEFAULT_CAMERA, CameraParams
+
+if TYPE_CHECKING:
+    from usdworld.geometry.focal import FocalCue
 
 
 @dataclass(frozen=True)
@@ -168,3 +177,153 @@ def horizon_measurement(
     The error adds the point's own scatter and ``params.road_slope_sigma_deg`` of road slope.
     """
     return vp.v, float(np.hypot(vp.sigma_v_px, fy * np.tan(np.radians(params.road_slope_sigma_deg))))
+
+
+@dataclass(frozen=True)
+class VerticalVanishingPoint:
+    """The vanishing point of the world's vertical (poles, building edges), possibly at infinity.
+
+    Attributes:
+        point_h: (3,) float64 homogeneous ``(u, v, w)`` pixels, unit norm, ``w >= 0``
+            (``w = 0``: the verticals are parallel in the image, a level camera).
+        inliers: (M, 4) float64 the supporting segments.
+    """
+
+    point_h: np.ndarray
+    inliers: np.ndarray
+
+
+def _upright(segments: np.ndarray, width: int, params: CameraParams) -> np.ndarray:
+    d = segments[:, 2:] - segments[:, :2]
+    length = np.hypot(d[:, 0], d[:, 1])
+    tilt = np.degrees(np.arctan2(np.abs(d[:, 0]), np.abs(d[:, 1])))
+    keep = (length >= max(params.vp_min_length_px, params.vp_min_length_fraction * width)) & (
+        tilt <= params.vertical_max_tilt_deg
+    )
+    return segments[keep]
+
+
+def _support_h(segments: np.ndarray, point_h: np.ndarray) -> np.ndarray:
+    """(N,) angle in degrees between each segment and the direction to a homogeneous point."""
+    mid = 0.5 * (segments[:, :2] + segments[:, 2:])
+    d = segments[:, 2:] - segments[:, :2]
+    to = point_h[None, :2] - mid * point_h[2]
+    cross = np.abs(d[:, 0] * to[:, 1] - d[:, 1] * to[:, 0])
+    dot = np.abs(np.sum(d * to, axis=1))
+    return np.degrees(np.arctan2(cross, dot))
+
+
+def _refine_h(segments: np.ndarray, center: np.ndarray, scale: float) -> np.ndarray:
+    """Length-weighted least-squares homogeneous intersection (unit norm, w >= 0), pixels."""
+    norm = (segments.reshape(-1, 2) - center) / scale
+    seg = norm.reshape(-1, 4)
+    lines = _lines(seg)
+    length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+    _, _, vt = np.linalg.svd(lines * np.sqrt(length)[:, None])
+    p = vt[-1]
+    p_px = np.array([p[0] * scale + center[0] * p[2], p[1] * scale + center[1] * p[2], p[2]])
+    p_px /= np.linalg.norm(p_px)
+    return p_px if p_px[2] >= 0 else -p_px
+
+
+def find_vertical_vanishing_point(
+    segments: np.ndarray, width: int, height: int, params: CameraParams = DEFAULT_CAMERA
+) -> VerticalVanishingPoint | None:
+    """The point near-vertical segments converge on (RANSAC over pairs, least-squares refit).
+
+    Args:
+        segments: (N, 4) ``u0, v0, u1, v1`` pixels.
+        width: image width, pixels.
+        height: image height, pixels.
+        params: the segment filters, tolerance, trials and support.
+
+    Returns:
+        The vertical vanishing point, or None with fewer than ``params.vp_min_inliers``
+        supporting segments.
+    """
+    seg = _upright(np.asarray(segments, dtype=np.float64).reshape(-1, 4), width, params)
+    n = len(seg)
+    if n < params.vp_min_inliers:
+        return None
+    lines = _lines(seg)
+    length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+    rng = np.random.default_rng(0)
+    pairs = rng.integers(0, n, size=(params.vp_trials, 2))
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    points = np.cross(lines[pairs[:, 0]], lines[pairs[:, 1]])
+    points /= np.maximum(np.linalg.norm(points, axis=1, keepdims=True), 1e-12)
+    scores = np.array([length[_support_h(seg, p) < params.vp_angle_tol_deg].sum() for p in points])
+    best = points[int(np.argmax(scores))]
+    center, scale = np.array([width / 2.0, height / 2.0]), float(np.hypot(width, height))
+    for _ in range(2):
+        inliers = _support_h(seg, best) < params.vp_angle_tol_deg
+        if inliers.sum() < params.vp_min_inliers:
+            return None
+        best = _refine_h(seg[inliers], center, scale)
+    inliers = _support_h(seg, best) < params.vp_angle_tol_deg
+    return VerticalVanishingPoint(best, seg[inliers])
+
+
+def vanishing_focal_cue(
+    street: VanishingPoint | None,
+    segments: np.ndarray,
+    width: int,
+    height: int,
+    params: CameraParams = DEFAULT_CAMERA,
+) -> FocalCue | None:
+    """The focal length the street's and the vertical vanishing points give together.
+
+    The street runs horizontally, so its direction is orthogonal to the vertical:
+    ``f^2 = -(v_street - c) . (v_vertical - c)``
+    (:func:`usdworld.geometry.focal.focal_from_orthogonal_vps`, principal point at the
+    centre). The spread adds a bootstrap over the vertical's inliers
+    (``params.vertical_bootstrap`` resamples) and the street point's row error, which
+    includes ``params.road_slope_sigma_deg`` of road slope (a sloped street is not
+    orthogonal to the vertical). A nearly level camera puts the vertical point near
+    infinity and the street point near the centre's row: the cue is then weak, and says so.
+
+    Args:
+        street: the street's vanishing point, or None.
+        segments: (N, 4) the photo's segments, pixels.
+        width: image width, pixels.
+        height: image height, pixels.
+        params: the detection and spread settings.
+
+    Returns:
+        A :class:`~usdworld.geometry.focal.FocalCue`, or None when a point is missing or
+        the two are not orthogonal for any focal length.
+    """
+    from usdworld.geometry.focal import FocalCue, focal_from_orthogonal_vps, principal_point
+
+    if street is None:
+        return None
+    vertical = find_vertical_vanishing_point(segments, width, height, params)
+    if vertical is None or vertical.point_h[2] <= 1e-12:
+        return None
+    c = principal_point(width, height)
+    p_street = np.array([street.u, street.v])
+    p_vert = vertical.point_h[:2] / vertical.point_h[2]
+    f = focal_from_orthogonal_vps(p_street, p_vert, c)
+    if f is None:
+        return None
+    rng = np.random.default_rng(0)
+    scale = float(np.hypot(width, height))
+    f2s = []
+    for _ in range(params.vertical_bootstrap):
+        pick = vertical.inliers[rng.integers(0, len(vertical.inliers), len(vertical.inliers))]
+        p = _refine_h(pick, c, scale)
+        f2s.append(-float(np.dot(p_street - c, p[:2] - c * p[2])) / p[2] if p[2] > 1e-12 else -np.inf)
+    f2s_arr = np.array(f2s)
+    if np.mean(f2s_arr > 0) < 0.8:
+        return None
+    sigma_f2_vert = float(np.std(f2s_arr[f2s_arr > 0]))
+    slope_px = f * np.tan(np.radians(params.road_slope_sigma_deg))
+    sigma_f2_street = abs(p_vert[1] - c[1]) * float(np.hypot(street.sigma_v_px, slope_px))
+    sigma = 0.5 * float(np.hypot(sigma_f2_vert, sigma_f2_street)) / f**2
+    sigma = max(sigma, params.focal_min_sigma_log)
+    return FocalCue(
+        "vanishing_points",
+        f,
+        sigma,
+        f"street point ({street.u:.0f}, {street.v:.0f}) and the vertical of {len(vertical.inliers)} upright segments",
+    )

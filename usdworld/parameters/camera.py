@@ -1,8 +1,10 @@
 """Tuned numbers of the camera stage (see :mod:`usdworld.parameters.base` for the field conventions).
 
 The camera stage is :mod:`usdworld.geometry.estimate` (height and pitch from objects of known
-height, the road's top row and the horizon) and :mod:`usdworld.geometry.vanishing` (the
-street's vanishing point from the photo's line segments).
+height, the road's top row and the horizon), :mod:`usdworld.geometry.vanishing` (the
+street's and the vertical vanishing points from the photo's line segments) and
+:mod:`usdworld.geometry.focal` (the focal length without a camera file: prior, EXIF,
+vanishing points and vehicle box shapes, fused).
 """
 
 from __future__ import annotations
@@ -22,7 +24,9 @@ class CameraParams:
     default_hfov_deg: float = param(
         60.0,
         "deg",
-        "Horizontal field of view assumed when no intrinsics are given.",
+        "Horizontal field of view assumed for cutting facades before the camera is estimated, when no "
+        "intrinsics are given (layout/camera_cues.street_view); the camera itself uses the focal-length "
+        "cues and prior below.",
         "convention: a typical dash or phone camera's field of view (commit 07357ff)",
     )
     height_prior_mean_m: float = param(
@@ -122,6 +126,86 @@ class CameraParams:
         "Spread of the road's slope against the camera's ground plane: a street that climbs or falls "
         "moves its vanishing point off the horizon of the ground under the car.",
         _KITTI,
+    )
+
+    # --- the focal length when no camera file gives it (geometry/focal.py, io/exif.py) ---
+    focal_prior_diag_ratio: float = param(
+        0.62,
+        "1",
+        "Prior focal length as a fraction of the image diagonal (the centre of the prior, in log f). "
+        "0.62 is a 27 mm 35 mm-equivalent lens (27 / 43.27 mm diagonal), the middle of the published "
+        "cameras: phone main cameras 24-28 mm equivalent (0.55-0.65), KITTI 0.56, nuScenes CAM_FRONT "
+        "0.69, Cityscapes 0.99; wide dash cameras (120-140 deg diagonal) lie near 0.2-0.3, 2-4 sigma below.",
+        "published: Apple iPhone 12-15 and Samsung Galaxy S21-S24 main-camera specifications (23-26 mm "
+        "equivalent); KITTI P2 (Geiger et al. 2013), nuScenes CAM_FRONT (Caesar et al. 2020), Cityscapes "
+        "(Cordts et al. 2016) calibrations",
+    )
+    focal_prior_sigma_log: float = param(
+        0.3,
+        "1 (log f)",
+        "Spread of that prior in log focal length (one sigma: x0.74 .. x1.35, covering 0.46-0.84 of the diagonal).",
+        "published: the spread of the cameras above (log std 0.27 over KITTI, nuScenes, Cityscapes, phones)",
+    )
+    exif_sigma_log: float = param(
+        0.03,
+        "1 (log f)",
+        "Spread of a focal length read from EXIF: rounding of the 35 mm-equivalent tag to whole millimetres "
+        "and crops the tag does not know about.",
+        "convention: 1 mm in 27 mm (4 %) rounding, about one sigma",
+    )
+    focal_outlier_sigma: float = param(
+        3.0,
+        "sigma",
+        "A focal cue further than this from the fusion of the others (their combined sigma) is dropped.",
+        "convention: three sigmas",
+    )
+    focal_min_sigma_log: float = param(
+        0.05,
+        "1 (log f)",
+        "Smallest spread a cue measured from the photo (vanishing points, object shapes) may claim.",
+        "convention: model error of a level-camera, street-aligned model (5 %)",
+    )
+    focal_max_sigma_log: float = param(
+        1.0,
+        "1 (log f)",
+        "A photo's cue less certain than this (x2.7 either way) is not a measurement and is left out.",
+        "convention: weaker than the prior by a factor of three",
+    )
+    vertical_max_tilt_deg: float = param(
+        20.0,
+        "deg",
+        "Segments within this of the image vertical may belong to upright structure (the vertical vanishing point).",
+        "geometry: a camera pitched or rolled by up to about 15 deg tilts verticals off the image's by less than this",
+    )
+    vertical_bootstrap: int = param(
+        40, "count", "Bootstrap resamples of the vanishing points' inliers for the focal length's spread.",
+        "convention: resolution only",
+    )
+    shape_length_rel_std: float = param(
+        0.11,
+        "fraction",
+        "Relative spread of a vehicle's length and width around its class size (the object-shape focal cue).",
+        "published: KITTI car length 3.88 +- 0.43 m, width 1.63 +- 0.10 m (Geiger et al. 2012 label statistics)",
+    )
+    shape_yaw_std_deg: float = param(
+        8.0,
+        "deg",
+        "Spread of a vehicle's heading around the street's direction (lane changes, bends, parking at an angle): "
+        "it widens or narrows the side a box shows.",
+        "convention: a lane change over 30 m at 50 km/h turns a car by about 6-8 deg",
+    )
+    shape_focal_range: tuple[float, float] = param(
+        (0.25, 2.0),
+        "1",
+        "Focal lengths searched by the object-shape cue, as fractions of the image diagonal.",
+        "convention: 150 deg diagonal to a short telephoto",
+    )
+    shape_grid: tuple[int, int, int] = param(
+        (56, 37, 49), "count", "Object-shape cue grid: focal lengths (log spaced), camera heights (3 prior sigmas), horizon rows (within 2 pitch-prior sigmas at 1.5x the prior focal length).",
+        "convention: resolution only",
+    )
+    shape_min_objects: int = param(
+        2, "count", "Fewest vehicles whose box shape measures the focal length.", "convention: one is not robust"
     )
 
     @property

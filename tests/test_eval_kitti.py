@@ -1,0 +1,59 @@
+"""tools/eval_kitti.py: the line-up test's geometry (known answers) and, with the shared data, --no-camera and --planes."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from usdworld.geometry.camera import PinholeCamera
+
+_spec = importlib.util.spec_from_file_location("eval_kitti", Path(__file__).parents[1] / "tools" / "eval_kitti.py")
+eval_kitti = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(eval_kitti)
+
+K = np.array([[700.0, 0.0, 600.0], [0.0, 700.0, 180.0], [0.0, 0.0, 1.0]])
+
+
+def test_box_iou_known_answers():
+    a = np.array([0.0, 0.0, 10.0, 10.0])
+    assert eval_kitti._box_iou(a, a) == 1.0
+    assert eval_kitti._box_iou(a, np.array([5.0, 0.0, 15.0, 10.0])) == pytest.approx(50 / 150)
+    assert eval_kitti._box_iou(a, np.array([20.0, 0.0, 30.0, 10.0])) == 0.0
+
+
+def test_projected_box_of_a_box_ahead():
+    """A 4 x 2 x 1.5 m box 20 m ahead on the ground, level camera 1.5 m up: hand-computed image box."""
+    camera = PinholeCamera(1200, 360, K, 1.5, 0.0, 0.0, 0.0)
+    placed = SimpleNamespace(position_world=np.array([20.0, 0.0, 0.0]), yaw=0.0, size_m=np.array([4.0, 2.0, 1.5]))
+    box = eval_kitti.projected_box(placed, camera, K, 1200, 360)
+    # nearest face at 18 m: u = 600 +- 700 * 1 / 18; bottom v = 180 + 700 * 1.5 / 18; top at the camera's height: v = 180
+    assert box == pytest.approx([600 - 700 / 18, 180.0, 600 + 700 / 18, 180 + 700 * 1.5 / 18])
+    # the same world through a camera with a 10 % longer focal length: offsets from the centre grow by 10 %
+    K2 = K.copy()
+    K2[0, 0] = K2[1, 1] = 770.0
+    box2 = eval_kitti.projected_box(placed, camera, K2, 1200, 360)
+    assert box2[2] - 600 == pytest.approx(1.1 * (box[2] - 600))
+
+
+def test_no_camera_cannot_take_planes(capsys):
+    with pytest.raises(SystemExit):
+        eval_kitti.main(["/nonexistent", "--no-camera", "--planes"])
+    assert "--no-camera cannot be combined" in capsys.readouterr().err
+
+
+@pytest.mark.shared_data
+def test_no_camera_and_planes_on_kitti(shared_data, tmp_path):
+    data = shared_data / "kitti" / "training"
+    rows, info = eval_kitti.evaluate_frame("000010", data, True, tmp_path)  # 000010 has no plane file
+    assert not info["plane"] and all(r["placed"] for r in rows)
+    rows, info = eval_kitti.evaluate_frame("000008", data, False, tmp_path, no_camera=True)
+    assert info["f_true"] == pytest.approx(721.5377) and 0 <= info["focal_error"] < 0.5
+    assert "focal length" in info["camera_method"]
+    summary = eval_kitti.summarise(rows)
+    assert set(summary["per_frame"]) == {"000008"} and "vehicle_heading_within_30" in summary
+    json.dumps(summary)

@@ -1,0 +1,87 @@
+"""The photo's own cues to a focal length no camera file gives (objects, lines, EXIF), fused.
+
+Collects the cues of :mod:`usdworld.geometry.focal` for one photo: the prior, the EXIF
+focal length when the file states one, the street's and the vertical vanishing points,
+and the box shapes of whole vehicles of the classes that align with the road.
+
+Frames: image pixels (u right, v down).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from usdworld.geometry.focal import BoxShapes, FocalCue, FocalEstimate, box_shape_cue, exif_cue, fuse_focal, prior_cue
+from usdworld.geometry.vanishing import VanishingPoint, horizon_measurement, vanishing_focal_cue
+from usdworld.io.class_table import ClassTable
+from usdworld.io.exif import ExifFocal
+from usdworld.parameters.camera import CameraParams
+from usdworld.perception.objects import ImageObject
+
+
+def box_shapes(objects: Sequence[ImageObject], table: ClassTable, width: int, height: int) -> BoxShapes:
+    """Vehicles usable by the box-shape cue: classes aligned with the road and of rigid height,
+    whose box touches no image border and whose bottom is neither cut nor hidden.
+
+    Args:
+        objects: the image objects.
+        table: the class table (sizes and height spreads).
+        width: image width, pixels.
+        height: image height, pixels.
+    """
+    rows, sizes, stds = [], [], []
+    for o in objects:
+        prior = table[o.class_name]
+        if prior.yaw != "road" or not prior.rigid_height or prior.kind != "thing":
+            continue
+        x0, y0, x1, y1 = (float(v) for v in o.box_px)
+        if o.top_truncated or o.bottom_truncated or o.bottom_occluded or x0 <= 0 or x1 >= width or y1 >= height:
+            continue
+        rows.append((x0, y0, x1, y1))
+        sizes.append(prior.size_m)
+        stds.append(prior.height_std_m)
+    return BoxShapes(
+        np.array(rows, dtype=np.float64).reshape(-1, 4),
+        np.array(sizes, dtype=np.float64).reshape(-1, 3),
+        np.array(stds, dtype=np.float64),
+    )
+
+
+def estimate_focal(
+    width: int,
+    height: int,
+    objects: Sequence[ImageObject],
+    table: ClassTable,
+    street: VanishingPoint | None,
+    segments: np.ndarray,
+    exif: ExifFocal | None,
+    params: CameraParams,
+) -> FocalEstimate:
+    """Every focal cue of the photo, fused with the prior (:func:`usdworld.geometry.focal.fuse_focal`).
+
+    Args:
+        width: image width, pixels.
+        height: image height, pixels.
+        objects: the image objects.
+        table: the class table.
+        street: the street's vanishing point, or None.
+        segments: (N, 4) the photo's line segments, pixels.
+        exif: the EXIF focal length, or None.
+        params: the camera parameters.
+    """
+    prior = prior_cue(width, height, params)
+    cues: list[FocalCue] = [prior]
+    if exif is not None:
+        cues.append(exif_cue(exif.f_px, exif.detail, params))
+    vp = vanishing_focal_cue(street, segments, width, height, params)
+    if vp is not None:
+        cues.append(vp)
+    horizon = horizon_measurement(street, prior.f_px, params) if street is not None else None
+    shape = box_shape_cue(
+        width, height, box_shapes(objects, table, width, height), street.u if street else None, horizon, params
+    )
+    if shape is not None:
+        cues.append(shape)
+    return fuse_focal(cues, params)

@@ -2,8 +2,8 @@
 
 The report repeats what the world's layers record (camera, DLT, depth, every object's
 cues and placement) and adds the inputs' digests and the parameters the build used, so a
-world can be checked and compared without USD tools. Values are rounded to 6 decimals;
-non-finite ones are null.
+world can be checked and compared without USD tools. Values are rounded to 6 decimals
+(-0.0 written as 0.0); non-finite ones are null.
 """
 
 from __future__ import annotations
@@ -18,11 +18,16 @@ from usdworld.parameters import Parameters
 
 
 def _num(x: float | None) -> float | None:
-    """A JSON number: rounded to 6 decimals, None when missing or not finite."""
+    """A JSON number: rounded to 6 decimals, None when missing or not finite.
+
+    A value that rounds to zero is written ``0.0`` whatever its sign: entries of the DLT
+    homography that are zero in exact arithmetic come out as +-1e-18 noise, and the sign of
+    that noise is not information.
+    """
     if x is None:
         return None
     x = float(x)
-    return round(x, 6) if np.isfinite(x) else None
+    return round(x, 6) + 0.0 if np.isfinite(x) else None
 
 
 def make_report(model: WorldModel, params: Parameters) -> dict[str, Any]:

@@ -53,6 +53,7 @@ numbers = st.one_of(
 )
 names = st.one_of(
     st.sampled_from(OBJECTS),
+    st.sampled_from(OBJECTS),  # twice: real names reach the rules and the edits layer
     st.sampled_from(["/World/Objects/car_0001", "car_9999", "/World", "/World/Objects", "/", "..", "x" * 5000]),
     st.sampled_from(["/World/Objects/../Ground", "car_0001/../../x", "World.Objects", "car 0001", "\u00e9t\u00e9"]),
     _text,
@@ -78,7 +79,9 @@ cli_numbers = st.one_of(
     st.sampled_from(["1e400", "-1e400", "nan", "NaN", "-inf", "0x10", "1_000", "\u0661\u0662", "", " ", HUGE]),
     _text,
 )
+on_the_road = st.tuples(st.floats(10, 40), st.floats(-4, 4))  # where a car may go: some edits succeed
 cli_points = st.one_of(
+    on_the_road.map(lambda p: f"{p[0]!r},{p[1]!r}"),
     st.tuples(numbers, numbers).map(lambda p: f"{number_text(p[0])},{number_text(p[1])}"),
     st.sampled_from(["1,2,3", ",", "1,", ",1", "nan,nan", "inf,0", "1e308,1e308", "30 0", "30;0", HUGE + ",0"]),
     _text,
@@ -168,6 +171,7 @@ json_values = st.recursive(
     json_scalars, lambda inner: st.one_of(st.lists(inner, max_size=4), st.dictionaries(_text, inner, max_size=3)), max_leaves=8
 )
 points = st.one_of(
+    on_the_road.map(list),
     st.lists(json_numbers, min_size=2, max_size=2), st.lists(json_numbers, max_size=3), json_values
 )
 #: For each operation: its required fields and its optional ones, with hostile values.

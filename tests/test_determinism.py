@@ -76,6 +76,40 @@ def build_in_subprocesses(inputs: dict[str, Path], outputs: dict[str, dict[str, 
         assert proc.returncode == 0, err
 
 
+#: Prints the bits of a homography fit at the pair cap and of a camera estimate with height and
+#: pitch free, computed in this subprocess (with the BLAS threads its environment sets).
+GEOMETRY_SCRIPT = """\
+import numpy as np
+from usdworld.geometry.estimate import HeightObservations, estimate_camera
+from usdworld.geometry.homography import estimate_homography
+from usdworld.io.limits import MAX_GROUND_PAIRS
+rng = np.random.default_rng(7)
+px = rng.uniform([0, 200], [1240, 370], (MAX_GROUND_PAIRS, 2))
+ground = rng.uniform([5, -20], [80, 20], (MAX_GROUND_PAIRS, 2))
+fit = estimate_homography(px, ground)
+print(fit.dst_from_src.tobytes().hex(), fit.rms_src.hex(), fit.rms_dst.hex())
+n = 12
+obs = HeightObservations(rng.uniform(100, 1100, n), rng.uniform(200, 360, n), rng.uniform(150, 190, n),
+                         np.full(n, 1.5), np.full(n, 0.1))
+K = np.array([[720.0, 0, 610], [0, 720, 173], [0, 0, 1]])
+est = estimate_camera(1242, 375, K, None, None, None, None, obs)
+print(est.camera.height_m.hex(), est.camera.pitch.hex(), est.sigma_height_m.hex(), est.sigma_pitch.hex())
+"""
+
+
+def test_homography_and_camera_estimate_do_not_depend_on_blas_threads() -> None:
+    """The DLT at its pair cap and the camera posterior, bit for bit, with 1 and 2 BLAS threads."""
+    outputs = []
+    for threads in ("1", "2"):
+        env = {**os.environ, "PYTHONPATH": str(REPO), "OPENBLAS_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
+        done = subprocess.run(
+            [sys.executable, "-c", GEOMETRY_SCRIPT], env=env, capture_output=True, text=True, timeout=300
+        )
+        assert done.returncode == 0, done.stderr
+        outputs.append(done.stdout)
+    assert outputs[0] == outputs[1]
+
+
 @pytest.fixture(scope="module")
 def frame(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return write_frame(tmp_path_factory.mktemp("frame"))

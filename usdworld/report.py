@@ -16,7 +16,6 @@ from usdworld.layout.model import WorldModel
 from usdworld.parameters import Parameters
 
 
-
 def _num(x: float | None) -> float | None:
     """A JSON number: rounded to 6 decimals, None when missing or not finite.
 
@@ -63,7 +62,8 @@ def make_report(model: WorldModel, params: Parameters) -> dict[str, Any]:
                 "depth_m": _num(p.depth_m),
                 "depth_method": p.depth_method,
                 "depth_cues": {
-                    c.name: {"depth_m": _num(c.depth_m), "sigma_m": _num(c.sigma_m), "note": c.note} for c in p.cues
+                    c.name: {"depth_m": _num(c.depth_m), "sigma_m": _num(c.sigma_m), "note": c.note}
+                    for c in p.cues
                 },
                 "scale": _num(p.scale),
                 "scale_measured": _num(p.scale_measured),

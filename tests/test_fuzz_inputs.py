@@ -248,3 +248,19 @@ def test_strategies_cover_every_format(n: int) -> None:
     """The formats the readers accept, each fuzzed above (a reminder to add one here)."""
     fuzzed = {"images", "label_and_instance_maps", "camera_files", "detections_json", "kitti_labels", "polygons", "ground_points", "depth_files"}
     assert {name[5:] for name in globals() if name.startswith("test_") and name != "test_strategies_cover_every_format"} == fuzzed
+
+
+def test_a_build_error_after_a_reader_warning_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The camera reader warns about its principal point, then the detections are refused: one line
+    (tools/fuzz_build.py case 6); the same warning is printed when the build succeeds."""
+    from usdworld.cli.main import main
+
+    image = _write(tmp_path, "img.png", _encode(np.full((64, 96, 3), 90, np.uint8), ".png"))
+    calib = _write(tmp_path, "calib.txt", "P2: 80 0 0.5 4 0 80 40 0 0 0 1 0\n")  # cx far from the centre
+    bad = _write(tmp_path, "d.json", _dumps({"detections": [{"class": "car", "box": [36, 32, -1, 26]}]}))
+    args = ["build", str(image), "--camera", str(calib), "-o", str(tmp_path / "world")]
+    assert main([*args, "--detections", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: d.json -> detections -> [0] -> box:"), err
+    assert main(args) == 0
+    assert "principal point (0.5, 40) is far from the centre" in capsys.readouterr().err

@@ -183,3 +183,20 @@ def test_bad_params_file_is_a_one_line_error(capsys, inputs, doc, expected):
     code, _, err = _run(capsys, *_build_args(inputs, out), "--params", str(params))
     _one_line_error(code, err, expected)
     assert not out.exists()
+
+
+def test_a_build_error_after_a_reader_warning_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The camera reader warns about its principal point, then the detections are refused: one line
+    (tools/fuzz_build.py case 6); the same warning is printed when the build succeeds."""
+    image = tmp_path / "img.png"
+    cv2.imwrite(str(image), np.full((64, 96, 3), 90, np.uint8))
+    calib = tmp_path / "calib.txt"
+    calib.write_text("P2: 80 0 0.5 4 0 80 40 0 0 0 1 0\n")  # cx far from the centre
+    bad = tmp_path / "d.json"
+    bad.write_text(json.dumps({"detections": [{"class": "car", "box": [36, 32, -1, 26]}]}))
+    args = ["build", str(image), "--camera", str(calib), "-o", str(tmp_path / "world")]
+    assert main([*args, "--detections", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: d.json -> detections -> [0] -> box:"), err
+    assert main(args) == 0
+    assert "principal point (0.5, 40) is far from the centre" in capsys.readouterr().err

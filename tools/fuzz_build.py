@@ -36,6 +36,8 @@ import numpy as np
 
 HOSTILE = [0, -1, 0.5, 1e-300, 1e10, -1e10, 2**31, 1e19, 1e308, -1e308, "nan", "inf", "-inf", None, "x", [], True]
 W, H = 96, 64
+#: Cases listed per bad outcome (with their arguments, for a rerun).
+SHOWN = 10
 
 
 def _num(rng: random.Random, sane: float, spread: float = 0.5) -> object:
@@ -150,7 +152,7 @@ def main() -> int:
     ns = ap.parse_args()
     rng = random.Random(ns.seed)
     outcomes: Counter[str] = Counter()
-    examples: dict[str, str] = {}
+    examples: dict[str, list[str]] = {}
     changed = 0
     with tempfile.TemporaryDirectory() as tmp:
         root = ns.keep or Path(tmp)
@@ -185,20 +187,20 @@ def main() -> int:
                 else:
                     outcome, detail = "crash", f"return code {r.returncode}: {r.stderr.strip()[-300:]}"
             outcomes[outcome] += 1
-            examples.setdefault(outcome, f"case{i:04d}: {' '.join(args)}\n    {detail}")
+            examples.setdefault(outcome, []).append(f"case{i:04d}: {' '.join(args)}\n    {detail}")
             if outcome == "success":
                 before = _digest(world)  # the world legitimately changed
             elif _digest(world) != before:
                 changed += 1
-                examples.setdefault("world changed", f"case{i:04d}")
+                examples.setdefault("world changed", []).append(f"case{i:04d}")
                 before = _digest(world)
     print(f"{'outcome':<16}{'builds':>8}")
     for outcome in ("clean error", "success", "internal error", "crash", "hang"):
         print(f"{outcome:<16}{outcomes[outcome]:>8}")
     print(f"{'world changed':<16}{changed:>8}  (existing world folder altered by a failed build)")
     for outcome in ("internal error", "crash", "hang", "world changed"):
-        if outcome in examples:
-            print(f"first {outcome}: {examples[outcome]}")
+        for example in examples.get(outcome, [])[:SHOWN]:
+            print(f"{outcome}: {example}")
     bad = outcomes["internal error"] + outcomes["crash"] + outcomes["hang"] + changed
     return 1 if bad else 0
 

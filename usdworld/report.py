@@ -2,8 +2,8 @@
 
 The report repeats what the world's layers record (camera, DLT, depth, every object's
 cues and placement) and adds the inputs' digests and the parameters the build used, so a
-world can be checked and compared without USD tools. Values are rounded to 6 decimals;
-non-finite ones are null.
+world can be checked and compared without USD tools. Values are rounded to 6 decimals
+(-0.0 written as 0.0); non-finite ones are null.
 """
 
 from __future__ import annotations
@@ -14,7 +14,6 @@ import numpy as np
 
 from usdworld.layout.model import WorldModel
 from usdworld.parameters import Parameters
-
 
 
 def _focal_entry(focal) -> dict | None:
@@ -34,11 +33,16 @@ def _focal_entry(focal) -> dict | None:
 
 
 def _num(x: float | None) -> float | None:
-    """A JSON number: rounded to 6 decimals, None when missing or not finite."""
+    """A JSON number: rounded to 6 decimals, None when missing or not finite.
+
+    A value that rounds to zero is written ``0.0`` whatever its sign: entries of the DLT
+    homography that are zero in exact arithmetic come out as +-1e-18 noise, and the sign of
+    that noise is not information.
+    """
     if x is None:
         return None
     x = float(x)
-    return round(x, 6) if np.isfinite(x) else None
+    return round(x, 6) + 0.0 if np.isfinite(x) else None
 
 
 def make_report(model: WorldModel, params: Parameters) -> dict[str, Any]:
@@ -76,7 +80,8 @@ def make_report(model: WorldModel, params: Parameters) -> dict[str, Any]:
                 "depth_m": _num(p.depth_m),
                 "depth_method": p.depth_method,
                 "depth_cues": {
-                    c.name: {"depth_m": _num(c.depth_m), "sigma_m": _num(c.sigma_m), "note": c.note} for c in p.cues
+                    c.name: {"depth_m": _num(c.depth_m), "sigma_m": _num(c.sigma_m), "note": c.note}
+                    for c in p.cues
                 },
                 "scale": _num(p.scale),
                 "scale_measured": _num(p.scale_measured),

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+import logging
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Optional
 
@@ -59,10 +62,43 @@ def build(
         traffic=traffic,
         params=read_parameters(params) if params is not None else DEFAULT_PARAMETERS,
     )
-    result = run_build(request)
+    with _log_held_until_success():
+        result = run_build(request)
     print_build_summary(result.report, str(result.world))
     if result.kept_edits:
         typer.echo("kept the existing edits layer (layers/edits.usda)")
+
+
+class _Held(logging.Handler):
+    def __init__(self) -> None:
+        super().__init__()
+        self.records: list[logging.LogRecord] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.records.append(record)
+
+
+@contextlib.contextmanager
+def _log_held_until_success() -> Iterator[None]:
+    """Hold the build's log lines; print them after success, drop them after an error.
+
+    A reader's warning (an odd principal point, say) would otherwise come before an error
+    that a later reader raises, and the error would not be one line. ``--debug`` logs as it goes.
+    """
+    root = logging.getLogger()
+    if root.level <= logging.DEBUG:
+        yield
+        return
+    handlers, held = root.handlers[:], _Held()
+    root.handlers = [held]
+    try:
+        yield
+    finally:
+        root.handlers = handlers
+    for record in held.records:  # reached only after success
+        for handler in handlers:
+            if record.levelno >= handler.level:
+                handler.handle(record)
 
 
 def register(app: typer.Typer) -> None:

@@ -18,6 +18,7 @@ The priors, noise levels and grids are fields of :class:`~usdworld.parameters.Ca
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -249,9 +250,11 @@ def _posterior_moments(
     cost = _cost(H.ravel(), P.ravel(), K, obs, evidence, params)
     w = np.exp(-(cost - cost.min()))
     w /= w.sum()
-    mean_h, mean_p = float(w @ H.ravel()), float(w @ P.ravel())
-    sigma_h = float(np.sqrt(w @ (H.ravel() - mean_h) ** 2)) if free[0] else 0.0
-    sigma_p = float(np.sqrt(w @ (P.ravel() - mean_p) ** 2)) if free[1] else 0.0
+    # Exactly rounded sums (math.fsum), not ``w @ x``: BLAS splits a long dot product over its
+    # threads and the partial sums' order changes the last bits (the grid has ~26k points).
+    mean_h, mean_p = math.fsum(w * H.ravel()), math.fsum(w * P.ravel())
+    sigma_h = math.sqrt(math.fsum(w * (H.ravel() - mean_h) ** 2)) if free[0] else 0.0
+    sigma_p = math.sqrt(math.fsum(w * (P.ravel() - mean_p) ** 2)) if free[1] else 0.0
     return mean_h, mean_p, sigma_h, sigma_p
 
 

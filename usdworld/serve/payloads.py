@@ -116,9 +116,12 @@ def _identifier(op: str, key: str, value: Any) -> str:
 def _number(op: str, key: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise InputError(f"{op} -> {key}: must be a number, got {type(value).__name__}")
-    number = float(value)
+    try:
+        number = float(value)
+    except OverflowError:  # an integer beyond a double's range
+        number = math.inf
     if not math.isfinite(number) or abs(number) > MAX_COORD_M:
-        raise InputError(f"{op} -> {key}: must be finite and within +-{MAX_COORD_M:g}, got {value}")
+        raise InputError(f"{op} -> {key}: must be finite and within +-{MAX_COORD_M:g}, got {str(value)[:40]}")
     return number
 
 

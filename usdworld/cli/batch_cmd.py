@@ -11,6 +11,8 @@ from typing import TYPE_CHECKING
 
 import typer
 
+from usdworld.parameters import DEFAULT_PARAMETERS
+
 if TYPE_CHECKING:
     from usdworld.batch.frames import Frame, Incomplete
 
@@ -59,7 +61,7 @@ def batch(
         None, "--library", help="User asset library for every frame (manifest rows may name their own)."
     ),
     max_range: float = typer.Option(
-        80.0,
+        DEFAULT_PARAMETERS.scene.max_range_m,
         "--max-range",
         help="Farthest ground distance meshed, metres (manifest rows may give their own).",
     ),

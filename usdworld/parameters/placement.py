@@ -6,11 +6,14 @@ synthetic set" values were measured with ``tools/eval_synth.py`` (BENCHMARKS.md)
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from usdworld.parameters.base import param
+
+if TYPE_CHECKING:
+    import numpy as np
 
 _SYNTH = "tuned: synthetic set"
 _PAPER = (
@@ -310,14 +313,16 @@ class PlacementParams:
     @property
     def parked_heading_tol(self) -> float:
         """:attr:`parked_heading_tol_deg` in radians."""
-        return float(np.radians(self.parked_heading_tol_deg))
+        return math.radians(self.parked_heading_tol_deg)
 
     @property
     def max_road_axis_angle(self) -> float:
         """:attr:`max_road_axis_angle_deg` in radians."""
-        return float(np.radians(self.max_road_axis_angle_deg))
+        return math.radians(self.max_road_axis_angle_deg)
 
     @property
     def view_angles_deg(self) -> np.ndarray:
         """(K,) float64 turns tried when fitting a box's aspect, 0 to 90 degrees inclusive."""
+        import numpy as np  # the parameters package is a leaf that CLI start-up imports: numpy only when used
+
         return np.arange(0.0, 90.0 + 0.5 * self.view_angle_step_deg, self.view_angle_step_deg)

@@ -85,3 +85,15 @@ def test_a_changed_parameter_changes_the_world(scene, built, tmp_path):
     # less of the road hidden behind the cars is filled in
     assert short_area["road"] < area["road"] - 1.0
     assert [p.name for p in short.model.placements] == [p.name for p in built.model.placements]
+
+
+def test_the_perception_section_reaches_the_depth_fusion_of_placement(scene, built, tmp_path):
+    """A contact cue made much less sure (perception.contact_rel_sigma) hands weight to the height cue:
+    the things' depths change (the section is passed through placement to the fusion, not defaulted)."""
+    params = DEFAULT_PARAMETERS.replace(perception={"contact_rel_sigma": 1.0})
+    loose = build(BuildRequest(output=tmp_path / "w", params=params, **scene))
+    assert loose.report["parameters"]["perception"]["contact_rel_sigma"] == 1.0
+    before = {p.name: p.depth_m for p in built.model.placements if p.obj.is_thing}
+    after = {p.name: p.depth_m for p in loose.model.placements if p.obj.is_thing}
+    assert before.keys() == after.keys() and before
+    assert any(abs(after[n] - before[n]) > 0.01 for n in before)

@@ -20,8 +20,9 @@ import numpy as np
 from usdworld.errors import CalibrationError, InputError
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.depth_files import read_depth
-from usdworld.io.types import DepthMap, Segmentation, SourceImage
 from usdworld.io.label_table import label_lookups
+from usdworld.io.types import DepthMap, Segmentation, SourceImage
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
 from usdworld.perception.depth import BACKEND_NAMES, align_to_ground, make_backend
 from usdworld.perception.objects import ImageObject
 
@@ -78,6 +79,7 @@ def estimate_depth(
     camera: PinholeCamera,
     seg: Segmentation | None,
     objects: list[ImageObject],
+    params: PerceptionParams = DEFAULT_PERCEPTION,
 ) -> DepthOutcome:
     """Run the chosen depth backend and make its output metric.
 
@@ -89,6 +91,7 @@ def estimate_depth(
         camera: the source camera.
         seg: labels, for the alignment's ground pixels.
         objects: image objects (kept out of the ground pixels without labels).
+        params: the alignment's RANSAC tolerance and limits.
 
     Raises:
         InputError: unknown backend, missing or bad weights, bad depth file.
@@ -110,7 +113,7 @@ def estimate_depth(
     mask = ground_mask(image, camera, seg, objects)
     source = f"{backend}:{weights.name if weights is not None else ''}"
     try:
-        fit, aligned = align_to_ground(prediction, mask, camera)
+        fit, aligned = align_to_ground(prediction, mask, camera, params=params)
     except CalibrationError as exc:
         if prediction.kind == "metric":
             return DepthOutcome(prediction.to_depth_map(), source, "metric", f"none: {exc}", _NO_FIT)

@@ -321,7 +321,14 @@ def depth_for_image(request: BuildRequest) -> tuple[DepthOutcome, PinholeCamera]
         request, asset_library.library_dirs(request.library), load_class_table(), request.parameters
     )
     outcome = estimate_depth(
-        request.depth, request.depth_weights, request.depth_map, head.image, head.camera.camera, head.seg, head.objects
+        request.depth,
+        request.depth_weights,
+        request.depth_map,
+        head.image,
+        head.camera.camera,
+        head.seg,
+        head.objects,
+        request.parameters.perception,
     )
     return outcome, head.camera.camera
 
@@ -342,7 +349,14 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     head = read_scene_head(request, libraries, table, params)
     camera = head.camera.camera
     dense = estimate_depth(
-        request.depth, request.depth_weights, request.depth_map, head.image, camera, head.seg, head.objects
+        request.depth,
+        request.depth_weights,
+        request.depth_map,
+        head.image,
+        camera,
+        head.seg,
+        head.objects,
+        params.perception,
     )
     fit, dlt_source = _ground_fit(request, camera, params)
     stride = params.scene.surface_stride_px
@@ -369,6 +383,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         if sidewalk is not None
         else None,
         collision=params.collision,
+        perception=params.perception,
     )
     filled = None
     if head.seg is not None:

@@ -31,7 +31,7 @@ from usdworld.layout.draft import (
     point_at_depth,
 )
 from usdworld.layout.silhouette import depth_from_silhouette, depth_from_top_row, top_offsets
-from usdworld.perception.depth.fusion import HEIGHT_MEAN_REL_SIGMA, DepthCue, fuse, object_depth_cues
+from usdworld.perception.depth.fusion import DepthCue, fuse, object_depth_cues
 from usdworld.perception.objects import ImageObject
 
 #: Why a facade whose base is seen has no height cue.
@@ -125,7 +125,8 @@ def object_cues(
         height_depth_m=height_depth,
         # A given camera height is independent of the class heights; an estimated one
         # was fitted to them, so the contact cue already carries their mean's error.
-        class_mean_rel_sigma=HEIGHT_MEAN_REL_SIGMA if ctx.camera_sigma[0] == 0.0 else 0.0,
+        class_mean_rel_sigma=ctx.perception.height_mean_rel_sigma if ctx.camera_sigma[0] == 0.0 else 0.0,
+        params=ctx.perception,
     )
     cues = [with_camera_uncertainty(c, ctx) for c in cues]
     if ctx.classes.has(obj.class_name, "facade") and any(c.name == "contact" and c.available for c in cues):
@@ -145,7 +146,7 @@ def front_depth(obj: ImageObject, ctx: PlacementContext, forced: Forced | None) 
             forced.front_depth_m, forced.method, method_confidence(forced.method, ctx.params), cues
         )
     try:
-        fused = fuse(list(cues))
+        fused = fuse(list(cues), ctx.perception)
     except LayoutError:
         if obj.bottom_truncated:
             cut = cut_off_front_depth(obj, prior, sizes, ctx, contact_ok, front_contact)

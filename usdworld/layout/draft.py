@@ -21,6 +21,7 @@ from usdworld.io.types import DepthMap
 from usdworld.io.asset_catalogue import AssetSizes
 from usdworld.layout.yaw import RoadAxis
 from usdworld.parameters.collision import CollisionParams
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
 from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.depth.fusion import DepthCue
 from usdworld.perception.objects import ImageObject
@@ -120,6 +121,7 @@ class PlacementContext:
         camera_sigma: standard deviations of the camera height (m) and pitch (rad).
         sidewalk_lift: lift objects standing on the sidewalk to the kerb height.
         collision: the footprint collision thresholds.
+        perception: the depth cues' error model and fusion (``object_depth_cues``, ``fuse``).
     """
 
     camera: PinholeCamera
@@ -132,6 +134,7 @@ class PlacementContext:
     camera_sigma: tuple[float, float] = (0.0, 0.0)
     sidewalk_lift: bool = True
     collision: CollisionParams = DEFAULT_COLLISION
+    perception: PerceptionParams = DEFAULT_PERCEPTION
 
 
 @dataclass(frozen=True)

@@ -44,6 +44,7 @@ from usdworld.layout.ordering import apply_ordering_rules
 from usdworld.layout.rows import onto_street_rows
 from usdworld.layout.yaw import RoadAxis
 from usdworld.parameters.collision import CollisionParams
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
 from usdworld.parameters.placement import PlacementParams
 from usdworld.parameters.scene import SceneParams
 from usdworld.perception.depth.fusion import DepthCue
@@ -123,6 +124,7 @@ def place_objects(
     max_partial_depth_m: float = DEFAULT_SCENE.max_range_m,
     sidewalk_ground: np.ndarray | None = None,
     collision: CollisionParams = DEFAULT_COLLISION,
+    perception: PerceptionParams = DEFAULT_PERCEPTION,
 ) -> tuple[list[Placement], list[str]]:
     """Place every object in the world frame, then resolve footprint collisions.
 
@@ -144,6 +146,7 @@ def place_objects(
         sidewalk_ground: (N, 2) float64 ground points of sidewalk pixels, or None; they
             give the rows (:mod:`usdworld.layout.street_lines`) no object measured.
         collision: the footprint collision thresholds.
+        perception: the depth cues' error model and fusion.
 
     Returns:
         Placements in the same order as ``objects`` and the names of objects that
@@ -151,7 +154,17 @@ def place_objects(
         Names are given before skipping, so they stay stable.
     """
     ctx = PlacementContext(
-        camera, ground_from_px, axis, asset_sizes, classes, params, depth_map, camera_sigma, sidewalk_lift, collision
+        camera,
+        ground_from_px,
+        axis,
+        asset_sizes,
+        classes,
+        params,
+        depth_map,
+        camera_sigma,
+        sidewalk_lift,
+        collision,
+        perception,
     )
     drafts, unplaced = draft_all(objects, ctx)
     drafts = move_behind_occluders(drafts, ctx)

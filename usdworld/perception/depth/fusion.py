@@ -49,8 +49,6 @@ from usdworld.io.types import DepthMap
 from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
 
 CUE_NAMES = ("contact", "cnn", "height")
-#: Transitional: removed when layout takes PerceptionParams (it imports this name).
-HEIGHT_MEAN_REL_SIGMA = PerceptionParams().height_mean_rel_sigma
 
 
 @dataclass(frozen=True)

@@ -200,3 +200,12 @@ def test_a_build_error_after_a_reader_warning_is_one_line(tmp_path: Path, capsys
     assert err.count("\n") == 1 and err.startswith("error: d.json -> detections -> [0] -> box:"), err
     assert main(args) == 0
     assert "principal point (0.5, 40) is far from the centre" in capsys.readouterr().err
+
+
+def test_quiet_build_prints_no_results(capsys, inputs):
+    """`usdworld -q build` prints only warnings and errors: no results table on stdout."""
+    out = inputs["dir"] / "world"
+    code, stdout, _ = _run(capsys, "-q", *_build_args(inputs, out))
+    assert code == 0 and stdout == "" and (out / "world.usda").is_file()
+    code, stdout, _ = _run(capsys, *_build_args(inputs, out))
+    assert code == 0 and "3 objects placed from frame.png" in stdout

@@ -59,6 +59,14 @@ def world(tmp_path_factory) -> dict[str, Path]:
     return {**files, "world": result.world}
 
 
+def test_quiet_render_prints_no_file_list(world, tmp_path, capsys) -> None:
+    """`usdworld -q render` writes its files and prints nothing but warnings and errors."""
+    out = tmp_path / "out"
+    code, stdout, err = _run(capsys, "-q", "render", str(world["world"]), "-o", str(out))
+    assert code == 0 and stdout == "", (stdout, err)
+    assert (out / "render.png").is_file()
+
+
 def test_render_writes_every_file(world, tmp_path, capsys) -> None:
     out = tmp_path / "out"
     code, stdout, err = _run(

@@ -38,7 +38,7 @@ def build(
     ),
 ) -> None:
     """Build a layered USD world from one street image."""
-    from usdworld.cli.summary import print_build_summary
+    from usdworld.cli.summary import print_build_summary, quiet
     from usdworld.io.parameters_file import read_parameters
     from usdworld.parameters import DEFAULT_PARAMETERS
     from usdworld.pipeline import BuildRequest
@@ -64,6 +64,8 @@ def build(
     )
     with _log_held_until_success():
         result = run_build(request)
+    if quiet():
+        return
     print_build_summary(result.report, str(result.world))
     if result.kept_edits:
         typer.echo("kept the existing edits layer (layers/edits.usda)")

@@ -11,12 +11,13 @@ def demo(
     output: Path = typer.Option(Path("demo_world"), "--output", "-o", help="World folder to create."),
 ) -> None:
     """Build the bundled demo scene (made by usdworld itself, free to share)."""
-    from usdworld.cli.summary import print_build_summary
+    from usdworld.cli.summary import print_build_summary, quiet
     from usdworld.demo import demo_request
     from usdworld.pipeline import build as run_build
 
     result = run_build(demo_request(output))
-    print_build_summary(result.report, str(result.world))
+    if not quiet():
+        print_build_summary(result.report, str(result.world))
 
 
 def register(app: typer.Typer) -> None:

@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 from rich.console import Console
 from rich.table import Table
+
+
+def quiet() -> bool:
+    """True under ``usdworld -q``: the command prints only warnings and errors, not its results."""
+    return logging.getLogger().getEffectiveLevel() > logging.INFO
 
 
 def print_build_summary(report: dict[str, Any], world: str, console: Console | None = None) -> None:

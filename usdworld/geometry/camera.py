@@ -119,6 +119,31 @@ class PinholeCamera:
         px[depth <= 1e-9] = np.nan
         return px, depth
 
+    def project_stacked(self, points_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Project stacks of world points, each stack as :meth:`project` would, bit for bit.
+
+        The transforms are applied as one stacked matrix product per stack (the same
+        shape of product :meth:`project` does for one stack), so every pixel has the
+        last bits it would have from :meth:`project` on its own stack.
+
+        Args:
+            points_world: (S, N, 3) float64 world points, S stacks of N.
+
+        Returns:
+            points_px: (S, N, 2) float64 pixel coordinates (u, v); NaN behind the camera.
+            depth: (S, N) float64 depth along the optical axis, metres.
+        """
+        p = np.asarray(points_world, dtype=np.float64)
+        if p.ndim != 3 or p.shape[2] != 3:
+            raise ValueError(f"points_world must have shape (S, N, 3), got {p.shape}")
+        p_cam = (p - self.center_world) @ self._world_from_cam
+        depth = p_cam[..., 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uvw = p_cam @ self.K.T
+            px = uvw[..., :2] / uvw[..., 2:3]
+        px[depth <= 1e-9] = np.nan
+        return px, depth
+
     def rays_world(self, points_px: np.ndarray) -> np.ndarray:
         """Viewing-ray directions of pixels.
 

@@ -29,6 +29,29 @@ def box_corners(centre_xy: np.ndarray, yaw: float, size_lwh: np.ndarray) -> np.n
     return np.concatenate([np.column_stack([foot, np.full(4, z)]) for z in (0.0, h)])
 
 
+def box_corners_turned(centre_xy: np.ndarray, yaws: np.ndarray, size_lwh: np.ndarray) -> np.ndarray:
+    """(K, 8, 3) float64 world corners of one box at K yaws, each stack bit for bit :func:`box_corners`.
+
+    Args:
+        centre_xy: (2,) float64 footprint centre, metres.
+        yaws: (K,) float64 yaws, radians.
+        size_lwh: (3,) float64 length, width and height, metres.
+    """
+    l, w, h = (float(v) for v in size_lwh)
+    yaws = np.asarray(yaws, dtype=np.float64).reshape(-1)
+    c, s = np.cos(yaws), np.sin(yaws)
+    local = np.array([[sx * l / 2, sy * w / 2] for sx in (-1, 1) for sy in (-1, 1)])
+    rot = np.empty((len(yaws), 2, 2))
+    rot[:, 0, 0], rot[:, 0, 1], rot[:, 1, 0], rot[:, 1, 1] = c, s, -s, c
+    foot = np.asarray(centre_xy, dtype=np.float64) + local @ rot  # (K, 4, 2): one 4x2 by 2x2 product per yaw
+    corners = np.empty((len(yaws), 8, 3))
+    corners[:, :4, :2] = foot
+    corners[:, 4:, :2] = foot
+    corners[:, :4, 2] = 0.0
+    corners[:, 4:, 2] = h
+    return corners
+
+
 def box_aspect_usable(obj: ImageObject, prior: ClassPrior, image_width: int) -> bool:
     """True for a box-only road object (a vehicle) whose whole box is in view and unhidden."""
     if (
@@ -77,12 +100,14 @@ def fit_view_angle(
     observed = (x1 - x0) / (y1 - y0)
     bearing = float(np.arctan2(ground[1], ground[0]))
     angles_deg = params.view_angles_deg
-    aspects = []
-    for angle in np.radians(angles_deg):
-        px, depth = camera.project(box_corners(ground, bearing + angle, np.asarray(size_lwh)))
-        ok = np.isfinite(px).all() and bool(np.all(depth > 0))
-        aspects.append(np.ptp(px[:, 0]) / max(np.ptp(px[:, 1]), 1e-9) if ok else np.nan)
-    curve = np.array(aspects)
+    # All turns at once, each trial box projected exactly as on its own (same products, same bits).
+    px, depth = camera.project_stacked(
+        box_corners_turned(ground, bearing + np.radians(angles_deg), np.asarray(size_lwh))
+    )
+    ok = np.isfinite(px).all(axis=(1, 2)) & np.all(depth > 0, axis=1)
+    with np.errstate(invalid="ignore"):
+        aspects = np.ptp(px[:, :, 0], axis=1) / np.maximum(np.ptp(px[:, :, 1], axis=1), 1e-9)
+    curve = np.where(ok, aspects, np.nan)
     if not np.isfinite(curve).all():
         return float(view_angle_from_box(x1 - x0, y1 - y0, tuple(size_lwh)))
     peak = int(np.argmax(curve))

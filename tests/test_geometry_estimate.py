@@ -104,3 +104,52 @@ def test_vanishing_point_fixes_the_pitch_of_a_single_object():
     assert with_vp.camera.pitch == pytest.approx(np.radians(-1.5), abs=np.radians(0.1))
     assert abs(with_vp.camera.height_m - 1.65) < abs(without.camera.height_m - 1.65)
     assert "vanishing row" in with_vp.method
+
+
+def _random_cars(n: int, seed: int = 0) -> tuple[PinholeCamera, HeightObservations]:
+    """n cars 5-40 m ahead of a 1.65 m camera, their heights spread round the class's 1.5 m by 0.12 m."""
+    rng = np.random.default_rng(seed)
+    true = PinholeCamera(1240, 375, K, 1.65, pitch=np.radians(0.5))
+    feet = np.column_stack([rng.uniform(5.0, 40.0, n), rng.uniform(-8.0, 8.0, n)])
+    heights = rng.normal(1.5, 0.12, n)
+    obs = _observe(true, feet, heights)
+    return true, HeightObservations(obs.u, obs.v_bottom, obs.v_top, np.full(n, 1.5), np.full(n, 0.12))
+
+
+def test_object_cost_in_blocks_is_bit_identical_to_one_block():
+    from usdworld.geometry import estimate
+
+    _, obs = _random_cars(37)
+    params = CameraParams()
+    H, P = np.meshgrid(np.arange(0.5, 4.0, 0.05), np.radians(np.arange(-15.0, 15.0, 0.25)), indexing="ij")
+    h, p = H.ravel(), P.ravel()
+    v_top, z = estimate.predicted_top_rows(h, p, K, obs)
+    sigma = np.sqrt((K[1, 1] * obs.height_std_m[None, :] / np.maximum(z, 0.1)) ** 2 + params.edge_noise_px**2)
+    r = (v_top - obs.v_top[None, :]) / sigma
+    whole = np.where(np.isfinite(r), np.log1p(r**2), params.unprojectable_cost).sum(axis=1)
+    assert len(h) * len(obs) > 4 * estimate._BLOCK_ELEMENTS  # several blocks, the last one partial
+    assert estimate._object_cost(h, p, K, obs, params).tobytes() == whole.tobytes()
+
+
+def test_many_objects_fit_a_subset_spread_over_the_rows_without_bias():
+    params = CameraParams()
+    true, obs = _random_cars(1000)
+    est = estimate_camera(1240, 375, K, None, None, 0.0, 0.0, obs, params=params)
+    assert est.n_objects == params.max_fit_objects
+    assert f"spread over the rows of {len(obs)}" in est.method
+    # Within two of its own sigmas of the truth: a subset picked by box height (the tallest
+    # cars) lands near 1.8 m here.
+    assert abs(est.camera.height_m - true.height_m) < 2 * est.sigma_height_m
+    assert abs(est.camera.pitch - true.pitch) < 2 * est.sigma_pitch + np.radians(0.05)
+
+
+def test_up_to_the_cap_every_object_is_used_unchanged():
+    from usdworld.geometry.estimate import _fit_subset
+
+    _, obs = _random_cars(20)
+    assert _fit_subset(obs, 20) is obs
+    sub = _fit_subset(obs, 7)
+    keep = [int(np.nonzero(obs.u == u)[0][0]) for u in sub.u]
+    assert len(sub) == 7 and keep == sorted(keep)
+    # The nearest and the farthest object are both in: the subset spans the rows.
+    assert sub.v_bottom.max() == obs.v_bottom.max() and sub.v_bottom.min() == obs.v_bottom.min()

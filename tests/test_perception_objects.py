@@ -392,3 +392,62 @@ def test_two_crowns_over_a_parked_car_are_two_trees():
     assert 132 <= trees[0].box_px[2] == trees[1].box_px[0] <= 188
     assert all(t.bottom_occluded for t in trees)
     np.testing.assert_allclose([t.contact_px[0] for t in trees], [130.0, 190.0])
+
+
+def _occluders_pairwise(items: list[tuple[np.ndarray, bool]], fraction: float) -> list[tuple[bool, int]]:
+    """The pairwise loop objects_from_detections used before its sweep (kept to compare): for each
+    box, (bottom occluded, index of the occluder or -1)."""
+    out = []
+    for index, (fbox, amodal) in enumerate(items):
+        bottom = float(fbox[3])
+        occluders = 0.0
+        occluder = -1
+        for other_index, (obox, _) in enumerate(items):
+            if amodal or other_index == index or obox[3] <= bottom + 1.0 or obox[1] >= bottom:
+                continue
+            overlap = (min(fbox[2], obox[2]) - max(fbox[0], obox[0])) / max(fbox[2] - fbox[0], 1e-9)
+            if overlap > occluders:
+                occluders, occluder = overlap, other_index
+        out.append((occluders >= fraction, occluder if occluders >= fraction else -1))
+    return out
+
+
+# Coordinates on a coarse grid (half pixels) so that ties in cover, bottoms one pixel apart and
+# identical boxes are common; a few boxes repeated verbatim.
+_coord = st.integers(0, 40).map(lambda k: k * 2.5)
+_box = st.tuples(_coord, _coord, st.integers(1, 16).map(lambda k: k * 2.5), st.integers(1, 12).map(lambda k: k * 2.5))
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    boxes=st.lists(st.tuples(_box, st.booleans()), min_size=0, max_size=40),
+    repeats=st.lists(st.integers(0, 39), max_size=8),
+)
+def test_detection_occluders_match_the_pairwise_loop(boxes, repeats):
+    items = [(np.array([x, y, x + w, y + h]), amodal) for (x, y, w, h), amodal in boxes]
+    items += [items[k] for k in repeats if k < len(items)]
+    dets = Detections(
+        tuple(Detection("Car", box, amodal=amodal) for box, amodal in items), InputFile("detections", "d.txt", "0" * 64)
+    )
+    lookups = label_lookups()
+    objects = sorted(objects_from_detections(dets, 140, 120, lookups=lookups), key=lambda o: o.instance_id)
+    # Every box lies inside the image and has a positive size: none is dropped.
+    assert [o.instance_id for o in objects] == list(range(len(items)))
+    from usdworld.parameters.perception import DEFAULT_PERCEPTION
+
+    expected = _occluders_pairwise(items, DEFAULT_PERCEPTION.occluded_fraction)
+    assert [(o.bottom_occluded, o.occluded_by) for o in objects] == expected
+
+
+@settings(max_examples=200, deadline=None)
+@given(boxes=st.lists(st.tuples(_box, st.booleans()), min_size=0, max_size=30), block=st.integers(1, 7))
+def test_bottom_occluders_blocks_give_the_loops_cover_and_first_occluder(boxes, block):
+    from usdworld.perception.objects import _bottom_occluders
+
+    items = [(np.array([x, y, x + w, y + h]), amodal) for (x, y, w, h), amodal in boxes]
+    arr = np.array([b for b, _ in items], dtype=np.float64).reshape(-1, 4)
+    covered, occluder = _bottom_occluders(arr, np.array([a for _, a in items], dtype=bool), block=block)
+    # With fraction 1e-300 the loop's flag is "covered at all" and its occluder the first largest.
+    expected = _occluders_pairwise(items, 1e-300)
+    assert [int(k) for k in occluder] == [k for _, k in expected]
+    assert [bool(c > 0) for c in covered] == [flag for flag, _ in expected]

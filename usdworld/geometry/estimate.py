@@ -109,6 +109,11 @@ class CameraEstimate:
     focal: FocalEstimate | None = None
 
 
+#: (candidate, object) pairs evaluated at once by :func:`_object_cost`: 16k float64 = 128 KiB per
+#: temporary, a few of which fit a core's L2 cache. Speed only; the values do not depend on it.
+_BLOCK_ELEMENTS = 1 << 14
+
+
 def intrinsics_from_focal(width: int, height: int, f_px: float) -> np.ndarray:
     """(3, 3) float64 K with square pixels of focal ``f_px`` and the principal point at the image centre."""
     cx, cy = principal_point(width, height)
@@ -163,6 +168,26 @@ def predicted_top_rows(
     return v_top, depth
 
 
+def _object_cost(
+    h: np.ndarray, pitch: np.ndarray, K: np.ndarray, obs: HeightObservations, params: CameraParams
+) -> np.ndarray:
+    """Sum over the objects of their robust (Cauchy) top-row costs, per candidate; (G,) float64.
+
+    Evaluated over blocks of candidates of about ``_BLOCK_ELEMENTS`` (candidate, object)
+    pairs, so that each temporary of :func:`predicted_top_rows` stays in the processor's cache
+    instead of a (G, N) array in memory (G is up to 161 x 161): every value, and each
+    candidate's sum over its objects, is computed by the same operations as in one block.
+    """
+    out = np.empty(len(h))
+    step = max(1, _BLOCK_ELEMENTS // len(obs))
+    for a in range(0, len(h), step):
+        v_top, z = predicted_top_rows(h[a : a + step], pitch[a : a + step], K, obs)
+        sigma = np.sqrt((K[1, 1] * obs.height_std_m[None, :] / np.maximum(z, 0.1)) ** 2 + params.edge_noise_px**2)
+        r = (v_top - obs.v_top[None, :]) / sigma
+        out[a : a + step] = np.where(np.isfinite(r), np.log1p(r**2), params.unprojectable_cost).sum(axis=1)
+    return out
+
+
 def _cost(
     h: np.ndarray,
     pitch: np.ndarray,
@@ -175,10 +200,7 @@ def _cost(
     mean_h, std_h = params.height_prior_m
     cost = 0.5 * ((h - mean_h) / std_h) ** 2 + 0.5 * (np.degrees(pitch) / params.pitch_prior_std_deg) ** 2
     if len(obs):
-        v_top, z = predicted_top_rows(h, pitch, K, obs)
-        sigma = np.sqrt((K[1, 1] * obs.height_std_m[None, :] / np.maximum(z, 0.1)) ** 2 + params.edge_noise_px**2)
-        r = (v_top - obs.v_top[None, :]) / sigma
-        cost = cost + np.where(np.isfinite(r), np.log1p(r**2), params.unprojectable_cost).sum(axis=1)
+        cost = cost + _object_cost(h, pitch, K, obs, params)
     horizon = K[1, 2] - K[1, 1] * np.tan(pitch)
     if evidence.road_top_v is not None:
         excess = np.maximum(horizon - evidence.road_top_v, 0.0)
@@ -258,6 +280,29 @@ def _posterior_moments(
     return mean_h, mean_p, sigma_h, sigma_p
 
 
+def _fit_subset(obs: HeightObservations, max_objects: int) -> HeightObservations:
+    """The objects the camera is fitted to: all of them up to ``max_objects``, else
+    ``max_objects`` spread evenly over the contact rows (the objects sorted by ``v_bottom``,
+    ties in input order, taken at evenly spaced ranks), kept in input order.
+
+    Chosen by where they stand, never by their top rows: picking the tallest boxes would pick
+    the cars taller than their class and bias the height. The posterior costs (grid points x
+    objects), and its precision stops improving well before thousands of objects
+    (:attr:`CameraParams.max_fit_objects`).
+    """
+    n = len(obs)
+    if n <= max_objects:
+        return obs
+    by_row = np.argsort(obs.v_bottom, kind="stable")
+    keep = np.sort(by_row[np.round(np.linspace(0, n - 1, max_objects)).astype(np.int64)])
+    return HeightObservations(
+        *(
+            np.asarray(getattr(obs, name))[keep]
+            for name in ("u", "v_bottom", "v_top", "height_m", "height_std_m", "top_near_m", "top_far_m")
+        )
+    )
+
+
 def estimate_camera(
     width: int,
     height: int,
@@ -317,7 +362,7 @@ def estimate_camera(
             estimated.append("height_m")
         if pitch is None:
             estimated.append("pitch")
-        usable = observations
+        usable = _fit_subset(observations, params.max_fit_objects)
         v_vp = horizon_measurement(vanishing, float(np.asarray(K)[1, 1]), params) if vanishing is not None else None
         evidence = HorizonEvidence(road_top_v, *(v_vp or (None, 1.0)))
         mode = _search(np.asarray(K), usable, evidence, height_m, pitch, params)
@@ -331,6 +376,7 @@ def estimate_camera(
             residual = float(np.nanmedian(res)) if np.isfinite(res).any() else 0.0
             notes.append(
                 f"height/pitch fitted to {n_used} object(s) of known class height"
+                + (f" (spread over the rows of {len(observations)})" if n_used < len(observations) else "")
                 + (" and the road's top row" if road_top_v is not None else "")
                 + (f", horizon near the vanishing row {vanishing.v:.1f}" if vanishing is not None else "")
                 + f" (median residual {residual:.1f} px)"

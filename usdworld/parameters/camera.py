@@ -64,6 +64,17 @@ class CameraParams:
         "residual of about e^10 sigma, an outlier that still counts against the candidate.",
         "convention: chosen with the code (commit 07357ff)",
     )
+    max_fit_objects: int = param(
+        160,
+        "count",
+        "Most objects the height/pitch posterior is evaluated on; above it that many are taken evenly "
+        "spread over their contact rows (ranges). The posterior costs (grid points x "
+        "objects); beyond this count more objects no longer make the estimate better.",
+        "geometry: the posterior's height spread falls as about 0.36 m / sqrt(N) (1.65 m camera, cars "
+        "5-40 m ahead with the 0.12 m class-height spread; measured 0.114 m at 10, 0.034 m at 150, "
+        "0.012 m at 1,000 objects); at N = 165 it reaches 0.028 m, the 1.7 % systematic error of the car "
+        "height mean itself (prior 1.5 m vs KITTI's 1.526 m Car label mean), which no number of cars averages out",
+    )
     # --- the search grid ---
     height_range_m: tuple[float, float] = param(
         (0.5, 4.0), "m", "Camera heights searched.", "convention: any car, van or handheld camera"

@@ -513,6 +513,62 @@ def border_sides(
     return bool(cut[0]), bool(cut[1]), bool(cut[2]), bool(cut[3])
 
 
+def _bottom_occluders(
+    boxes_px: np.ndarray, amodal: np.ndarray, block: int = 256
+) -> tuple[np.ndarray, np.ndarray]:
+    """What hides each box's bottom edge: the box lower in the image that covers most of it.
+
+    Box ``j`` can hide box ``i``'s bottom row ``b`` when its bottom is more than a pixel
+    lower (``ymax_j > b + 1``) and its top is above that row (``ymin_j < b``); it covers
+    ``(min(xmax) - max(xmin)) / max(width_i, 1e-9)`` of the edge. The largest positive
+    cover wins, the first box in input order among equals. Amodal boxes are hidden by
+    nothing. Boxes are sorted by bottom so that each block of rows compares only with the
+    boxes whose bottom is low enough, in numpy: O(n^2 / block) Python steps at worst,
+    exactly the values of a pairwise loop in input order (the same IEEE operations).
+
+    Args:
+        boxes_px: (N, 4) float64 ``xmin, ymin, xmax, ymax``.
+        amodal: (N,) bool, the box bounds the whole object.
+        block: rows compared at once (memory ``block x N`` float64 per temporary).
+
+    Returns:
+        covered: (N,) float64 the largest cover (0 when nothing covers the edge).
+        occluder: (N,) int64 row of ``boxes_px`` of the box giving it (-1 none).
+    """
+    n = len(boxes_px)
+    covered = np.zeros(n)
+    occluder = np.full(n, -1, dtype=np.int64)
+    if n < 2:
+        return covered, occluder
+    x0, y0, x1, y1 = (np.ascontiguousarray(boxes_px[:, k]) for k in range(4))
+    by_bottom = np.argsort(y1, kind="stable")
+    sorted_bottoms = y1[by_bottom]
+    rows = np.nonzero(~amodal)[0]
+    rows = rows[np.argsort(y1[rows], kind="stable")]
+    for start in range(0, len(rows), block):
+        r = rows[start : start + block]
+        b = y1[r]
+        # Boxes whose bottom is below the block's highest bottom + 1: a superset of each row's candidates.
+        cols = by_bottom[np.searchsorted(sorted_bottoms, b.min() + 1.0, side="right") :]
+        if len(cols) == 0:
+            continue
+        # The loop's tests as written (``not (ymax_j <= b + 1)``, ``not (ymin_j >= b)``): the same with NaN.
+        candidate = ~(y1[cols][None, :] <= (b + 1.0)[:, None]) & ~(y0[cols][None, :] >= b[:, None])
+        candidate &= cols[None, :] != r[:, None]
+        width = np.maximum(x1[r] - x0[r], 1e-9)
+        with np.errstate(invalid="ignore"):
+            cover = (
+                np.minimum(x1[r][:, None], x1[cols][None, :]) - np.maximum(x0[r][:, None], x0[cols][None, :])
+            ) / width[:, None]
+        cover = np.where(candidate & (cover > 0.0), cover, -np.inf)
+        best = cover.max(axis=1)
+        first = np.where(cover == best[:, None], cols[None, :], n).min(axis=1)
+        hit = best > 0.0
+        covered[r[hit]] = best[hit]
+        occluder[r[hit]] = first[hit]
+    return covered, occluder
+
+
 def objects_from_detections(
     detections: Detections,
     width: int,
@@ -569,16 +625,14 @@ def objects_from_detections(
 
     objects = []
     labels = np.asarray(segmentation.label_ids) if segmentation is not None else None
-    for index, det, class_name, fbox, box, crop in items:
+    covered, occluder_pos = _bottom_occluders(
+        np.array([item[3] for item in items], dtype=np.float64).reshape(-1, 4),
+        np.array([item[1].amodal for item in items], dtype=bool),
+    )
+    for k, (index, det, class_name, fbox, box, crop) in enumerate(items):
         bottom = float(fbox[3])
-        occluders = 0.0
-        occluder = -1
-        for other_index, _, _, obox, _, _ in items:
-            if det.amodal or other_index == index or obox[3] <= bottom + 1.0 or obox[1] >= bottom:
-                continue
-            overlap = (min(fbox[2], obox[2]) - max(fbox[0], obox[0])) / max(fbox[2] - fbox[0], 1e-9)
-            if overlap > occluders:
-                occluders, occluder = overlap, other_index
+        occluders = float(covered[k])
+        occluder = items[occluder_pos[k]][0] if occluder_pos[k] >= 0 else -1
         standing_on = ""
         if labels is not None:
             v = int(min(max(bottom, 0), height - 1))

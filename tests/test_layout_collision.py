@@ -212,7 +212,7 @@ def test_pile_of_random_boxes_properties_hold_for_what_is_placed():
     rng = np.random.default_rng(3)
     n = 400
     centers = rng.uniform(-5, 5, (n, 2))
-    half = footprint_half_extents(np.column_stack([rng.uniform(3.5, 5, n), rng.uniform(1.6, 2)]), rng.uniform(0, np.pi, n))
+    half = footprint_half_extents(np.column_stack([rng.uniform(3.5, 5, n), rng.uniform(1.6, 2, n)]), rng.uniform(0, np.pi, n))
     priority = rng.uniform(0, 50, n)
     assert len(overlaps(centers, half)) > 10 * n
     result = resolve_collisions(centers, half, priority)
@@ -229,11 +229,12 @@ def test_pile_of_random_boxes_properties_hold_for_what_is_placed():
 
 
 def test_max_candidates_drops_what_it_cannot_reach():
-    # A car on one spot, then copies: the ring of radius 2 m holds 1 x 3 spots (the spot
-    # itself and flush above and below), the next ring 1 x 5. With room for 3 spots the
-    # first three are placed, the rest dropped; with room for 1, only the first.
+    # A car on one spot, then copies. The second's ring of radius 2 m holds 1 x 3 spots (the
+    # spot itself, flush below and above the first); the third's holds 1 x 4 (flush above the
+    # second, at 0.0 + rounding, is a fourth y). A cap of 1 places only the first, 3 the first
+    # two, 4 the first three; the rest are dropped, and what is placed does not overlap.
     centers, half, priority = _identical_pile(20)
-    result = resolve_collisions(centers, half, priority, CollisionParams(max_candidates=3))
-    assert result.placed.sum() == 3
-    assert overlaps(result.centers[result.placed], half[result.placed]) == []
-    assert resolve_collisions(centers, half, priority, CollisionParams(max_candidates=1)).placed.sum() == 1
+    for cap, expected in ((1, 1), (3, 2), (4, 3)):
+        result = resolve_collisions(centers, half, priority, CollisionParams(max_candidates=cap))
+        assert result.placed.sum() == expected
+        assert overlaps(result.centers[result.placed], half[result.placed]) == []

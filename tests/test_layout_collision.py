@@ -65,7 +65,9 @@ def test_separated_boxes_do_not_move(data):
 # --- brute-force reference: every pair tested, every candidate sorted (the algorithm before the index) ---
 
 
-def _reference(centers, half, priority, tol=TOLERANCE_M, clearance=0.005, reach=50.0):
+def _reference(centers, half, priority, tol=TOLERANCE_M, clearance=0.005, reach=50.0, max_m=25.0):
+    """Centres after resolution and which boxes were placed: candidates beyond ``max_m`` are
+    never taken, and a box with no free candidate within it is not placed."""
     def clear(cand, h, pc, ph):
         if len(pc) == 0:
             return np.ones(len(cand), dtype=bool)
@@ -79,12 +81,15 @@ def _reference(centers, half, priority, tol=TOLERANCE_M, clearance=0.005, reach=
         return np.column_stack([X.ravel(), Y.ravel()])
 
     def nearest_clear(c0, cand, h, pc, ph):
-        order = np.lexsort((cand[:, 1], cand[:, 0], np.linalg.norm(cand - c0, axis=1)))
+        dist = np.linalg.norm(cand - c0, axis=1)
+        order = np.lexsort((cand[:, 1], cand[:, 0], dist))
+        order = order[dist[order] <= max_m]
         ok = np.nonzero(clear(cand[order], h, pc, ph))[0]
         return cand[order[ok[0]]] if len(ok) else None
 
     order = np.lexsort((half[:, 1], half[:, 0], centers[:, 1], centers[:, 0], priority))
     out = centers.copy()
+    kept = np.ones(len(centers), dtype=bool)
     placed: list[int] = []
     for i in order:
         c0, h = centers[i], half[i]
@@ -94,11 +99,14 @@ def _reference(centers, half, priority, tol=TOLERANCE_M, clearance=0.005, reach=
             continue
         near = np.all(np.abs(pc - c0) < ph + h + reach, axis=1)
         best = nearest_clear(c0, candidates(c0, h, pc[near], ph[near]), h, pc, ph)
-        if best is None:
+        if best is None and max_m > reach:
             best = nearest_clear(c0, candidates(c0, h, pc, ph), h, pc, ph)
+        if best is None:
+            kept[i] = False
+            continue
         out[i] = best
         placed.append(int(i))
-    return out
+    return out, kept
 
 
 # Scenes with many ties and repeats: coordinates on a coarse lattice, a few sizes, whole-metre
@@ -118,9 +126,29 @@ dense = st.integers(1, 40).flatmap(
 def test_indexed_equals_brute_force_reference(data):
     centers, half, priority = (np.array(d, dtype=np.float64).reshape(len(data[0]), -1) for d in data)
     priority = priority.ravel()
-    result = resolve_collisions(centers, half, priority)
-    expected = _reference(centers, half, priority)
+    result = resolve_collisions(centers, half, priority, UNCAPPED)
+    expected, kept = _reference(centers, half, priority)
     assert result.centers.tobytes() == expected.tobytes()  # bit for bit, signs of zero included
+    np.testing.assert_array_equal(result.placed, kept)
+    # the default candidate cap never binds on these small scenes either
+    assert resolve_collisions(centers, half, priority).centers.tobytes() == expected.tobytes()
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.integers(2, 60), st.sampled_from([0.5, 2.0, 5.0]))
+def test_pile_reference_with_small_max_displacement(n, max_m):
+    # Identical boxes on one spot with a small displacement bound: the reference and the
+    # index agree on which are dropped and where the rest go.
+    centers, half, priority = np.zeros((n, 2)), np.tile([1.0, 0.5], (n, 1)), np.arange(n, dtype=np.float64)
+    params = CollisionParams(max_displacement_m=max_m, max_candidates=10**9)
+    result = resolve_collisions(centers, half, priority, params)
+    expected, kept = _reference(centers, half, priority, max_m=max_m)
+    assert result.centers.tobytes() == expected.tobytes()
+    np.testing.assert_array_equal(result.placed, kept)
+
+
+#: No cap on the candidates tested: the reference sorts every candidate.
+UNCAPPED = CollisionParams(max_candidates=10**9)
 
 
 def test_params_change_the_tolerance():
@@ -151,3 +179,62 @@ def test_dense_scene_work_is_near_linear():
     small = resolve_collisions(*_car_park(250))
     assert result.pair_checks < 200 * 1000  # measured: about 1e5
     assert result.pair_checks < 10 * small.pair_checks  # 4x the boxes, not 16x the work (measured: 7x)
+
+
+def _identical_pile(n):
+    """n identical car footprints (4.5 m x 1.8 m) on one spot, equal priorities."""
+    return np.zeros((n, 2)), np.tile([2.25, 0.9], (n, 1)), np.zeros(n)
+
+
+def test_pile_of_identical_boxes_is_bounded_and_drops_the_excess():
+    # 300 identical footprints: a 25 m disk holds ~240 cars, so the rest cannot be placed.
+    # Unbounded, every box searched every spot flush against those settled so far: the
+    # pair checks grew as N^3 (measured 3.4e8 for 300; the issue's 150 boxes took 12 s).
+    centers, half, priority = _identical_pile(300)
+    params = CollisionParams()
+    result = resolve_collisions(centers, half, priority, params)
+    placed = result.placed
+    assert 50 < placed.sum() < 300  # the excess is dropped, a crowd remains
+    np.testing.assert_array_equal(result.displacement[~placed], 0.0)
+    np.testing.assert_array_equal(result.centers[~placed], centers[~placed])
+    assert np.all(np.linalg.norm(result.displacement[placed], axis=1) <= params.max_displacement_m)
+    assert overlaps(result.centers[placed], half[placed]) == []
+    # bounded work: at most max_candidates spots per box, each against the boxes near them
+    assert result.pair_checks < 300 * params.max_candidates * 64
+    big = resolve_collisions(*_identical_pile(600), params)
+    assert big.placed.sum() == placed.sum()  # the disk is full: the extra 300 are all dropped
+    assert big.pair_checks < 4 * result.pair_checks  # 2x the boxes, not 8x the work (measured 2.9x)
+
+
+def test_pile_of_random_boxes_properties_hold_for_what_is_placed():
+    # Random boxes heaped on a 10 m square: dropped ones excepted, no overlap, idempotent
+    # (the placed boxes resolved again move nowhere and all stay), independent of input order.
+    rng = np.random.default_rng(3)
+    n = 400
+    centers = rng.uniform(-5, 5, (n, 2))
+    half = footprint_half_extents(np.column_stack([rng.uniform(3.5, 5, n), rng.uniform(1.6, 2, n)]), rng.uniform(0, np.pi, n))
+    priority = rng.uniform(0, 50, n)
+    assert len(overlaps(centers, half)) > 10 * n
+    result = resolve_collisions(centers, half, priority)
+    p = result.placed
+    assert 0 < p.sum() < n
+    assert overlaps(result.centers[p], half[p]) == []
+    again = resolve_collisions(result.centers[p], half[p], priority[p])
+    assert again.placed.all()
+    np.testing.assert_array_equal(again.displacement, 0.0)
+    perm = rng.permutation(n)
+    shuffled = resolve_collisions(centers[perm], half[perm], priority[perm])
+    assert shuffled.centers.tobytes() == result.centers[perm].tobytes()
+    np.testing.assert_array_equal(shuffled.placed, p[perm])
+
+
+def test_max_candidates_drops_what_it_cannot_reach():
+    # A car on one spot, then copies. The second's ring of radius 2 m holds 1 x 3 spots (the
+    # spot itself, flush below and above the first); the third's holds 1 x 4 (flush above the
+    # second, at 0.0 + rounding, is a fourth y). A cap of 1 places only the first, 3 the first
+    # two, 4 the first three; the rest are dropped, and what is placed does not overlap.
+    centers, half, priority = _identical_pile(20)
+    for cap, expected in ((1, 1), (3, 2), (4, 3)):
+        result = resolve_collisions(centers, half, priority, CollisionParams(max_candidates=cap))
+        assert result.placed.sum() == expected
+        assert overlaps(result.centers[result.placed], half[result.placed]) == []

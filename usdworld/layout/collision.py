@@ -12,6 +12,12 @@ are visited in rings of growing distance instead of being sorted all at once. Bo
 skip work that cannot change the answer, so the result is the same, bit for bit, as
 testing every pair and sorting every candidate (``tests/test_layout_collision.py`` keeps
 that brute-force reference and compares the two).
+
+The search is bounded. In a pile (many boxes on one spot) the candidates grow with the
+boxes settled nearby and an exact search becomes cubic, so an object that would have to
+move further than ``CollisionParams.max_displacement_m``, or whose search ring would
+hold more than ``max_candidates`` spots, is not placed (``CollisionResult.placed``); the
+caller drops it with a warning. No normal scene comes near either bound.
 """
 
 from __future__ import annotations
@@ -26,8 +32,6 @@ from usdworld.parameters.collision import CollisionParams
 #: Boxes may overlap by at most this much (metres); the default of ``CollisionParams.tolerance_m``.
 TOLERANCE_M = CollisionParams().tolerance_m
 
-#: Candidates are checked in batches of this many, nearest first.
-_BATCH = 64
 #: First ring radius of the candidate search, metres; the radius doubles until a spot is
 #: free. Any positive value gives the same result; this one only sets how much is sorted.
 _FIRST_RING_M = 1.0
@@ -35,6 +39,9 @@ _FIRST_RING_M = 1.0
 _CELL_PER_HALF = 2.0
 #: A box touching more cells than this is kept in a list tested against every query.
 _MAX_CELLS = 64
+#: A query box spanning more cells than this returns every settled box instead.
+_MAX_QUERY_CELLS = 4096
+
 #: Coordinates beyond this magnitude (metres) are not indexed (tested against everything),
 #: so float rounding (an ulp of 1e8 is 1.5e-8 m) stays far below the query padding.
 _INDEX_LIMIT_M = 1e8
@@ -49,12 +56,16 @@ class CollisionResult:
     Attributes:
         displacement: (N, 2) float64 ground displacement of each box, metres.
         centers: (N, 2) float64 box centres after resolution.
+        placed: (N,) bool, False for a box not placed: it would have had to move further
+            than ``max_displacement_m`` or search a ring of over ``max_candidates`` spots (its displacement
+            is zero and its centre the input one; no other box was settled against it).
         pair_checks: how many (candidate spot, settled box) overlap tests were made; a
             measure of the work, near-linear in N for a dense scene.
     """
 
     displacement: np.ndarray
     centers: np.ndarray
+    placed: np.ndarray
     pair_checks: int = 0
 
 
@@ -104,13 +115,15 @@ class _Grid:
         self.wide: list[int] = []  # boxes not indexed: tested against every query
         self.placed: list[int] = []
 
-    def _cells(self, x0: float, y0: float, x1: float, y1: float) -> tuple[range, range] | None:
-        """Cell ranges covering [x0, x1] x [y0, y1], or None when not indexable."""
+    def _cells(
+        self, x0: float, y0: float, x1: float, y1: float, limit: int = _MAX_CELLS
+    ) -> tuple[range, range] | None:
+        """Cell ranges covering [x0, x1] x [y0, y1], or None when not indexable (more than ``limit`` cells)."""
         if not all(math.isfinite(v) and abs(v) <= _INDEX_LIMIT_M for v in (x0, y0, x1, y1)):
             return None
         ix = range(math.floor(x0 / self.cell), math.floor(x1 / self.cell) + 1)
         iy = range(math.floor(y0 / self.cell), math.floor(y1 / self.cell) + 1)
-        return (ix, iy) if len(ix) * len(iy) <= _MAX_CELLS else None
+        return (ix, iy) if len(ix) * len(iy) <= limit else None
 
     def insert(self, k: int, center: np.ndarray, half: np.ndarray) -> None:
         """Add box ``k`` (centre and half extents, (2,) float64 each)."""
@@ -125,7 +138,7 @@ class _Grid:
 
     def query(self, x0: float, y0: float, x1: float, y1: float) -> list[int]:
         """Settled boxes that may intersect [x0, x1] x [y0, y1] (repeats possible)."""
-        span = self._cells(x0 - _PAD_M, y0 - _PAD_M, x1 + _PAD_M, y1 + _PAD_M)
+        span = self._cells(x0 - _PAD_M, y0 - _PAD_M, x1 + _PAD_M, y1 + _PAD_M, _MAX_QUERY_CELLS)
         if span is None:
             return list(self.placed)
         found = list(self.wide)
@@ -180,16 +193,18 @@ def resolve_collisions(
         half: (N, 2) float64 half extents along x and y.
         priority: (N,) float64 sort key, smaller settles first (e.g. depth divided by
             confidence). Ties are broken by the box coordinates, never by input order.
-        params: tolerance, clearance and search neighbourhood.
+        params: tolerance, clearance, search neighbourhood and the search's bounds
+            (``max_displacement_m``, ``max_candidates``).
 
     Returns:
-        The displacements and the new centres.
+        The displacements, the new centres and which boxes were placed.
     """
     centers = np.asarray(centers, dtype=np.float64).reshape(-1, 2)
     half = np.asarray(half, dtype=np.float64).reshape(-1, 2)
     priority = np.asarray(priority, dtype=np.float64).reshape(-1)
     order = np.lexsort((half[:, 1], half[:, 0], centers[:, 1], centers[:, 0], priority))
     out = centers.copy()
+    placed = np.ones(len(centers), dtype=bool)
     settled = _Settled(out, half, params.tolerance_m)
     for i in order:
         c0, h = centers[i], half[i]
@@ -197,56 +212,123 @@ def resolve_collisions(
             settled.add(int(i))
             continue
         near = settled.near(c0, h, params.neighbourhood_m)
-        best = _nearest_clear(c0, h, out[near], half[near], settled, params.clearance_m)
-        if best is None:  # pushed out past the neighbourhood: consider every box's edges
+        search = _Search(params.clearance_m, params.max_displacement_m, params.max_candidates)
+        best = _nearest_clear(c0, h, out[near], half[near], settled, search)
+        if best is None and params.max_displacement_m > params.neighbourhood_m:
+            # pushed out past the neighbourhood: consider every box's edges
             every = np.array(settled.grid.placed, dtype=np.int64)
-            best = _nearest_clear(c0, h, out[every], half[every], settled, params.clearance_m)
+            best = _nearest_clear(c0, h, out[every], half[every], settled, search)
+        if best is None:  # no free spot within the bounds: a pile; the box is not placed
+            placed[i] = False
+            continue
         out[i] = best
         settled.add(int(i))
-    return CollisionResult(out - centers, out, settled.checks)
+    return CollisionResult(out - centers, out, placed, settled.checks)
+
+
+@dataclass
+class _Search:
+    """The bounds of one object's search for a free spot.
+
+    Attributes:
+        clearance: gap left to the boxes moved against, metres.
+        max_m: candidates further than this from the original centre are not considered, metres.
+        most: the most candidate spots one ring may hold.
+    """
+
+    clearance: float
+    max_m: float
+    most: int
 
 
 def _nearest_clear(
-    c0: np.ndarray, h: np.ndarray, pc: np.ndarray, ph: np.ndarray, settled: _Settled, clearance: float
+    c0: np.ndarray, h: np.ndarray, pc: np.ndarray, ph: np.ndarray, settled: _Settled, search: _Search
 ) -> np.ndarray | None:
     """The candidate nearest ``c0`` (ties by x, then y) that overlaps no settled box, or None.
 
     The candidates are the grid of the original coordinates and the positions flush
-    against the edges of the boxes ``pc``/``ph`` ((M, 2) float64 each). They are visited
-    in rings: every candidate within a radius, sorted by (distance, x, y), a batch at a
-    time; then the next ring, twice as wide. The order is that of sorting all candidates
-    at once (the distance is computed as ``np.linalg.norm`` does), so the first free one
-    is the same.
+    against the edges of the boxes ``pc``/``ph`` ((M, 2) float64 each), within
+    ``search.max_m`` of ``c0``. They are visited in rings: every candidate within a radius
+    (a square of xs by ys), then the next ring, twice as wide. In a ring, the overlap test
+    factorises by axis (a spot overlaps a box when its x and its y both do, each tested
+    with the same float operations as :meth:`_Settled.clear`), so the blocked spots are
+    one boolean matrix product; the free new spot first in the order (distance, x, y)
+    (the distance computed as ``np.linalg.norm`` does) is the one sorting all candidates
+    at once would give. None also when a ring's square holds more than ``search.most`` spots.
     """
-    xs, ix = _distinct(np.concatenate([[c0[0]], pc[:, 0] - ph[:, 0] - h[0] - clearance, pc[:, 0] + ph[:, 0] + h[0] + clearance]))
-    ys, iy = _distinct(np.concatenate([[c0[1]], pc[:, 1] - ph[:, 1] - h[1] - clearance, pc[:, 1] + ph[:, 1] + h[1] + clearance]))
+    clearance, max_m = search.clearance, search.max_m
+    xs = np.concatenate([[c0[0]], pc[:, 0] - ph[:, 0] - h[0] - clearance, pc[:, 0] + ph[:, 0] + h[0] + clearance])
+    ys = np.concatenate([[c0[1]], pc[:, 1] - ph[:, 1] - h[1] - clearance, pc[:, 1] + ph[:, 1] + h[1] + clearance])
+    kx, ky = np.nonzero(np.abs(xs - c0[0]) <= max_m)[0], np.nonzero(np.abs(ys - c0[1]) <= max_m)[0]
+    xs, ix = _distinct(xs[kx])
+    ys, iy = _distinct(ys[ky])
+    ix, iy = kx[ix], ky[iy]  # positions in the full candidate lists: the same tie-breaks
     dx, dy = xs - c0[0], ys - c0[1]
     dx2, dy2 = dx * dx, dy * dy
     rx, ry = np.sqrt(dx2), np.sqrt(dy2)  # a candidate's distance is at least each of these
-    done, reach = -np.inf, _FIRST_RING_M
+    done, reach = -np.inf, min(_FIRST_RING_M, max_m)
     while True:
-        last = not reach < np.inf or (bool(np.all(rx <= reach)) and bool(np.all(ry <= reach)))
-        sx = slice(None) if last else rx <= reach
-        sy = slice(None) if last else ry <= reach
-        dist = np.sqrt(dx2[sx][:, None] + dy2[sy][None, :]).ravel()
-        X, Y = (a.ravel() for a in np.meshgrid(xs[sx], ys[sy], indexing="ij"))
-        IX, IY = (a.ravel() for a in np.meshgrid(ix[sx], iy[sy], indexing="ij"))
-        new = ~(dist <= done) if last else (dist <= reach) & ~(dist <= done)
-        sel = np.nonzero(new)[0]
-        sel = sel[np.lexsort((IY[sel], IX[sel], Y[sel], X[sel], dist[sel]))]
-        if len(sel) == 0:
-            ids = sel
-        else:  # the settled boxes that may touch any candidate of this ring
-            ring = np.column_stack([X[sel], Y[sel]])
-            ids = settled.around(ring.min(axis=0) - h, ring.max(axis=0) + h)
-        for start in range(0, len(sel), _BATCH):
-            batch = np.column_stack([X[sel[start : start + _BATCH]], Y[sel[start : start + _BATCH]]])
-            ok = np.nonzero(settled.clear(batch, h, ids))[0]
-            if len(ok):
-                return batch[ok[0]]
+        last = not reach < max_m or (bool(np.all(rx <= reach)) and bool(np.all(ry <= reach)))
+        sx = np.nonzero(rx <= (max_m if last else reach))[0]
+        sy = np.nonzero(ry <= (max_m if last else reach))[0]
+        if len(sx) * len(sy) > search.most:  # a pile: too many spots to consider
+            return None
+        dist = np.sqrt(dx2[sx][:, None] + dy2[sy][None, :])
+        new = (dist <= (max_m if last else reach)) & ~(dist <= done)
+        if new.any():
+            lo = np.array([xs[sx].min(), ys[sy].min()])
+            hi = np.array([xs[sx].max(), ys[sy].max()])
+            ids = settled.around(lo - h, hi + h)
+            settled.checks += (len(sx) + len(sy)) * len(ids)
+            if len(ids):
+                ox, oy = settled.out[ids, 0], settled.out[ids, 1]
+                hx, hy = settled.half[ids, 0], settled.half[ids, 1]
+                new &= ~_blocked(xs[sx], ys[sy], ox, oy, h[0] + hx, h[1] + hy, settled.tol)
+            a, b = np.nonzero(new)
+            if len(a):
+                k = np.lexsort((iy[sy][b], ix[sx][a], ys[sy][b], xs[sx][a], dist[a, b]))[0]
+                return np.array([xs[sx][a[k]], ys[sy][b[k]]])
         if last:
             return None
-        done, reach = reach, reach * 2.0
+        done, reach = reach, min(reach * 2.0, max_m)
+
+
+def _blocked(
+    xv: np.ndarray, yv: np.ndarray, ox: np.ndarray, oy: np.ndarray, wx: np.ndarray, wy: np.ndarray, tol: float
+) -> np.ndarray:
+    """(NX, NY) bool: which spots (xv[a], yv[b]) overlap one of M boxes.
+
+    A spot overlaps box m when ``|x - ox[m]| - wx[m] < -tol`` and likewise in y (the
+    float operations of :meth:`_Settled.clear`, so the answer is the same bit for bit).
+    Each test is monotone in ``|x - ox[m]|``, which rounding keeps unimodal in x, so the
+    coordinates that pass form an interval in sorted order: each box adds one to a
+    rectangle of a difference array, summed in O(NX NY + (NX + NY) M).
+
+    Args:
+        xv, yv: (NX,) and (NY,) float64 candidate coordinates.
+        ox, oy: (M,) float64 box centres.
+        wx, wy: (M,) float64 summed half extents (the spot's plus the box's).
+        tol: allowed overlap, metres.
+    """
+    px, py = np.argsort(xv, kind="stable"), np.argsort(yv, kind="stable")
+    in_x = np.abs(xv[px][:, None] - ox[None, :]) - wx[None, :] < -tol
+    in_y = np.abs(yv[py][:, None] - oy[None, :]) - wy[None, :] < -tol
+    hit = np.nonzero(in_x.any(axis=0) & in_y.any(axis=0))[0]
+    nx, ny = len(xv), len(yv)
+    if len(hit) == 0:
+        return np.zeros((nx, ny), dtype=bool)
+    in_x, in_y = in_x[:, hit], in_y[:, hit]
+    x0, x1 = np.argmax(in_x, axis=0), nx - np.argmax(in_x[::-1], axis=0)
+    y0, y1 = np.argmax(in_y, axis=0), ny - np.argmax(in_y[::-1], axis=0)
+    diff = np.zeros((nx + 1, ny + 1), dtype=np.int32)
+    np.add.at(diff, (x0, y0), 1)
+    np.add.at(diff, (x0, y1), -1)
+    np.add.at(diff, (x1, y0), -1)
+    np.add.at(diff, (x1, y1), 1)
+    inside = np.cumsum(np.cumsum(diff, axis=0), axis=1)[:nx, :ny] > 0
+    out = np.empty((nx, ny), dtype=bool)
+    out[np.ix_(px, py)] = inside
+    return out
 
 
 def _distinct(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

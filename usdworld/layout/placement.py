@@ -20,6 +20,7 @@
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -49,6 +50,8 @@ from usdworld.parameters.placement import PlacementParams
 from usdworld.parameters.scene import SceneParams
 from usdworld.perception.depth.fusion import DepthCue
 from usdworld.perception.objects import ImageObject
+
+logger = logging.getLogger(__name__)
 
 #: The scene defaults (the range beyond which partial placements are dropped, unless given).
 DEFAULT_SCENE = SceneParams()
@@ -150,7 +153,8 @@ def place_objects(
 
     Returns:
         Placements in the same order as ``objects`` and the names of objects that
-        could not be placed (stuff with no visible ground contact and no usable height).
+        could not be placed (stuff with no visible ground contact and no usable height,
+        objects piled beyond ``CollisionParams.max_displacement_m``).
         Names are given before skipping, so they stay stable.
     """
     ctx = PlacementContext(
@@ -172,7 +176,8 @@ def place_objects(
     drafts, unplaced = drop_unbounded(drafts, unplaced, ctx, max_partial_depth_m)
     drafts, skipped = place_behind_occluders(drafts, unplaced, ctx)
     drafts = apply_ordering(drafts, ctx)
-    return resolve_footprints(drafts, ctx), skipped
+    placements, piled = resolve_footprints(drafts, ctx)
+    return placements, skipped + piled
 
 
 def draft_all(
@@ -219,15 +224,20 @@ def apply_ordering(drafts: list[Draft], ctx: PlacementContext) -> list[Draft]:
     return out
 
 
-def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> list[Placement]:
+def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> tuple[list[Placement], list[str]]:
     """Pass: resolve footprint collisions and make the placements.
 
     Things (vehicles, people) settle first: they are the photo's sharpest evidence, and a
     stuff region (a hedge, a facade chunk) should make way for them, not push them. Among
-    each kind, the nearer and more confident settle first.
+    each kind, the nearer and more confident settle first. An object with no free spot
+    within ``CollisionParams.max_displacement_m`` (a pile of contradictory boxes) is not
+    placed; a warning says how many and why.
+
+    Returns:
+        The placements, in draft order, and the names of the objects not placed.
     """
     if not drafts:
-        return []
+        return [], []
     params = ctx.params
     centers = np.array([d.ground for d in drafts])
     half = footprint_half_extents(np.array([d.footprint for d in drafts]), np.array([d.yaw for d in drafts]))
@@ -239,8 +249,20 @@ def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> list[Place
         ]
     )
     resolved = resolve_collisions(centers, half, priority, params=ctx.collision)
+    piled = [d.name for d, ok in zip(drafts, resolved.placed) if not ok]
+    if piled:
+        logger.warning(
+            "%d objects not placed: each would have to move more than %g m, or past %d candidate spots, "
+            "to clear the objects already placed (a pile of contradictory boxes): %s",
+            len(piled),
+            ctx.collision.max_displacement_m,
+            ctx.collision.max_candidates,
+            ", ".join(piled),
+        )
     placements = []
-    for d, disp, center in zip(drafts, resolved.displacement, resolved.centers):
+    for d, disp, center, ok in zip(drafts, resolved.displacement, resolved.centers, resolved.placed):
+        if not ok:
+            continue
         obj = d.obj
         z = params.curb_height_m if (ctx.sidewalk_lift and obj.standing_on == "sidewalk") else 0.0
         placements.append(
@@ -265,4 +287,4 @@ def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> list[Place
                 rule=d.rule,
             )
         )
-    return placements
+    return placements, piled

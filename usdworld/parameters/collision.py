@@ -33,6 +33,29 @@ class CollisionParams:
         "settled box's edges tried.",
         "convention: well beyond the size of any placed class, so the fallback is rare",
     )
+    max_displacement_m: float = param(
+        25.0,
+        "m",
+        "An object that would have to move further than this on the ground to clear the objects "
+        "already settled is not placed: it is dropped from the placements and named in the build's "
+        "warnings. Only a pile of contradictory boxes (a detector's raw output, a label file dumped on "
+        "one spot) pushes an object that far; the search for a free spot stops at this radius. Below "
+        "neighbourhood_m, so the fallback over every settled box is never needed.",
+        "convention: about five car lengths (4.5 m); no real photo's object is misplaced by that much. "
+        "Largest displacement measured: 1.7 m on 25 KITTI frames (x3 camera modes), nuScenes and "
+        "Cityscapes, 8.7 m on the demo, 14.0 m on the 50 synthetic scenes",
+    )
+    max_candidates: int = param(
+        65536,
+        "count",
+        "The search for a free spot considers the candidates (the original coordinates and the "
+        "positions flush against nearby boxes' edges, combined x by y) in rings of growing radius; "
+        "an object whose ring would hold more than this many spots is dropped like one beyond "
+        "max_displacement_m. Bounds the work per object in a pile of boxes with distinct edges, "
+        "where the candidates grow as the square of the boxes settled nearby.",
+        "convention: 256 x 256; a ring holds at most (2 M + 1)^2 spots for M boxes nearby, so a scene "
+        "needs over 127 objects packed within max_displacement_m of one another to reach it",
+    )
     duplicate_iou: float = param(
         0.95,
         "fraction",

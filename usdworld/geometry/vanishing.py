@@ -117,6 +117,24 @@ def _refine(segments: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, floa
     return sol, float(np.sqrt(max(cov[1, 1], 0.0)))
 
 
+def _pair_intersections(seg: np.ndarray, params: CameraParams) -> tuple[np.ndarray, np.ndarray]:
+    """The RANSAC hypotheses of both vanishing-point searches: each segment's length, and the
+    homogeneous intersections of ``params.vp_trials`` random pairs of segments (fixed seed).
+
+    Args:
+        seg: (N, 4) ``u0, v0, u1, v1`` pixels, N >= 2.
+
+    Returns:
+        (N,) float64 lengths and (M, 3) float64 homogeneous points (M <= ``vp_trials``).
+    """
+    lines = _lines(seg)
+    length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+    rng = np.random.default_rng(0)
+    pairs = rng.integers(0, len(seg), size=(params.vp_trials, 2))
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    return length, np.cross(lines[pairs[:, 0]], lines[pairs[:, 1]])
+
+
 def find_vanishing_point(
     segments: np.ndarray, width: int, height: int, params: CameraParams = DEFAULT_CAMERA
 ) -> VanishingPoint | None:
@@ -138,12 +156,7 @@ def find_vanishing_point(
     tol = params.vp_angle_tol_deg
     if n < params.vp_min_inliers:
         return None
-    lines = _lines(seg)
-    length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
-    rng = np.random.default_rng(0)
-    pairs = rng.integers(0, n, size=(params.vp_trials, 2))
-    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
-    points = np.cross(lines[pairs[:, 0]], lines[pairs[:, 1]])
+    length, points = _pair_intersections(seg, params)
     ok = np.abs(points[:, 2]) > 1e-9
     points = points[ok, :2] / points[ok, 2:3]
     inside = (points[:, 1] >= 0) & (points[:, 1] < height) & (np.abs(points[:, 0] - width / 2) < width)
@@ -245,12 +258,7 @@ def find_vertical_vanishing_point(
     n = len(seg)
     if n < params.vp_min_inliers:
         return None
-    lines = _lines(seg)
-    length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
-    rng = np.random.default_rng(0)
-    pairs = rng.integers(0, n, size=(params.vp_trials, 2))
-    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
-    points = np.cross(lines[pairs[:, 0]], lines[pairs[:, 1]])
+    length, points = _pair_intersections(seg, params)
     points /= np.maximum(np.linalg.norm(points, axis=1, keepdims=True), 1e-12)
     scores = np.array([length[_support_h(seg, p) < params.vp_angle_tol_deg].sum() for p in points])
     best = points[int(np.argmax(scores))]

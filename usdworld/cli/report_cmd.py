@@ -31,12 +31,11 @@ def report(
     ),
 ) -> None:
     """Write one HTML page with the photo, the render, every object's provenance, the camera and the evaluation."""
-    from usdworld.authoring.inspect import open_world
     from usdworld.cli.summary import quiet
     from usdworld.report_html import write_report_page
 
     if output is None:
-        output = Path(open_world(world).GetRootLayer().realPath).parent / "report.html"
+        output = (world if world.is_dir() else world.parent) / "report.html"
     path = write_report_page(
         world, output, labels=labels, gt=gt, calib=calib, photo=photo, nuscenes_camera=nuscenes_camera
     )

@@ -216,6 +216,8 @@ def test_without_the_photo_render_only(demo, tmp_path):
     inputs = collect(world)
     assert inputs.images.photo is None and inputs.images.overlay is None and inputs.images.render
     assert any("missing.png not found" in n for n in inputs.images.notes)
+    assert any(n.startswith("no SSIM") for n in inputs.evaluation_notes)
+    assert inputs.evaluation is not None and inputs.evaluation["ssim"] is None
 
 
 def _one_line_error(capsys, args: list[str], expected: str) -> None:
@@ -277,7 +279,7 @@ def _obj(name: str, depth: float | None, cues: dict, **kw) -> dict:
 
 def test_depth_cue_plot_marks_every_cue_and_fused_depth():
     objects = [
-        _obj("far", 80.0, {"contact": (82.0, 9.0), "height": (None, None)}),
+        _obj("far", 80.0, {"contact": (82.0, 9.0), "height": (None, None), "cnn": (None, None)}),
         _obj("near", 5.0, {"contact": (5.1, 0.2), "height": (4.0, 1.5)}),
         _obj("unplaced", None, {"contact": (3.0, 1.0)}),
     ]
@@ -286,6 +288,7 @@ def test_depth_cue_plot_marks_every_cue_and_fused_depth():
     assert svg.count('<line class="fused"') == 2
     assert svg.index('data-name="near"') < svg.index('data-name="far"')  # ordered by fused depth
     assert "near height: 4.00 m ± 1.50 m" in svg
+    assert "contact ± σ" in svg and "cnn ± σ" not in svg  # the legend lists the cues that give a depth
     assert ">2<" in svg and ">100<" in svg and ">1000<" not in svg  # log axis from 2 to 100 m
     assert depth_cue_plot([_obj("x", None, {})]).startswith("<p")
 

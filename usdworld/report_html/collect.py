@@ -187,6 +187,8 @@ def collect(
                 f"source photo {report.get('source_image') or '(none recorded)'} not found next to the world; pass --photo"
             )
     photo_rgb = read_photo(photo) if photo is not None else None
+    if photo is None:
+        eval_notes.append("no SSIM: the source photo was not found; pass --photo")
     photo_entry = None
     if photo is not None:
         data = photo.read_bytes()

@@ -41,8 +41,15 @@ def _finite(x: Any) -> bool:
 
 
 def cue_colours(objects: Sequence[Mapping[str, Any]]) -> dict[str, str]:
-    """Colour of every cue name the objects use, in sorted name order."""
-    names = sorted({name for o in objects for name in (o.get("depth_cues") or {})})
+    """Colour of every cue name that gives at least one of the objects a depth, in sorted name order."""
+    names = sorted(
+        {
+            name
+            for o in objects
+            for name, c in (o.get("depth_cues") or {}).items()
+            if _finite(c.get("depth_m"))
+        }
+    )
     others = iter(OTHER_CUE_COLOURS * (1 + len(names)))
     return {n: CUE_COLOURS[n] if n in CUE_COLOURS else next(others) for n in names}
 

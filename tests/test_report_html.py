@@ -187,7 +187,9 @@ def test_edits_show_as_moved_deleted_and_added(demo, tmp_path):
     assert inputs.states["person_0002"] == "deleted"
     assert sum(1 for s in inputs.states.values() if s == "built") == len(inputs.states) - 2
     assert [o["class"] for o in inputs.added] == ["tree"]
-    rows = {r["name"]: r for r in parse(render_page(inputs)).rows}
+    html = render_page(inputs)
+    assert "edits since: 1 moved, 1 deleted, 1 added" in html
+    rows = {r["name"]: r for r in parse(html).rows}
     assert rows["car_0002"]["class"] == "moved" and rows["person_0002"]["class"] == "deleted"
     new = rows[inputs.added[0]["name"]]
     assert new["class"] == "added" and new["cells"][column("class")]["text"] == "tree"
@@ -303,3 +305,12 @@ def test_plan_view_draws_each_footprint():
     assert svg.count('class="footprint"') == 2 and 'fill="#00008e"' in svg
     assert 'class="fov"' in svg
     assert plan_view(objects[2:], {}).startswith("<p")
+
+
+def test_object_warnings_name_the_object_as_a_word():
+    from usdworld.report_html.page import object_warnings
+
+    warnings = ["not placed (no visible ground contact): car_00011, pole_0002", "car_0001: moved 2.0 m"]
+    o = {"name": "car_0001", "bottom_truncated": True, "bottom_occluded": False}
+    assert object_warnings(o, warnings) == ["bottom cut by the image edge", "car_0001: moved 2.0 m"]
+    assert object_warnings({"name": "pole_0002"}, warnings) == [warnings[0]]

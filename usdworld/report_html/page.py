@@ -13,6 +13,7 @@ from __future__ import annotations
 import base64
 import json
 import math
+import re
 from collections.abc import Mapping, Sequence
 from html import escape
 from typing import Any
@@ -201,7 +202,8 @@ def object_warnings(o: Mapping[str, Any], warnings: Sequence[str]) -> list[str]:
         out.append("bottom cut by the image edge")
     if o.get("bottom_occluded"):
         out.append("ground contact occluded")
-    out += [w for w in warnings if str(o.get("name")) in w]
+    name = re.compile(rf"\b{re.escape(str(o.get('name')))}\b")
+    out += [w for w in warnings if name.search(w)]
     return out
 
 
@@ -276,12 +278,11 @@ def _objects(inputs: PageInputs) -> str:
         added = {**o, "depth_cues": {}}
         rows.append(_object_row(added, "added", gt_errors.get(o["name"]), warnings))
     counts = {s: sum(1 for v in inputs.states.values() if v == s) for s in ("moved", "deleted")}
-    edits = ", ".join(f"{n} {s}" for s, n in counts.items() if n) + (
-        f", {len(inputs.added)} added" if inputs.added else ""
-    )
+    counts["added"] = len(inputs.added)
+    edits = ", ".join(f"{n} {s}" for s, n in counts.items() if n)
     return (
         f'<h2 id="objects-heading">Objects ({len(rows)})</h2>'
-        f'<p class="sub">As built (report.json){"; edits since: " + edits.lstrip(", ") if edits else ""}. '
+        f'<p class="sub">As built (report.json){"; edits since: " + edits if edits else ""}. '
         "Click a header to sort; hover a depth cue for its note. Positions in the world frame: x forward, y left, z up, metres; "
         "collision shift is how far resolving overlaps moved the object.</p>"
         f'<div class="scroll"><table id="objects"><thead><tr>{head}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>'

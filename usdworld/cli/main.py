@@ -32,6 +32,7 @@ COMMANDS = {
     "flythrough": "flythrough_cmd",
     "synth": "synth_cmd",
     "evaluate": "evaluate_cmd",
+    "report": "report_cmd",
     "export": "export_cmd",
     "assets": "assets_cmd",
     "edit": "edit_cmd",

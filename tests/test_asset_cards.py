@@ -96,3 +96,15 @@ def test_an_edit_measures_no_asset(tmp_path_factory, tmp_path: Path) -> None:
         "assert 'cv2' not in sys.modules, 'cv2 was imported'\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, env={**os.environ, "PYTHONPATH": str(REPO)})
+
+
+def test_a_user_asset_gets_a_current_card(tmp_path: Path) -> None:
+    import trimesh
+
+    from usdworld.authoring.user_assets import add_asset
+
+    model = tmp_path / "box.glb"
+    trimesh.creation.box(extents=(4.0, 1.8, 1.5)).export(model)
+    added = add_asset(tmp_path / "lib", "car", model, variant="boxy", up="z", validate=False)
+    card = read_card(added.path)
+    assert card is not None and "boxy" in card["measures"]

@@ -123,7 +123,7 @@ def test_generator_is_reproducible(tmp_path: Path) -> None:
     subprocess.run([sys.executable, str(GENERATOR), "--out", str(out)], check=True, capture_output=True)
     generated = sorted(p.name for p in out.iterdir())
     assert generated == sorted(
-        p.name for p in asset_library_dir().iterdir() if p.suffix in (".usda", ".usdc")
+        p.name for p in asset_library_dir().iterdir() if p.suffix in (".usda", ".usdc", ".json")
     )
     stale = [n for n in generated if (out / n).read_bytes() != (asset_library_dir() / n).read_bytes()]
     assert stale == [], "asset_library/ is stale: run python tools/make_assets.py"

@@ -4,6 +4,8 @@ Measured, best of ``--repeats`` runs each (wall clock of a subprocess, so interp
 imports, argument parsing and the work itself all count):
 
 * ``python -c "import usdworld"``: the package import alone;
+* the floors: a process that only imports the libraries an edit (pxr, numpy, typer) or a
+  build (the same and cv2) cannot do without;
 * ``usdworld --help``;
 * ``usdworld edit W move <car> --by ...``: one edit of the demo world (built first with
   ``usdworld demo -o W``); the car is moved 0.1 m forth and back, so every run is a small,
@@ -41,6 +43,12 @@ sys.path.insert(0, str(REPO))
 
 #: Targets of issue 16, seconds (the build target is over the in-process build).
 TARGETS_S = {"help": 0.3, "edit_move": 0.4, "build_overhead": 0.4}
+
+
+#: What any edit command must import (USD, numpy, the CLI library): its floor.
+FLOOR_EDIT = "from pxr import Usd, UsdGeom, Sdf; import numpy, typer"
+#: What any build command must import (the same and OpenCV): its floor.
+FLOOR_BUILD = FLOOR_EDIT + ", cv2"
 
 
 def _env() -> dict[str, str]:
@@ -111,6 +119,8 @@ def measure(work: Path, repeats: int) -> dict[str, tuple[float, float]]:
     out: dict[str, tuple[float, float]] = {}
     out["python"] = _best_of([[sys.executable, "-c", "pass"]] * repeats, env)
     out["import"] = _best_of([[sys.executable, "-c", "import usdworld"]] * repeats, env)
+    out["floor_edit"] = _best_of([[sys.executable, "-c", FLOOR_EDIT]] * repeats, env)
+    out["floor_build"] = _best_of([[sys.executable, "-c", FLOOR_BUILD]] * repeats, env)
     out["help"] = _best_of([_usdworld("--help")] * repeats, env)
     out["edit_move"] = _best_of(moves, env)
     out["build_command"] = _best_of([_usdworld("-q", *_build_args(work / f"cmd{k}")) for k in range(repeats)], env)
@@ -124,6 +134,8 @@ def _table(times: dict[str, tuple[float, float]]) -> str:
     rows = [
         ("python -c pass (interpreter)", "python", None),
         ("python -c 'import usdworld'", "import", None),
+        ("floor of an edit: pxr, numpy, typer", "floor_edit", None),
+        ("floor of a build: + cv2", "floor_build", None),
         ("usdworld --help", "help", "help"),
         ("usdworld edit W move (demo world)", "edit_move", "edit_move"),
         ("usdworld build (demo inputs)", "build_command", None),

@@ -23,6 +23,9 @@ Each class is written as two files:
     normals) as overs inside the same variants. omni-asset-validator's UsdAsciiPerformanceChecker
     fails every ``.usda`` layer that holds an array longer than 64 elements, so mesh arrays must
     live in a crate layer. Copy both files together.
+``<class>.card.json``
+    The asset's card (:mod:`usdworld.authoring.asset_cards`): its variants, sizes and shape
+    measures with a digest of the two files above, so builds and edits need not measure it.
 
 Geometry is modelled with manifold3d constructive solid geometry (one closed, manifold solid per
 material), shaded with faceVarying normals smoothed only across edges sharper than
@@ -47,7 +50,9 @@ import trimesh
 from manifold3d import CrossSection, JoinType, Manifold, OpType
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
 
+from usdworld.authoring.asset_cards import CARD_SUFFIX, write_card
 from usdworld.authoring.asset_library import TAXONOMY, VARIANT_SET, define_asset_root
+from usdworld.authoring.asset_measures import asset_card_text
 from usdworld.authoring.shading import crease_normals, extent
 
 REPO = Path(__file__).resolve().parents[1]
@@ -1346,6 +1351,8 @@ def generate(out_dir: Path, classes: Sequence[str] | None = None) -> list[Path]:
         for name in names:
             variants = build_class(name, priors[name])
             files = write_asset(Path(scratch), name, variants, ASSETS[name][0][0])
+            usda = Path(scratch) / f"{name}.usda"
+            files.append(write_card(usda, asset_card_text(usda)))
             for f in files:
                 dest = out_dir / f.name
                 os.replace(f, dest)
@@ -1355,7 +1362,11 @@ def generate(out_dir: Path, classes: Sequence[str] | None = None) -> list[Path]:
 
 def library_files(folder: Path) -> list[str]:
     """Generated-file names present in ``folder``."""
-    return sorted(p.name for p in folder.glob("*.usda")) + sorted(p.name for p in folder.glob("*.geom.usdc"))
+    return (
+        sorted(p.name for p in folder.glob("*.usda"))
+        + sorted(p.name for p in folder.glob("*.geom.usdc"))
+        + sorted(p.name for p in folder.glob(f"*{CARD_SUFFIX}"))
+    )
 
 
 def check(out_dir: Path, classes: Sequence[str] | None = None) -> list[str]:

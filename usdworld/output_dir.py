@@ -23,8 +23,8 @@ import tempfile
 from pathlib import Path
 
 from usdworld.atomic import ensure_output_dir
-from usdworld.authoring.world import EDITS_LAYER, ROOT_LAYER
 from usdworld.errors import OutputError
+from usdworld.world_files import EDITS_LAYER, ROOT_LAYER
 
 #: Characters the temporary siblings add to the output's name (``.`` + ``.tmp-`` + 8).
 TEMP_NAME_EXTRA = 14

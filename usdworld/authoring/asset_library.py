@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from pxr import Kind, Usd, UsdGeom, UsdSemantics
 
+from usdworld.authoring.asset_cards import read_card
 from usdworld.authoring.mesh_reader import MeshTopology, read_topology
 from usdworld.authoring.stages import open_stage
 from usdworld.errors import InputError
@@ -148,8 +149,24 @@ def _stamp(path: Path) -> tuple[str, int]:
 
 
 @functools.lru_cache(maxsize=128)
+def card_cached(path_str: str, mtime_ns: int) -> dict | None:
+    """The asset's current card (:func:`usdworld.authoring.asset_cards.read_card`), cached per file version."""
+    return read_card(Path(path_str))
+
+
+@functools.lru_cache(maxsize=128)
 def _info_cached(class_name: str, path_str: str, mtime_ns: int) -> AssetInfo:
     path = Path(path_str)
+    card = card_cached(path_str, mtime_ns)
+    if card is not None:
+        sizes = {v: tuple(float(c) for c in s) for v, s in card["size_by_variant"].items()}
+        return AssetInfo(class_name, path, tuple(card["variants"]), card["default_variant"], sizes)  # type: ignore[arg-type]
+    return measure_info(class_name, path)
+
+
+def measure_info(class_name: str, path: Path) -> AssetInfo:
+    """The asset's :class:`AssetInfo` read from its USD files (not from its card)."""
+    path_str, mtime_ns = _stamp(path)
     stage, root = _open(path)
     vset = (
         root.GetVariantSets().GetVariantSet(VARIANT_SET)
@@ -177,8 +194,9 @@ def _info_cached(class_name: str, path_str: str, mtime_ns: int) -> AssetInfo:
 def asset_info(class_name: str, libraries: tuple[Path, ...] | None = None) -> AssetInfo:
     """Variants, default variant and per-variant sizes of a class asset (cached per file version).
 
-    Sizes come from the root's ``usdworld:sizeByVariant`` customData; variants it does not list
-    are measured from their geometry.
+    From the asset's card when it has a current one (:mod:`usdworld.authoring.asset_cards`),
+    else from its files: sizes from the root's ``usdworld:sizeByVariant`` customData; variants
+    it does not list are measured from their geometry.
 
     Raises:
         InputError: no asset for the class, or the file is not a readable USD asset.

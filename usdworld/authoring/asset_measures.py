@@ -9,8 +9,10 @@
 * top shape: :func:`usdworld.perception.shape.top_shape_ratio` of its side view (a
   conifer's against a broad tree's).
 
-Measures are cached by asset file and modification time, so a batch of builds pays for
-them once per process. Frames: the asset's (metres, Z up, origin at the footprint centre).
+Measures come from the asset's card when it has a current one
+(:mod:`usdworld.authoring.asset_cards`; :func:`asset_card_text` makes it), else they are
+measured, cached by asset file and modification time, so a batch of builds pays for them
+once per process. Frames: the asset's (metres, Z up, origin at the footprint centre).
 
 :func:`asset_catalogue` gathers sizes, variants and measures of the classes a build uses
 into the plain :class:`~usdworld.io.asset_catalogue.AssetCatalogue` that layout receives
@@ -24,10 +26,10 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from usdworld.authoring import asset_library
+from usdworld.authoring.asset_cards import asset_digest, card_text
 from usdworld.io.asset_catalogue import AssetCatalogue, AssetSizes
 from usdworld.perception.shape import top_shape_ratio
 
@@ -82,6 +84,8 @@ def measure_mesh(vertices: np.ndarray, faces: np.ndarray) -> VariantMeasures:
 
 def _side_view_top_shape(verts: np.ndarray, faces: np.ndarray) -> float:
     """Top-shape ratio of the X-Z silhouette rasterised :data:`SIDE_VIEW_ROWS` rows tall."""
+    import cv2  # 30 ms to import; only when an asset without a current card is measured
+
     z0, z1 = float(verts[:, 2].min()), float(verts[:, 2].max())
     px_per_m = (SIDE_VIEW_ROWS - 1) / max(z1 - z0, 1e-9)
     x = (verts[:, 0] - verts[:, 0].min()) * px_per_m
@@ -97,6 +101,17 @@ def _side_view_top_shape(verts: np.ndarray, faces: np.ndarray) -> float:
 def _cached(
     class_name: str, variant: str | None, path_str: str, mtime_ns: int, libraries: tuple[Path, ...] | None
 ) -> VariantMeasures:
+    card = asset_library.card_cached(path_str, mtime_ns)
+    if card is not None:
+        key = variant if variant is not None else card["default_variant"]
+        if key in card["measures"]:
+            m = card["measures"][key]
+            return VariantMeasures(
+                contact_half=(float(m["contact_half"][0]), float(m["contact_half"][1])),
+                contact_mean_reach=float(m["contact_mean_reach"]),
+                top_half=(float(m["top_half"][0]), float(m["top_half"][1])),
+                top_shape=float(m["top_shape"]),
+            )
     mesh = asset_library.load_mesh_arrays(class_name, variant, libraries)
     return measure_mesh(mesh.vertices, mesh.faces)
 
@@ -111,6 +126,25 @@ def variant_measures(
     """
     path = asset_library.asset_path(class_name, libraries).resolve()
     return _cached(class_name, variant, str(path), path.stat().st_mtime_ns, libraries)
+
+
+def asset_card_text(usda: Path) -> str:
+    """The card (:mod:`usdworld.authoring.asset_cards`) of an asset, measured from its files.
+
+    Args:
+        usda: the asset's root layer ``<class>.usda``; its folder is the only library searched.
+
+    Raises:
+        InputError: the asset is not readable, or a variant has no mesh.
+    """
+    usda = Path(usda).resolve()
+    class_name, libraries = usda.stem, (usda.parent,)
+    info = asset_library.measure_info(class_name, usda)
+    measures = {}
+    for v in info.variants or ("",):
+        mesh = asset_library.load_mesh_arrays(class_name, v or None, libraries)
+        measures[v] = measure_mesh(mesh.vertices, mesh.faces)
+    return card_text(asset_digest(usda), info, measures)
 
 
 def asset_catalogue(class_names: Iterable[str], libraries: tuple[Path, ...] | None = None) -> AssetCatalogue:

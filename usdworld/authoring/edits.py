@@ -52,10 +52,10 @@ from usdworld.authoring.editing.restyle import COLOR_KEY, parse_color
 from usdworld.authoring.editing.state import ObjectState, WorldState
 from usdworld.authoring.editing.transaction import EditsTransaction, atomic_write_text
 from usdworld.authoring.stages import open_stage
-from usdworld.authoring.world import ASSETS_DIR, OBJECTS_PATH, ROOT_LAYER
 from usdworld.errors import AuthoringError, EditRefused, InputError, RefusalReason
 from usdworld.io.class_table import ClassTable, load_class_table
 from usdworld.layout import permissible as rules
+from usdworld.world_files import ASSETS_DIR, OBJECTS_PATH, ROOT_LAYER
 
 __all__ = [
     "COLOR_KEY",

@@ -844,8 +844,12 @@ def add_asset(
                 raise ValidationFailed(f"{source}: the asset written from it fails validation, not added: {shown}")
         from usdworld.authoring.asset_library import asset_info
 
+        from usdworld.authoring.asset_cards import card_path, write_card
+        from usdworld.authoring.asset_measures import asset_card_text
+
         info = asset_info(class_name, (Path(scratch),))
-        for tmp, final in ((tmp_geom, geom), (tmp_usda, usda)):
+        tmp_card = write_card(tmp_usda, asset_card_text(tmp_usda))  # builds and edits need not measure it
+        for tmp, final in ((tmp_geom, geom), (tmp_usda, usda), (tmp_card, card_path(usda))):
             os.replace(tmp, final)
     for layer_path in (usda, geom):
         layer = Sdf.Layer.Find(str(layer_path))

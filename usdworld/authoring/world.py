@@ -25,24 +25,27 @@ import numpy as np
 from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, UsdUtils, Vt
 
 import usdworld
+from usdworld.authoring.asset_cards import card_path
 from usdworld.authoring.camera import define_camera
 from usdworld.authoring.provenance import PROVENANCE_API, SCENE_API, apply_with_values
 from usdworld.errors import AuthoringError
+from usdworld.world_files import (  # re-exported: the names of what this module writes
+    ASSETS_DIR,
+    BASE_LAYER,
+    CAMERA_PATH,
+    EDITS_LAYER,
+    GROUND_LAYER,
+    GROUND_PATH,
+    OBJECTS_PATH,
+    ROOT_LAYER,
+    WORLD_PATH,
+)
 
 if TYPE_CHECKING:  # annotations only: the editor imports this module, and layout's imports cost it 0.2 s
     from usdworld.layout.model import WorldModel
     from usdworld.layout.placement import Placement
     from usdworld.layout.surfaces import SurfaceMesh
 
-ROOT_LAYER = "world.usda"
-BASE_LAYER = "layers/base.usda"
-EDITS_LAYER = "layers/edits.usda"
-ASSETS_DIR = "assets"
-WORLD_PATH = "/World"
-OBJECTS_PATH = "/World/Objects"
-GROUND_PATH = "/World/Ground"
-GROUND_LAYER = "layers/ground.usdc"
-CAMERA_PATH = "/World/SourceCamera"
 
 #: Colours of the ground surfaces (linear RGB) and their semantic class.
 SURFACE_LOOKS = {"road": (0.09, 0.09, 0.1), "sidewalk": (0.45, 0.43, 0.4), "terrain": (0.16, 0.2, 0.1)}
@@ -269,7 +272,9 @@ def copy_asset(src: Path, dst_dir: Path) -> Path:
     """Copy an asset and every layer it depends on (sublayers, references) into a folder.
 
     Dependencies must sit beside the asset or below its folder, so relative paths
-    inside the asset stay valid after the copy.
+    inside the asset stay valid after the copy. The asset's card
+    (:mod:`usdworld.authoring.asset_cards`) goes with it when it has one, so whoever edits
+    the world reads the asset's sizes and measures without measuring it again.
 
     Args:
         src: the asset's root layer.
@@ -291,6 +296,9 @@ def copy_asset(src: Path, dst_dir: Path) -> Path:
         target = dst_dir / rel
         target.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(dep, target)
+    card = card_path(src)
+    if card.is_file():
+        shutil.copyfile(card, dst_dir / card.name)
     return dst_dir / src.name
 
 

@@ -84,8 +84,8 @@ def cli_message(exc: EditRefused, world: Path, edits_path: Path) -> str:
         world: the WORLD argument (root layer or folder).
         edits_path: the world's edits layer.
     """
-    from usdworld.authoring.world import ROOT_LAYER
     from usdworld.errors import RefusalReason
+    from usdworld.world_files import ROOT_LAYER
 
     reason, name = exc.reason, exc.subject
     if reason is RefusalReason.NOT_PERMISSIBLE:

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from rich.console import Console
-from rich.table import Table
+if TYPE_CHECKING:  # rich takes ~40 ms to import: only when a summary is printed (not under -q)
+    from rich.console import Console
 
 
 def quiet() -> bool:
@@ -22,6 +22,9 @@ def print_build_summary(report: dict[str, Any], world: str, console: Console | N
         world: path of the written root layer.
         console: where to print (stdout by default).
     """
+    from rich.console import Console
+    from rich.table import Table
+
     if console is None:
         console = Console()
         if not console.is_terminal:

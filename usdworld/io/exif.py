@@ -23,8 +23,6 @@ import logging
 from dataclasses import dataclass
 from pathlib import Path
 
-from PIL import Image, UnidentifiedImageError
-
 log = logging.getLogger(__name__)
 
 #: Diagonal of a 36 x 24 mm frame, millimetres.
@@ -103,6 +101,8 @@ def read_exif_focal(path: Path, width: int, height: int) -> ExifFocal | None:
     Returns:
         The focal length, or None when the file has no usable EXIF (or is not readable by Pillow).
     """
+    from PIL import Image, UnidentifiedImageError  # 25 ms to import: only when a camera is estimated
+
     try:
         with Image.open(path) as image:
             exif = image.getexif()

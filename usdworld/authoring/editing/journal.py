@@ -18,8 +18,8 @@ from typing import Any
 
 from pxr import Sdf, Vt
 
-from usdworld.authoring.world import OBJECTS_PATH
 from usdworld.errors import AuthoringError
+from usdworld.world_files import OBJECTS_PATH
 
 #: customLayerData key of usdworld's data in an edits layer, and the two arrays below it.
 DATA_KEY = "usdworld"

@@ -39,10 +39,10 @@ from usdworld.authoring.editing.journal import StepRecorder, capture, restore
 from usdworld.authoring.editing.state import ObjectState, WorldState, footprints, object_path
 from usdworld.authoring.editing.transaction import EditsTransaction
 from usdworld.authoring.editing.user_object import author_user_object, set_label
-from usdworld.authoring.world import OBJECTS_PATH, copy_asset
 from usdworld.errors import AuthoringError, EditRefused, InputError, RefusalReason
 from usdworld.io.class_table import ClassPrior, ClassTable
 from usdworld.layout import permissible as rules
+from usdworld.world_files import OBJECTS_PATH
 
 
 @dataclass(frozen=True)
@@ -183,6 +183,8 @@ def _asset_ref(ed: Editing, class_name: str) -> str:
     """Relative reference from the edits layer to the world's asset (copied in when missing)."""
     target = ed.assets_dir / f"{class_name}.usda"
     if not target.is_file():
+        from usdworld.authoring.world import copy_asset  # the world writer's pxr modules: only here
+
         copy_asset(asset_library.asset_path(class_name, ed.libraries), ed.assets_dir)
     return Path(os.path.relpath(target, ed.tx.path.parent)).as_posix()
 

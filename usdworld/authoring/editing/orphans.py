@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pxr import Sdf, Usd
 
 from usdworld.authoring.editing.journal import entries
-from usdworld.authoring.world import OBJECTS_PATH
+from usdworld.world_files import OBJECTS_PATH
 
 
 @dataclass(frozen=True)

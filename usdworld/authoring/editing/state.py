@@ -20,10 +20,10 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
 from usdworld.authoring import asset_library
 from usdworld.authoring.editing.restyle import COLOR_KEY
-from usdworld.authoring.world import GROUND_PATH, OBJECTS_PATH
 from usdworld.errors import EditRefused, InputError, RefusalReason
 from usdworld.io.class_table import ClassTable
 from usdworld.layout import permissible as rules
+from usdworld.world_files import GROUND_PATH, OBJECTS_PATH
 
 #: Surface meshes of a world and the surface name each stands for.
 GROUND_MESHES = {"road": f"{GROUND_PATH}/Road", "sidewalk": f"{GROUND_PATH}/Sidewalk"}
@@ -173,7 +173,7 @@ class WorldState:
             return self.size(class_name, variant)
         key = (class_name, variant)
         if key not in self._trunk_sizes:
-            from usdworld.authoring.asset_measures import variant_measures  # cv2: only for trunk classes
+            from usdworld.authoring.asset_measures import variant_measures
 
             try:
                 half = variant_measures(class_name, variant or None, self.libraries).contact_half

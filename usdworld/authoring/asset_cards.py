@@ -1,0 +1,120 @@
+"""Asset cards: what an asset's USD files say about it, read once and kept beside it as JSON.
+
+Every build and every edit needs each class asset's variants, sizes and shape measures
+(:mod:`usdworld.authoring.asset_measures`). Reading them means opening the asset's stage,
+composing every variant's meshes and rasterising a side view: about 0.2 s per process for
+the classes of one street, which a one-second command cannot afford. A card,
+``<class>.card.json`` beside ``<class>.usda``, keeps the result:
+
+* ``digest``: SHA-256 over the asset's files (``<class>.usda`` and every other
+  ``<class>.*`` file in its folder except the card, in name order, each name and its bytes):
+  a card whose digest does not match the files is stale and ignored, so a card can never
+  give another file version's numbers;
+* ``variants``, ``default_variant``, ``size_by_variant``: :class:`~usdworld.authoring.asset_library.AssetInfo`;
+* ``measures``: variant -> :class:`~usdworld.authoring.asset_measures.VariantMeasures` fields.
+
+Floats are written as Python's shortest round-trip repr, so a card gives exactly the numbers
+measuring the files gives: worlds are byte-identical with and without cards.
+
+Who writes cards: ``tools/make_assets.py`` for the built-in library, ``usdworld assets add``
+for a user library, and world building, which copies a valid card with its asset into the
+world's ``assets/`` folder (so the editor reads the world's assets without measuring them).
+Reading never writes: a library without cards still works, measured in each process.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Any
+
+from usdworld.atomic import write_text_atomic
+
+#: File name suffix of a card: ``<class>.card.json``.
+CARD_SUFFIX = ".card.json"
+#: Layout version of the card; a card of another version is ignored.
+CARD_VERSION = 1
+
+
+def card_path(usda: Path) -> Path:
+    """The card beside an asset's root layer (``car.usda`` -> ``car.card.json``)."""
+    return usda.with_name(usda.stem + CARD_SUFFIX)
+
+
+def asset_files(usda: Path) -> list[Path]:
+    """The files a card's digest covers: ``<class>.usda`` and its ``<class>.*`` siblings, by name."""
+    prefix = usda.stem + "."
+    return sorted(
+        (p for p in usda.parent.iterdir() if p.name.startswith(prefix) and not p.name.endswith(CARD_SUFFIX) and p.is_file()),
+        key=lambda p: p.name,
+    )
+
+
+def asset_digest(usda: Path) -> str:
+    """SHA-256 (hex) over the asset's files' names and bytes (:func:`asset_files`)."""
+    h = hashlib.sha256()
+    for path in asset_files(usda):
+        name = path.name.encode()
+        data = path.read_bytes()
+        h.update(len(name).to_bytes(8, "little") + name + len(data).to_bytes(8, "little"))
+        h.update(data)
+    return h.hexdigest()
+
+
+def read_card(usda: Path) -> dict[str, Any] | None:
+    """The card of an asset when it exists, is readable and matches the files; else None.
+
+    Args:
+        usda: the asset's root layer (``<class>.usda``).
+
+    Returns:
+        The card's fields (see the module docstring), or None when there is no current card.
+    """
+    path = card_path(usda)
+    try:
+        card = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(card, dict) or card.get("version") != CARD_VERSION:
+        return None
+    try:
+        if card.get("digest") != asset_digest(usda):
+            return None
+    except OSError:
+        return None
+    return card
+
+
+def card_text(digest: str, info: Any, measures: dict[str, Any]) -> str:
+    """A card's JSON text.
+
+    Args:
+        digest: :func:`asset_digest` of the files measured.
+        info: the asset's ``AssetInfo``.
+        measures: variant ('' for an asset without variants) -> ``VariantMeasures``.
+    """
+    card = {
+        "version": CARD_VERSION,
+        "digest": digest,
+        "variants": list(info.variants),
+        "default_variant": info.default_variant,
+        "size_by_variant": {v: list(s) for v, s in info.size_by_variant.items()},
+        "measures": {
+            v: {
+                "contact_half": list(m.contact_half),
+                "contact_mean_reach": m.contact_mean_reach,
+                "top_half": list(m.top_half),
+                "top_shape": m.top_shape,
+            }
+            for v, m in measures.items()
+        },
+    }
+    return json.dumps(card, indent=1, sort_keys=True) + "\n"
+
+
+def write_card(usda: Path, text: str) -> Path:
+    """Write a card's text (:func:`card_text`) beside its asset, atomically; returns its path."""
+    path = card_path(usda)
+    write_text_atomic(path, text)
+    return path

@@ -233,3 +233,13 @@ def test_quiet_build_prints_no_results(capsys, inputs):
     assert code == 0 and stdout == "" and (out / "world.usda").is_file()
     code, stdout, _ = _run(capsys, *_build_args(inputs, out))
     assert code == 0 and "3 objects placed from frame.png" in stdout
+
+
+def test_file_problems_names_missing_and_broken_layers(tmp_path):
+    from usdworld.authoring.validate import file_problems
+
+    (tmp_path / "broken.usda").write_text("#usda 1.0\nthis is not usda\n")
+    root = tmp_path / "root.usda"
+    root.write_text('#usda 1.0\n(\n    subLayers = [@./broken.usda@, @./gone.usdc@]\n)\n')
+    problems = {(Path(p.path).name, p.kind, Path(p.needed_by).name) for p in file_problems(root)}
+    assert problems == {("broken.usda", "broken", "root.usda"), ("gone.usdc", "missing", "root.usda")}

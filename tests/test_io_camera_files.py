@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import SHARED_DATA
 from usdworld.errors import CalibrationError, InputError
 from usdworld.frames import WORLD_FROM_CAM_LEVEL, rotation_world_from_vehicle
 from usdworld.geometry.camera import PinholeCamera

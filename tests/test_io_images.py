@@ -8,8 +8,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-
 from conftest import SHARED_DATA
+
 from usdworld.errors import InputError
 from usdworld.io.hashing import read_input
 from usdworld.io.images import read_image

@@ -8,8 +8,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-
 from conftest import SHARED_DATA
+
 from usdworld.errors import InputError
 from usdworld.io.images import read_image
 from usdworld.io.label_table import LabelClass, by_id, by_name, label_table

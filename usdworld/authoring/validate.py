@@ -10,7 +10,7 @@ import logging
 from dataclasses import dataclass
 from pathlib import Path
 
-from pxr import Sdf, Usd, UsdValidation
+from pxr import Sdf, Tf, Usd, UsdValidation
 
 from usdworld.authoring.stages import open_stage
 from usdworld.errors import InputError
@@ -74,7 +74,7 @@ def file_problems(path: str | Path) -> list[FileProblem]:
         current, needed_by = queue.pop(0)
         try:
             layer = Sdf.Layer.FindOrOpen(current)
-        except Exception as exc:  # Tf.ErrorException: the file exists but is not a readable layer
+        except Tf.ErrorException as exc:  # the file exists but is not a readable layer
             problems.append(FileProblem(current, "broken", needed_by, str(exc).strip().splitlines()[-1]))
             continue
         if layer is None:

@@ -64,7 +64,12 @@ def validate(
     verbose: bool = typer.Option(False, "--verbose", "-v", help="List every finding, not one line per rule."),
 ) -> None:
     """Validate a world (root layer and its assets); exit 1 on any error."""
-    from usdworld.authoring.validate import errors_only, file_problems, omni_validator_available, validate_file
+    from usdworld.authoring.validate import (
+        errors_only,
+        file_problems,
+        omni_validator_available,
+        validate_file,
+    )
     from usdworld.errors import ValidationFailed
 
     root = world / "world.usda" if world.is_dir() else world
@@ -78,7 +83,9 @@ def validate(
     for path in files:
         found.extend((path, issue) for issue in validate_file(path, omni=not no_omni))
     total_errors = len(errors_only([i for _, i in found])) + len(problems)
-    validators = "UsdValidation" + (" + omni-asset-validator" if (not no_omni and omni_validator_available()) else "")
+    validators = "UsdValidation" + (
+        " + omni-asset-validator" if (not no_omni and omni_validator_available()) else ""
+    )
     if as_json:
         report: dict[str, list[dict[str, str]]] = {str(p): [] for p in files}
         for path, issue in found:
@@ -105,7 +112,9 @@ def validate(
                 errors = len(errors_only(issues))
                 typer.echo(f"{path}: {errors} error(s), {len(issues) - errors} warning(s)")
                 for issue in issues:
-                    typer.echo(f"  {issue.severity} [{issue.validator}:{issue.rule}] {issue.at} {_one_line(issue.message)}")
+                    typer.echo(
+                        f"  {issue.severity} [{issue.validator}:{issue.rule}] {issue.at} {_one_line(issue.message)}"
+                    )
         elif found:
             typer.echo("findings by rule (severity, count, rule, first message [files, where]):")
             for line in _rule_lines(found, base):

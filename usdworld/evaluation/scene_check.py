@@ -74,7 +74,10 @@ def image_box(
     length, width, height = (float(v) for v in size_lwh)
     corners_world = np.array(
         [
-            np.asarray(bottom_centre_world, dtype=np.float64) + a * length / 2 * h + b * width / 2 * side + c * np.array([0, 0, height])
+            np.asarray(bottom_centre_world, dtype=np.float64)
+            + a * length / 2 * h
+            + b * width / 2 * side
+            + c * np.array([0, 0, height])
             for a in (-1, 1)
             for b in (-1, 1)
             for c in (0, 1)
@@ -88,7 +91,9 @@ def image_box(
     px = corners_cam @ np.asarray(K, dtype=np.float64).T
     uv = px[:, :2] / px[:, 2:3]
     w, hh = image_size
-    box = np.array([max(uv[:, 0].min(), 0.0), max(uv[:, 1].min(), 0.0), min(uv[:, 0].max(), w), min(uv[:, 1].max(), hh)])
+    box = np.array(
+        [max(uv[:, 0].min(), 0.0), max(uv[:, 1].min(), 0.0), min(uv[:, 0].max(), w), min(uv[:, 1].max(), hh)]
+    )
     return box if box[2] > box[0] and box[3] > box[1] else None
 
 

@@ -148,6 +148,30 @@ def test_validate_reports_errors(capsys, tmp_path):
     assert code == 1 and "StageMetadataChecker" in stdout and err.startswith("error: ")
 
 
+def test_validate_names_a_deleted_asset_file_first_and_groups_by_rule(capsys, inputs):
+    """One asset file deleted: a short report that starts with that file; --verbose lists every finding."""
+    out = inputs["dir"] / "world"
+    assert _run(capsys, *_build_args(inputs, out))[0] == 0
+    (out / "assets" / "car.geom.usdc").unlink()
+    code, stdout, err = _run(capsys, "validate", str(out))
+    lines = stdout.splitlines()
+    assert lines[0] == "missing file: assets/car.geom.usdc (needed by assets/car.usda)"
+    assert lines[1].startswith("findings by rule") and len(lines) <= 12, stdout
+    rules = [l.split()[2] for l in lines[2:-1]]
+    assert len(rules) == len(set(rules)) and "usd:usdValidation:CompositionErrorTest" in rules
+    assert "SchemaBaseId" not in stdout and "Warning:" not in err
+    counts = sum(int(l.split()[1]) for l in lines[2:-1] if l.split()[0] == "error")
+    assert lines[-1].endswith(f": {counts + 1} error(s); --verbose lists every finding")
+    assert code == 1 and err.strip() == f"error: {counts + 1} validation error(s) in {out / 'world.usda'}"
+    code, verbose, _ = _run(capsys, "validate", str(out), "--verbose")
+    assert code == 1 and verbose.splitlines()[0] == lines[0]
+    assert len(verbose.splitlines()) > counts and "--verbose" not in verbose.splitlines()[-1]
+    code, as_json, _ = _run(capsys, "validate", str(out), "--json")
+    report = json.loads(as_json)
+    assert [(p["kind"], Path(p["path"]).name) for p in report["file_problems"]] == [("missing", "car.geom.usdc")]
+    assert report["errors"] == counts + 1
+
+
 def test_params_file_is_used_and_recorded_and_max_range_overrides_it(capsys, inputs):
     params = inputs["dir"] / "params.json"
     params.write_text(json.dumps({"scene": {"max_range_m": 30, "fill_reach_m": 4.0}}))
@@ -209,3 +233,13 @@ def test_quiet_build_prints_no_results(capsys, inputs):
     assert code == 0 and stdout == "" and (out / "world.usda").is_file()
     code, stdout, _ = _run(capsys, *_build_args(inputs, out))
     assert code == 0 and "3 objects placed from frame.png" in stdout
+
+
+def test_file_problems_names_missing_and_broken_layers(tmp_path):
+    from usdworld.authoring.validate import file_problems
+
+    (tmp_path / "broken.usda").write_text("#usda 1.0\nthis is not usda\n")
+    root = tmp_path / "root.usda"
+    root.write_text('#usda 1.0\n(\n    subLayers = [@./broken.usda@, @./gone.usdc@]\n)\n')
+    problems = {(Path(p.path).name, p.kind, Path(p.needed_by).name) for p in file_problems(root)}
+    assert problems == {("broken.usda", "broken", "root.usda"), ("gone.usdc", "missing", "root.usda")}

@@ -46,6 +46,22 @@ def test_no_camera_cannot_take_planes(capsys):
     assert "--no-camera cannot be combined" in capsys.readouterr().err
 
 
+def test_data_folder_follows_usdworld_data(tmp_path, monkeypatch, capsys):
+    """Without DATA_DIR the tool reads $USDWORLD_DATA/kitti/training (here an empty copy)."""
+    monkeypatch.setenv("USDWORLD_DATA", str(tmp_path))
+    assert eval_kitti.main([]) == 2
+    assert f"{tmp_path / 'kitti' / 'training'}/image_2 holds no PNG frames" in capsys.readouterr().err
+
+
+def test_evaluation_data_dir_follows_usdworld_data(tmp_path, monkeypatch):
+    from usdworld.resources import evaluation_data_dir
+
+    monkeypatch.setenv("USDWORLD_DATA", str(tmp_path / "copy"))
+    assert evaluation_data_dir() == tmp_path / "copy"
+    monkeypatch.delenv("USDWORLD_DATA")
+    assert evaluation_data_dir() == Path(__file__).resolve().parents[2] / "shared" / "data"
+
+
 @pytest.mark.shared_data
 def test_no_camera_and_planes_on_kitti(shared_data, tmp_path):
     data = shared_data / "kitti" / "training"

@@ -359,3 +359,15 @@ def test_evaluate_kitti_world_against_label_2(shared_data, tmp_path, capsys) -> 
     doc = json.loads(stdout.strip().splitlines()[-1])
     assert doc["objects"]["matched_by_instance_id"] is True and doc["objects"]["total"] == 6
     assert doc["median_position_error_m"] < 5.0  # KITTI cars at 10-60 m from one image
+
+
+def test_evaluate_warns_about_the_ground_truth_of_another_scene(capsys, synth_world, tmp_path) -> None:
+    other = write_cityscapes_frame(make_street_scene(np.random.default_rng(22), 320, 160), tmp_path, "synth_000000_000022")
+    code, stdout, err = _run(capsys, "evaluate", str(synth_world["world"]), "--gt", str(other["gt"]), "--json")
+    warnings = [line for line in err.splitlines() if line.startswith("WARNING:")]
+    prefix = "WARNING: synth_000000_000022_gt.json looks like the ground truth of another scene: "
+    assert code == 0 and warnings and all(w.startswith(prefix) for w in warnings), err
+    assert any("image size: the ground truth is of a 320x160 image, the world of a 256x128 one" in w for w in warnings)
+    assert json.loads(stdout.strip().splitlines()[-1])["scene_warnings"] == [w[len(prefix) :] for w in warnings]
+    code, stdout, err = _run(capsys, "evaluate", str(synth_world["world"]), "--gt", str(synth_world["gt"]), "--json")
+    assert code == 0 and "WARNING" not in err and json.loads(stdout.strip().splitlines()[-1])["scene_warnings"] == []

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -24,7 +25,7 @@ from usdworld.io.camera_files import (
 from usdworld.io.images import read_image
 from usdworld.io.types import CameraSpec, InputFile, SourceImage
 
-SHARED = Path(__file__).parents[1].parent / "shared" / "data"
+SHARED = SHARED_DATA  # $USDWORLD_DATA or ../shared/data
 KITTI = SHARED / "kitti" / "training"
 
 CITYSCAPES_CAM = {
@@ -317,7 +318,7 @@ def test_synthetic_plane_agrees_with_pinhole_camera(tmp_path: Path) -> None:
 
 
 @pytest.mark.shared_data
-@pytest.mark.skipif(not KITTI.is_dir(), reason="real sample data ../shared/data/kitti is absent")
+@pytest.mark.skipif(not KITTI.is_dir(), reason="real sample data $USDWORLD_DATA/kitti is absent")
 def test_real_kitti_frame_000000() -> None:
     image = read_image(KITTI / "image_2/000000.png")
     spec = read_camera(KITTI / "calib/000000.txt", image, KITTI / "planes/000000.txt")
@@ -334,7 +335,7 @@ def test_real_kitti_frame_000000() -> None:
 
 @pytest.mark.shared_data
 @pytest.mark.skipif(
-    not (SHARED / "nuscenes/kitti_format").is_dir(), reason="../shared/data/nuscenes is absent"
+    not (SHARED / "nuscenes/kitti_format").is_dir(), reason="real sample data $USDWORLD_DATA/nuscenes is absent"
 )
 def test_real_nuscenes_calib_has_no_extrinsics() -> None:
     image = read_image(SHARED / "nuscenes/kitti_format/image_2/nus_front.png")

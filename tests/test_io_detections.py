@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -23,7 +24,7 @@ from usdworld.io.detections import (
 from usdworld.io.images import read_image
 from usdworld.io.types import InputFile, SourceImage
 
-SHARED = Path(__file__).parents[1].parent / "shared" / "data"
+SHARED = SHARED_DATA  # $USDWORLD_DATA or ../shared/data
 
 
 def _image(h: int = 100, w: int = 200) -> SourceImage:
@@ -123,7 +124,7 @@ def test_kitti_empty_file_is_no_objects(tmp_path: Path) -> None:
 
 
 @pytest.mark.shared_data
-@pytest.mark.skipif(not (SHARED / "kitti").is_dir(), reason="real sample data ../shared/data/kitti is absent")
+@pytest.mark.skipif(not (SHARED / "kitti").is_dir(), reason="real sample data $USDWORLD_DATA/kitti is absent")
 def test_real_kitti_labels() -> None:
     image = read_image(SHARED / "kitti/training/image_2/000001.png")
     dets = read_kitti_labels(SHARED / "kitti/training/label_2/000001.txt", image)

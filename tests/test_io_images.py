@@ -8,12 +8,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from usdworld.errors import InputError
 from usdworld.io.hashing import read_input
 from usdworld.io.images import read_image
 
-SHARED = Path(__file__).parents[1].parent / "shared" / "data"
+SHARED = SHARED_DATA  # $USDWORLD_DATA or ../shared/data
 
 
 def _bgr_pattern(h: int = 6, w: int = 5) -> np.ndarray:
@@ -124,7 +125,7 @@ def test_read_input_hashes_bytes(tmp_path: Path) -> None:
 
 
 @pytest.mark.shared_data
-@pytest.mark.skipif(not (SHARED / "kitti").is_dir(), reason="real sample data ../shared/data/kitti is absent")
+@pytest.mark.skipif(not (SHARED / "kitti").is_dir(), reason="real sample data $USDWORLD_DATA/kitti is absent")
 def test_real_kitti_and_nuscenes_images() -> None:
     image = read_image(SHARED / "kitti/training/image_2/000000.png")
     assert (image.width, image.height) == (1224, 370)

@@ -8,6 +8,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from usdworld.errors import InputError
 from usdworld.io.images import read_image
@@ -15,7 +16,7 @@ from usdworld.io.label_table import LabelClass, by_id, by_name, label_table
 from usdworld.io.labels import read_polygons, read_segmentation
 from usdworld.io.types import InputFile, SourceImage
 
-SHARED = Path(__file__).parents[1].parent / "shared" / "data"
+SHARED = SHARED_DATA  # $USDWORLD_DATA or ../shared/data
 CITYSCAPES = SHARED / "cityscapes"
 
 ROAD, CAR, PERSON, SKY = 7, 26, 24, 23
@@ -240,7 +241,7 @@ def test_polygons_malformed(tmp_path: Path) -> None:
 
 
 @pytest.mark.shared_data
-@pytest.mark.skipif(not CITYSCAPES.is_dir(), reason="real sample data ../shared/data/cityscapes is absent")
+@pytest.mark.skipif(not CITYSCAPES.is_dir(), reason="real sample data $USDWORLD_DATA/cityscapes is absent")
 def test_real_cityscapes_frame() -> None:
     stem = CITYSCAPES / "frankfurt_000000_000294"
     image = read_image(f"{stem}_leftImg8bit.png")

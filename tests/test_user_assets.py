@@ -108,7 +108,7 @@ def test_asset_from_source_known_answers() -> None:
 
 def test_gltf_car_becomes_a_z_up_metre_asset_facing_x(tmp_path: Path, library: Path) -> None:
     src = write_gltf_car(tmp_path / "beetle.glb")
-    added = add_asset(library, "car", src, front="+z")
+    added = add_asset(library, "car", src, front="+z", replace=True)
     assert (added.path, added.variant, added.variants, added.default_variant) == (library / "car.usda", "beetle", ("beetle",), "beetle")
     np.testing.assert_allclose(added.size, (4.0, 1.8, 1.4), atol=1e-4)
     mesh = al.load_mesh("car", "beetle", (library,))
@@ -128,7 +128,7 @@ def test_gltf_car_becomes_a_z_up_metre_asset_facing_x(tmp_path: Path, library: P
 
 
 def test_user_asset_has_the_built_in_structure(tmp_path: Path, library: Path) -> None:
-    added = add_asset(library, "car", write_gltf_car(tmp_path / "beetle.glb"), front="+z")
+    added = add_asset(library, "car", write_gltf_car(tmp_path / "beetle.glb"), front="+z", replace=True)
     layer = Sdf.Layer.FindOrOpen(str(added.path))
     assert layer.subLayerPaths == ["./car.geom.usdc"]
     assert Sdf.Layer.FindOrOpen(str(library / "car.geom.usdc")).GetFileFormat().formatId == "usdc"
@@ -168,7 +168,7 @@ def test_obj_in_centimetres_with_unit_scale(tmp_path: Path, library: Path) -> No
     with pytest.raises(InputError, match=r"check --unit-scale .*about 0\.01 would fit"):
         add_asset(library, "car", src)
     assert not library.exists() or not any(library.iterdir())  # refused: library untouched
-    added = add_asset(library, "car", src, unit_scale=0.01)
+    added = add_asset(library, "car", src, unit_scale=0.01, replace=True)
     np.testing.assert_allclose(added.size, (4.2, 1.8, 1.5), atol=1e-4)
     asset = Usd.Stage.Open(str(added.path))
     shader = UsdShade.Shader(asset.GetPrimAtPath("/car/Looks/paint/PreviewSurface"))
@@ -183,7 +183,7 @@ def test_ply_face_colours_become_materials(tmp_path: Path, library: Path) -> Non
     person.visual = trimesh.visual.ColorVisuals(person, face_colors=colors)
     src = tmp_path / "walker.ply"
     src.write_bytes(person.export(file_type="ply"))
-    added = add_asset(library, "person", src, up="z")
+    added = add_asset(library, "person", src, up="z", replace=True)
     np.testing.assert_allclose(added.size, (0.3, 0.5, 1.75), atol=1e-4)
     stage = Usd.Stage.Open(str(added.path))
     looks = sorted(
@@ -209,7 +209,7 @@ def test_usd_source_uses_its_own_units_and_up_axis(tmp_path: Path, library: Path
     mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.asarray(box.faces, np.int32).ravel()))
     mesh.CreateDisplayColorAttr([Gf.Vec3f(0.3, 0.2, 0.1)])
     stage.Save()
-    added = add_asset(library, "misc", src)
+    added = add_asset(library, "misc", src, replace=True)
     np.testing.assert_allclose(added.size, (0.8, 0.6, 0.5), atol=1e-4)
     asset = Usd.Stage.Open(str(added.path))
     shader = UsdShade.Shader(asset.GetPrimAtPath("/misc/Looks/part_0/PreviewSurface"))
@@ -283,16 +283,38 @@ def test_unknown_class_and_bad_variant_names(tmp_path: Path, library: Path) -> N
 def test_variants_accumulate_and_the_default_stays(tmp_path: Path, library: Path) -> None:
     glb = write_gltf_car(tmp_path / "beetle.glb")
     obj = write_obj_cm(tmp_path / "boxcar.obj")
-    add_asset(library, "car", glb, front="+z")
-    added = add_asset(library, "car", obj, unit_scale=0.01)
+    add_asset(library, "car", glb, front="+z", replace=True)
+    added = add_asset(library, "car", obj, unit_scale=0.01)  # the class stays replaced
     assert (added.variants, added.default_variant) == (("beetle", "boxcar"), "beetle")
-    with pytest.raises(InputError, match="already has a variant 'boxcar'; pass --replace"):
+    with pytest.raises(InputError, match="already has a variant 'boxcar'; pass --overwrite"):
         add_asset(library, "car", obj, unit_scale=0.01)
-    added = add_asset(library, "car", obj, unit_scale=0.01, replace=True, make_default=True)
+    added = add_asset(library, "car", obj, unit_scale=0.01, overwrite=True, make_default=True)
     assert (added.variants, added.default_variant) == (("beetle", "boxcar"), "boxcar")
     info = al.asset_info("car", al.library_dirs(library))
     assert info.path == library / "car.usda" and set(info.size_by_variant) == {"beetle", "boxcar"}
     assert errors_only(validate_file(added.path)) == []
+
+
+def test_a_variant_is_added_beside_the_built_in_ones(tmp_path: Path, library: Path) -> None:
+    """By default the user asset starts from the built-in one; --replace drops its variants on purpose."""
+    builtin = al.asset_info("car")
+    glb = write_gltf_car(tmp_path / "beetle.glb")
+    added = add_asset(library, "car", glb, front="+z")
+    assert added.variants == tuple(sorted((*builtin.variants, "beetle")))
+    assert added.default_variant == builtin.default_variant
+    info = al.asset_info("car", al.library_dirs(library))
+    assert info.path == library / "car.usda"
+    for v in builtin.variants:  # the copied variants keep their size and geometry
+        assert info.size_by_variant[v] == builtin.size_by_variant[v]
+        assert np.array_equal(al.load_mesh_arrays("car", v, (library,)).vertices, al.load_mesh_arrays("car", v).vertices)
+    assert info.size_by_variant["beetle"] == pytest.approx((4.0, 1.8, 1.4))
+    with pytest.raises(InputError, match=f"already has a variant '{builtin.default_variant}'; pass --overwrite"):
+        add_asset(tmp_path / "other", "car", glb, front="+z", variant=builtin.default_variant)
+    assert errors_only(validate_file(added.path)) == []
+    replaced = add_asset(library, "car", glb, front="+z", variant="beetle2", replace=True)
+    assert (replaced.variants, replaced.default_variant) == (("beetle", "beetle2"), "beetle2")
+    assert [e.builtin_variants for e in list_assets(library) if e.class_name == "car"] == [(), builtin.variants]
+    assert errors_only(validate_file(replaced.path)) == []
 
 
 def test_list_shows_both_libraries(tmp_path: Path, library: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -300,7 +322,8 @@ def test_list_shows_both_libraries(tmp_path: Path, library: Path, monkeypatch: p
     entries = list_assets(library)
     cars = [e for e in entries if e.class_name == "car"]
     assert [(e.library, e.active) for e in cars] == [("user", True), ("built-in", False)]
-    assert cars[0].variants == ("beetle",) and "hatchback" in cars[1].variants
+    assert cars[0].variants == tuple(sorted(("beetle", *cars[1].variants))) and "hatchback" in cars[1].variants
+    assert cars[0].builtin_variants == cars[1].variants
     assert {e.class_name for e in entries if e.library == "built-in"} == set(al.available_classes())
     monkeypatch.setenv(LIBRARY_ENV, str(library))
     assert user_library() == library and user_library(tmp_path) == tmp_path
@@ -317,18 +340,36 @@ def test_cli_add_and_list(tmp_path: Path, library: Path, monkeypatch: pytest.Mon
     assert cli(["assets", "add", "car", str(src), "--front", "+z", "--variant", "vw"]) == 0
     assert capsys.readouterr().out.splitlines() == [
         f"added car/vw (4.00 x 1.80 x 1.40 m) to {library / 'car.usda'}",
-        "car variants: vw (default vw)",
+        "car variants: hatchback, sedan, suv, vw (default hatchback)",
     ]
     assert cli(["assets", "list"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].split() == ["class", "library", "default", "variants"]
-    car_lines = [l.split() for l in lines if l.startswith("car ")]
-    assert car_lines[0] == ["car", "user", "vw", "vw"]
-    assert car_lines[1][:3] == ["car", "built-in", "hatchback"] and lines[-1] == f"user library: {library}"
-    assert any("(hidden by the user library)" in l for l in lines if l.startswith("car "))
+    car_lines = [" ".join(l.split()) for l in lines if l.startswith("car ")]
+    assert car_lines == [
+        "car user hatchback vw; built-in: hatchback, sedan, suv",
+        "car built-in hatchback hatchback, sedan, suv (in the user asset, beside your variants)",
+    ]
+    assert lines[-1] == f"user library: {library}"
     assert cli(["assets", "list", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
-    assert {"class": "car", "library": "user", "path": str(library / "car.usda"), "variants": ["vw"], "default": "vw", "active": True} in rows
+    assert {
+        "class": "car",
+        "library": "user",
+        "path": str(library / "car.usda"),
+        "variants": ["hatchback", "sedan", "suv", "vw"],
+        "default": "hatchback",
+        "active": True,
+        "builtin_variants": ["hatchback", "sedan", "suv"],
+    } in rows
+    assert cli(["assets", "add", "car", str(src), "--front", "+z", "--variant", "vw2", "--replace"]) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == "car variants: vw, vw2 (default vw2)"
+    assert cli(["assets", "list"]) == 0
+    car_lines = [" ".join(l.split()) for l in capsys.readouterr().out.splitlines() if l.startswith("car ")]
+    assert car_lines == [
+        "car user vw2 vw, vw2",
+        "car built-in hatchback hatchback, sedan, suv (hidden by the user library: added with --replace)",
+    ]
     assert cli(["assets", "add", "car", str(tmp_path / "missing.obj")]) == 2
     assert capsys.readouterr().err.strip() == f"error: {tmp_path / 'missing.obj'}: no such file"
 
@@ -338,8 +379,28 @@ def test_cli_add_and_list(tmp_path: Path, library: Path, monkeypatch: pytest.Mon
 # --------------------------------------------------------------------------------------------
 
 
+def _car_variants(root: Path) -> set[str]:
+    stage = Usd.Stage.Open(str(root))
+    cars = [p for p in stage.GetPrimAtPath("/World/Objects").GetChildren() if p.GetName().startswith("car_")]
+    assert cars
+    return {p.GetVariantSet("model").GetVariantSelection() for p in cars}
+
+
+def test_build_with_an_added_variant_chooses_among_all_variants(tmp_path: Path) -> None:
+    """A variant added beside the built-in ones competes with them: a tall van loses, a hatchback-sized box wins."""
+    van = _box((-2.5, 0.0, -1.2), (2.5, 1.9, 1.2))
+    (tmp_path / "van.glb").write_bytes(van.export(file_type="glb"))
+    add_asset(tmp_path / "vans", "car", tmp_path / "van.glb", variant="tallvan")
+    root = build_street_world(tmp_path / "with_van", library=tmp_path / "vans")
+    assert _car_variants(root) <= set(al.asset_info("car").variants)  # the built-in variants are still chosen
+    copied = al.asset_info("car", (root.parent / "assets",))
+    assert set(copied.variants) == {*al.asset_info("car").variants, "tallvan"}
+    add_asset(tmp_path / "boxes", "car", write_obj_cm(tmp_path / "boxcar.obj"), unit_scale=0.01)
+    assert "boxcar" in _car_variants(build_street_world(tmp_path / "with_box", library=tmp_path / "boxes"))
+
+
 def test_imported_obj_is_used_by_build_and_survives_export(tmp_path: Path, library: Path) -> None:
-    add_asset(library, "car", write_obj_cm(tmp_path / "boxcar.obj"), unit_scale=0.01)
+    add_asset(library, "car", write_obj_cm(tmp_path / "boxcar.obj"), unit_scale=0.01, replace=True)
     root = build_street_world(tmp_path / "street", library=library)
     stage = Usd.Stage.Open(str(root))
     cars = [p for p in stage.GetPrimAtPath("/World/Objects").GetChildren() if p.GetName().startswith("car_")]

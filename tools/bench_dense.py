@@ -13,7 +13,7 @@ frame's own first car box.
 
 Usage::
 
-    python tools/bench_dense.py [--kitti ../shared/data/kitti/training] [--frame 000001]
+    python tools/bench_dense.py [--kitti DIR (default $USDWORLD_DATA/kitti/training)] [--frame 000001]
         [--sizes 100,1000,10000] [--timeout 120] [--max-gb 4]
 """
 
@@ -31,6 +31,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from usdworld.resources import evaluation_data_dir
 
 #: The box every identical case repeats (KITTI training 000001, its first car), pixels.
 IDENTICAL_BOX = (387.63, 181.54, 423.81, 203.12)
@@ -98,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
         _child(*argv[1:5])
         return 0
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--kitti", type=Path, default=Path("../shared/data/kitti/training"))
+    parser.add_argument("--kitti", type=Path, default=evaluation_data_dir() / "kitti" / "training")
     parser.add_argument("--frame", default="000001")
     parser.add_argument("--sizes", default="100,1000,10000")
     parser.add_argument("--timeout", type=float, default=120.0)

@@ -28,7 +28,10 @@ focal-length error ``|f_est - f_true| / f_true`` is reported per frame and as a 
 
 Usage::
 
-    python tools/eval_kitti.py ../shared/data/kitti/training [--planes | --no-camera | --level-camera 1.65] [--json]
+    python tools/eval_kitti.py [DATA_DIR] [--planes | --no-camera | --level-camera 1.65] [--json]
+
+``DATA_DIR`` defaults to ``$USDWORLD_DATA/kitti/training`` (``../shared/data/kitti/training``
+when ``USDWORLD_DATA`` is unset).
 
 With ``--json`` the last line printed is one JSON object (keys of the overall summary,
 ``per_class``, ``per_frame``, and with ``--no-camera`` ``median_focal_error``).
@@ -48,6 +51,7 @@ import numpy as np
 from usdworld.errors import UsdWorldError
 from usdworld.io.camera_files import read_kitti_projection
 from usdworld.pipeline import BuildRequest, build
+from usdworld.resources import evaluation_data_dir
 
 #: KITTI and nuScenes (KITTI format) label types counted as vehicles for the heading score.
 VEHICLES = frozenset({"Car", "Van", "Truck", "Tram", "Bus", "Trailer", "Construction_vehicle", "Motorcycle"})
@@ -280,7 +284,13 @@ def print_tables(summary: dict, frames: dict[str, dict], show_focal: bool) -> No
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("data_dir", type=Path, help="KITTI object folder with image_2, label_2, calib (planes)")
+    parser.add_argument(
+        "data_dir",
+        type=Path,
+        nargs="?",
+        default=evaluation_data_dir() / "kitti" / "training",
+        help="KITTI object folder with image_2, label_2, calib (planes); default $USDWORLD_DATA/kitti/training",
+    )
     parser.add_argument(
         "--planes", action="store_true", help="also pass the road plane (planes/<frame>.txt, where it exists)"
     )

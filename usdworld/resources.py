@@ -7,6 +7,7 @@ the package folder.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 _PACKAGE = Path(__file__).resolve().parent
@@ -34,3 +35,20 @@ def asset_library_dir() -> Path:
 def data_dir() -> Path:
     """Folder holding the package's data tables (class table, priors, rules)."""
     return _PACKAGE / "data"
+
+
+#: Environment variable naming the folder of real evaluation data (kitti/, cityscapes/, nuscenes/).
+DATA_ENV = "USDWORLD_DATA"
+
+
+def evaluation_data_dir() -> Path:
+    """Folder of the real evaluation data (non-commercial, never in the repository).
+
+    ``$USDWORLD_DATA`` when set, else ``shared/data`` beside the source checkout (the folder
+    holding this checkout's parent: ``../shared/data`` seen from the repository root). The
+    folder may not exist; callers that need it skip or fail with their own message.
+    """
+    env = os.environ.get(DATA_ENV, "").strip()
+    if env:
+        return Path(env).expanduser()
+    return _PACKAGE.parent.parent / "shared" / "data"

@@ -9,8 +9,13 @@ UsdPreviewSurface material per colour, mesh arrays in the crate sublayer, root c
 the origin at the centre of its bounding box's bottom face.
 
 The library is layered over the built-in one (:func:`usdworld.authoring.asset_library.library_dirs`):
-a class the user library holds replaces the built-in class, with the user's variants; the
-other classes stay built-in. Its folder comes from ``--library`` or ``$USDWORLD_LIBRARY``.
+a class the user library holds is used instead of the built-in class; the other classes stay
+built-in. The first model added to a class starts its user asset from a copy of the built-in
+one, so the new variant stands beside the built-in variants (the root's customData
+``usdworld:builtinVariants`` names the copied ones) and a build still chooses among them all;
+``replace=True`` (``--replace``) drops the built-in variants instead, on purpose. The copy is
+of the built-in library at the time of the add. Its folder comes from ``--library`` or
+``$USDWORLD_LIBRARY``.
 
 Input formats: OBJ (+ MTL), glTF/GLB, PLY (read with trimesh) and USD (usda/usdc/usdz: the
 visible meshes under the default prim, with the current variant selections).
@@ -55,6 +60,7 @@ from usdworld.authoring.asset_library import (
     SIZE_KEY,
     TAXONOMY,
     VARIANT_SET,
+    asset_info,
     available_classes,
     define_asset_root,
 )
@@ -68,6 +74,8 @@ log = logging.getLogger(__name__)
 #: Environment variable naming the user asset library folder.
 LIBRARY_ENV = "USDWORLD_LIBRARY"
 CREATOR = "usdworld assets add"
+#: Root customData key listing the variants a user asset copied from the built-in library.
+BUILTIN_KEY = "usdworld:builtinVariants"
 #: File suffixes read by trimesh, and those read by OpenUSD.
 MESH_SUFFIXES = (".obj", ".gltf", ".glb", ".ply")
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
@@ -116,7 +124,9 @@ class LibraryEntry:
         path: its ``<class>.usda``.
         variants: its ``model`` variants.
         default_variant: the variant used when none is chosen.
-        active: False when a user asset of the same class hides this built-in one.
+        active: False when a user asset of the same class is used instead of this built-in one.
+        builtin_variants: of a user asset, the variants copied from the built-in asset (empty
+            when the user asset replaces the built-in class); of a built-in asset, all of them.
     """
 
     class_name: str
@@ -125,6 +135,17 @@ class LibraryEntry:
     variants: tuple[str, ...]
     default_variant: str
     active: bool
+    builtin_variants: tuple[str, ...]
+
+
+def builtin_variants_of(path: Path, class_name: str) -> tuple[str, ...]:
+    """The variants a user asset copied from the built-in library (root customData), sorted."""
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    spec = layer.GetPrimAtPath(f"/{class_name}") if layer is not None else None
+    if spec is None:
+        return ()
+    recorded = spec.customData.get("usdworld", {}).get(BUILTIN_KEY.split(":", 1)[1], [])
+    return tuple(sorted(str(v) for v in recorded))
 
 
 def list_assets(user: Path | None = None) -> list[LibraryEntry]:
@@ -136,8 +157,6 @@ def list_assets(user: Path | None = None) -> list[LibraryEntry]:
     Returns:
         Entries sorted by class, the user's before the built-in one.
     """
-    from usdworld.authoring.asset_library import asset_info
-
     libraries: list[tuple[str, Path]] = []
     if user is not None and Path(user).is_dir():
         libraries.append(("user", Path(user)))
@@ -147,7 +166,10 @@ def list_assets(user: Path | None = None) -> list[LibraryEntry]:
     for label, folder in libraries:
         for name in available_classes((folder,)):
             info = asset_info(name, (folder,))
-            entries.append(LibraryEntry(name, label, info.path, info.variants, info.default_variant, name not in seen))
+            kept = builtin_variants_of(info.path, name) if label == "user" else info.variants
+            entries.append(
+                LibraryEntry(name, label, info.path, info.variants, info.default_variant, name not in seen, kept)
+            )
         seen.update(available_classes((folder,)))
     order = {"user": 0, "built-in": 1}
     return sorted(entries, key=lambda e: (e.class_name, order[e.library]))
@@ -746,6 +768,57 @@ def _write_variant(usda: Path, geom: Path, class_name: str, variant: str, model:
     geom_layer.Save()
 
 
+def _copy_builtin(usda: Path, geom: Path, class_name: str) -> None:
+    """Start a user asset from a copy of the built-in class asset, its variants recorded."""
+    builtin = asset_library_dir()
+    shutil.copyfile(builtin / usda.name, usda)
+    shutil.copyfile(builtin / geom.name, geom)
+    layer = Sdf.Layer.FindOrOpen(str(usda))
+    layer.customLayerData = {"creator": CREATOR}
+    layer.Save()
+    _record_builtin(usda, class_name, asset_info(class_name, (builtin,)).variants)
+
+
+def _record_builtin(usda: Path, class_name: str, names: tuple[str, ...]) -> None:
+    """Write (or, for none, remove) the root customData listing the copied built-in variants."""
+    layer = Sdf.Layer.FindOrOpen(str(usda))
+    geom = f"{class_name}.geom.usdc"
+    copied = f" from a copy of the built-in asset (its variants are listed in {BUILTIN_KEY})" if names else ""
+    layer.documentation = (
+        f"usdworld user asset '{class_name}', written by usdworld assets add{copied}. "
+        f"Mesh arrays live in the sublayer {geom}."
+    )
+    spec = layer.GetPrimAtPath(f"/{class_name}")
+    data = dict(spec.customData.get("usdworld", {}))
+    key = BUILTIN_KEY.split(":", 1)[1]
+    if names:
+        data[key] = Vt.StringArray(sorted(names))
+    else:
+        data.pop(key, None)
+    spec.SetInfo("customData", {**dict(spec.customData), "usdworld": data})
+    layer.Save()
+
+
+def _drop_variant(usda: Path, geom: Path, class_name: str, variant: str) -> None:
+    """Remove a variant from both layers of an asset, with its size; a dropped default moves on."""
+    layer, geom_layer = Sdf.Layer.FindOrOpen(str(usda)), Sdf.Layer.FindOrOpen(str(geom))
+    _remove_variant(layer, class_name, variant)
+    _remove_variant(geom_layer, class_name, variant)
+    spec = layer.GetPrimAtPath(f"/{class_name}")
+    data = dict(spec.customData.get("usdworld", {}))
+    sizes = dict(data.get(SIZE_KEY.split(":", 1)[1], {}))
+    sizes.pop(variant, None)
+    data[SIZE_KEY.split(":", 1)[1]] = sizes
+    if data.get(DEFAULT_KEY.split(":", 1)[1]) == variant:
+        data.pop(DEFAULT_KEY.split(":", 1)[1])  # _write_variant then makes the new variant the default
+    spec.SetInfo("customData", {**dict(spec.customData), "usdworld": data})
+    selection = dict(spec.variantSelections)
+    if selection.get(VARIANT_SET) == variant:
+        del spec.variantSelections[VARIANT_SET]
+    layer.Save()
+    geom_layer.Save()
+
+
 @dataclass(frozen=True)
 class AddedAsset:
     """The outcome of :func:`add_asset`.
@@ -777,6 +850,7 @@ def add_asset(
     unit_scale: float | None = None,
     front: str = "+x",
     replace: bool = False,
+    overwrite: bool = False,
     make_default: bool = False,
     validate: bool = True,
 ) -> AddedAsset:
@@ -794,8 +868,11 @@ def add_asset(
         up: the file's up axis (``y``/``z``); see :func:`load_model`.
         unit_scale: metres per file unit; see :func:`load_model`.
         front: the file axis the model faces.
-        replace: replace an existing variant of the same name.
-        make_default: make this variant the class's default (the first variant always is).
+        replace: hide the built-in class's variants: a new user asset starts empty instead of
+            from a copy of the built-in one, and an existing one drops the variants it copied.
+        overwrite: replace an existing variant of the same name.
+        make_default: make this variant the class's default (so is the first variant of an
+            asset that starts empty, and any variant when the default was dropped).
         validate: run the validators before adding (tests of the writer may skip it).
 
     Raises:
@@ -820,11 +897,13 @@ def add_asset(
     usda = library / f"{class_name}.usda"
     geom = library / f"{class_name}.geom.usdc"
     if usda.is_file():
-        from usdworld.authoring.asset_library import asset_info
-
         existing = asset_info(class_name, (library,)).variants
-        if variant in existing and not replace:
-            raise InputError(f"{usda} already has a variant '{variant}'; pass --replace to overwrite it, or another --variant")
+    else:  # a new asset starts from the built-in variants unless it replaces them
+        existing = () if replace else asset_info(class_name).variants
+    if variant in existing and not overwrite:
+        raise InputError(
+            f"{usda} already has a variant '{variant}'; pass --overwrite to overwrite it, or another --variant"
+        )
     model = load_model(source, class_name, up=up, unit_scale=unit_scale, front=front)
     library.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix=f".{class_name}-", dir=library) as scratch:
@@ -834,16 +913,22 @@ def add_asset(
                 raise InputError(f"{usda}: its geometry sublayer {geom.name} is missing; restore it or remove {usda.name}")
             shutil.copyfile(usda, tmp_usda)
             shutil.copyfile(geom, tmp_geom)
-        else:
+        elif replace:
             _new_asset(tmp_usda, tmp_geom, class_name)
+        else:
+            _copy_builtin(tmp_usda, tmp_geom, class_name)
+        kept = builtin_variants_of(tmp_usda, class_name)
+        if replace:
+            for name in kept:
+                _drop_variant(tmp_usda, tmp_geom, class_name, name)
+            kept = ()
         _write_variant(tmp_usda, tmp_geom, class_name, variant, model, make_default)
+        _record_builtin(tmp_usda, class_name, tuple(v for v in kept if v != variant))
         if validate:
             errors = errors_only(validate_file(tmp_usda))
             if errors:
                 shown = "; ".join(f"[{e.rule}] {e.at} {e.message}" for e in errors[:5])
                 raise ValidationFailed(f"{source}: the asset written from it fails validation, not added: {shown}")
-        from usdworld.authoring.asset_library import asset_info
-
         from usdworld.authoring.asset_cards import card_path, write_card
         from usdworld.authoring.asset_measures import asset_card_text
 
@@ -859,6 +944,7 @@ def add_asset(
 
 
 __all__ = [
+    "BUILTIN_KEY",
     "LIBRARY_ENV",
     "AddedAsset",
     "AssetPart",
@@ -867,6 +953,7 @@ __all__ = [
     "SourcePart",
     "add_asset",
     "asset_from_source",
+    "builtin_variants_of",
     "convert_model",
     "crease_normals",
     "list_assets",

@@ -10,10 +10,11 @@ import logging
 from dataclasses import dataclass
 from pathlib import Path
 
-from pxr import Usd, UsdValidation
+from pxr import Sdf, Tf, Usd, UsdValidation
 
 from usdworld.authoring.stages import open_stage
 from usdworld.errors import InputError
+from usdworld.io.images import native_stderr_captured
 
 #: Requirements enabled on top of omni-asset-validator's default rules.
 OMNI_REQUIREMENTS = ("UN.006", "UN.007")
@@ -36,6 +37,71 @@ class ValidationIssue:
     severity: str
     message: str
     at: str = ""
+
+
+@dataclass(frozen=True)
+class FileProblem:
+    """A file a layer needs that is missing or does not open.
+
+    Attributes:
+        path: the absolute path of the file.
+        kind: ``missing`` or ``broken`` (present but not a readable USD layer).
+        needed_by: the layer that names it (sublayer, reference or payload).
+        reason: why it does not open ('' when missing).
+    """
+
+    path: str
+    kind: str
+    needed_by: str
+    reason: str = ""
+
+
+def file_problems(path: str | Path) -> list[FileProblem]:
+    """The missing and broken files among a layer's composition dependencies (recursively).
+
+    Walks sublayers, references and payloads from ``path``; each file is opened once.
+    Anonymous and unresolvable-by-design paths (search paths) count as missing.
+
+    Args:
+        path: the root layer (``world.usda`` or an asset).
+
+    Returns:
+        The problems in the order met (breadth first from the root), each file once.
+    """
+    root = str(Path(path).resolve())
+    queue, seen, problems = [(root, "")], {root}, []
+    while queue:
+        current, needed_by = queue.pop(0)
+        try:
+            layer = Sdf.Layer.FindOrOpen(current)
+        except Tf.ErrorException as exc:  # the file exists but is not a readable layer
+            problems.append(FileProblem(current, "broken", needed_by, str(exc).strip().splitlines()[-1]))
+            continue
+        if layer is None:
+            problems.append(FileProblem(current, "missing" if not Path(current).exists() else "broken", needed_by))
+            continue
+        for dependency in layer.GetCompositionAssetDependencies():
+            target = str(Path(layer.ComputeAbsolutePath(dependency)).resolve()) if dependency else ""
+            if not target or target in seen:
+                continue
+            seen.add(target)
+            if not Path(target).is_file():
+                problems.append(FileProblem(target, "missing", current))
+            else:
+                queue.append((target, current))
+    return problems
+
+
+def _at_text(at: object) -> str:
+    """Where an omni-asset-validator issue is: a prim or property path, else a layer."""
+    if at is None:
+        return ""
+    prim_id = getattr(at, "prim_id", None)
+    path = getattr(at, "path", None) or getattr(prim_id, "path", None)
+    if path is not None and str(path):
+        return str(path)
+    layer = getattr(at, "identifier", None) or getattr(getattr(at, "root_layer", None), "identifier", None)
+    return str(layer) if layer else str(at)
 
 
 def omni_validator_available() -> bool:
@@ -83,8 +149,7 @@ def _omni_issues(path: Path) -> list[ValidationIssue]:
         else:
             continue
         rule = getattr(issue.rule, "__name__", str(issue.rule))
-        at = str(issue.at) if issue.at is not None else ""
-        issues.append(ValidationIssue("omni", rule, severity, str(issue.message), at))
+        issues.append(ValidationIssue("omni", rule, severity, str(issue.message), _at_text(issue.at)))
     return issues
 
 
@@ -104,10 +169,13 @@ def validate_file(path: str | Path, *, omni: bool = True) -> list[ValidationIssu
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such USD file; pass the world's .usda path (e.g. OUT/world.usda)")
-    stage = open_stage(path)
-    issues = _usd_issues(stage)
-    if omni and omni_validator_available():
-        issues.extend(_omni_issues(path))
+    # USD also prints what the validators report (a sublayer it could not load, say) straight
+    # to the process's stderr; the issues carry it, so the duplicate goes to the debug log
+    with native_stderr_captured(str(path)):
+        stage = open_stage(path)
+        issues = _usd_issues(stage)
+        if omni and omni_validator_available():
+            issues.extend(_omni_issues(path))
     return issues
 
 

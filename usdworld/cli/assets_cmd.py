@@ -23,10 +23,17 @@ def add(
     ),
     front: str = typer.Option("+x", "--front", help="The file axis the model faces: +x -x +y -y +z -z."),
     library: Path | None = typer.Option(None, "--library", envvar="USDWORLD_LIBRARY", help=LIBRARY_HELP),
-    replace: bool = typer.Option(False, "--replace", help="Replace an existing variant of the same name."),
+    replace: bool = typer.Option(
+        False, "--replace", help="Hide the built-in variants of CLASS: only your variants are used."
+    ),
+    overwrite: bool = typer.Option(False, "--overwrite", help="Overwrite an existing variant of the same name."),
     default: bool = typer.Option(False, "--default", help="Make this variant the class's default."),
 ) -> None:
-    """Import a model as a variant of CLASS in your asset library (validated before it is added)."""
+    """Import a model as a variant of CLASS in your asset library (validated before it is added).
+
+    The variant is added beside the built-in variants of CLASS (a build chooses among them
+    all); --replace hides the built-in ones.
+    """
     from usdworld.authoring.user_assets import LIBRARY_ENV, add_asset
     from usdworld.errors import InputError
 
@@ -41,6 +48,7 @@ def add(
         unit_scale=unit_scale,
         front=front,
         replace=replace,
+        overwrite=overwrite,
         make_default=default,
     )
     l, w, h = added.size
@@ -68,6 +76,7 @@ def list_(
                 "variants": list(e.variants),
                 "default": e.default_variant,
                 "active": e.active,
+                "builtin_variants": list(e.builtin_variants),
             }
             for e in entries
         ]
@@ -75,9 +84,21 @@ def list_(
         return
     width = max([len("class")] + [len(e.class_name) for e in entries])
     typer.echo(f"{'class'.ljust(width)}  {'library':8}  {'default':14}  variants")
+    kept_beside = {e.class_name for e in entries if e.library == "user" and e.builtin_variants}
     for e in entries:
-        status = "" if e.active else "  (hidden by the user library)"
-        typer.echo(f"{e.class_name.ljust(width)}  {e.library:8}  {e.default_variant:14}  {', '.join(e.variants)}{status}")
+        if e.library == "user":
+            own = [v for v in e.variants if v not in e.builtin_variants]
+            shown = ", ".join(own) + (f"; built-in: {', '.join(e.builtin_variants)}" if e.builtin_variants else "")
+            status = ""
+        else:
+            shown = ", ".join(e.variants)
+            if e.active:
+                status = ""
+            elif e.class_name in kept_beside:
+                status = "  (in the user asset, beside your variants)"
+            else:
+                status = "  (hidden by the user library: added with --replace)"
+        typer.echo(f"{e.class_name.ljust(width)}  {e.library:8}  {e.default_variant:14}  {shown}{status}")
     where = f"user library: {library}" if library is not None else "no user library (--library or $USDWORLD_LIBRARY)"
     typer.echo(where)
 

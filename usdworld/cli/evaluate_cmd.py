@@ -64,6 +64,8 @@ def evaluate(
     label_ids = read_label_ids(labels) if labels is not None else None
     photo_rgb = read_photo(photo) if photo is not None else None
     result = evaluate_world(stage, labels=label_ids, photo=photo_rgb, gt=truth)
+    for note in result.scene_warnings:
+        log.warning("%s looks like the ground truth of another scene: %s", gt.name if gt else "", note)
     doc = result.to_json()
     doc["world"] = str(root)
     doc["labels"] = str(labels) if labels is not None else None

@@ -21,6 +21,7 @@ from pxr import Usd
 from usdworld.errors import InputError
 from usdworld.evaluation.ground_truth import GroundTruth
 from usdworld.evaluation.objects import match_errors, match_objects, summarise, truth_in_world
+from usdworld.evaluation.scene_check import scene_disagreements
 from usdworld.evaluation.segmentation import class_counts, ignored_mask, mean_iou, placeable_label_ids
 from usdworld.evaluation.ssim import ssim
 from usdworld.evaluation.world_objects import world_objects
@@ -101,6 +102,8 @@ class Evaluation:
         object_rows: one row per ground-truth object.
         ground_truth: ``kind`` and file name of the ground truth, or None.
         rendered_class_ids: (H, W) int32 rendered class map, kept for further analysis.
+        scene_warnings: why the ground truth looks like another scene's (empty when nothing
+            says so; see :mod:`usdworld.evaluation.scene_check`).
     """
 
     size: tuple[int, int]
@@ -114,6 +117,7 @@ class Evaluation:
     object_rows: list[dict[str, Any]]
     ground_truth: dict[str, str] | None
     rendered_class_ids: np.ndarray = field(repr=False)
+    scene_warnings: tuple[str, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dictionary (NaN written as null)."""
@@ -133,6 +137,7 @@ class Evaluation:
             out["median_position_error_m"] = num(self.objects["median_position_error_m"])
             out["objects"] = self.objects
             out["object_rows"] = self.object_rows
+            out["scene_warnings"] = list(self.scene_warnings)
         return out
 
 
@@ -204,7 +209,7 @@ def evaluate_world(
             else cv2.resize(photo, (width, height), interpolation=cv2.INTER_AREA)
         )
         ssim_value = ssim(photo_fit, rgb)
-    summary, rows, gt_info = None, [], None
+    summary, rows, gt_info, warnings = None, [], None, ()
     if gt is not None:
         truth = truth_in_world(gt, camera.world_from_cam)
         placed = world_objects(stage)
@@ -214,6 +219,8 @@ def evaluate_world(
         summary = summarise(rows, len(unmatched))
         summary["matched_by_instance_id"] = use_ids
         gt_info = {"kind": gt.kind, "file": gt.file_name}
+        source = view_camera(stage, ws, hs)
+        warnings = scene_disagreements(gt, (ws, hs), source.K, source.world_from_cam, matches, len(placed), use_ids)
     return Evaluation(
         size=(width, height),
         classes=tuple(int(c) for c in classes),
@@ -226,4 +233,5 @@ def evaluate_world(
         object_rows=rows,
         ground_truth=gt_info,
         rendered_class_ids=class_ids,
+        scene_warnings=warnings,
     )

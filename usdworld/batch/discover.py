@@ -21,7 +21,9 @@ Layouts:
   :class:`~usdworld.pipeline.BuildRequest` fields ``image`` (required), ``labels``,
   ``instances``, ``polygons``, ``detections``, ``camera``, ``ground_plane``,
   ``correspondences``, ``depth_map``, ``library`` and ``max_range_m``. Relative paths are
-  relative to the manifest's folder; empty cells and ``null`` mean "not given"::
+  relative to the manifest's folder; empty cells and ``null`` mean "not given". Every row
+  asks for its frame, so a row that cannot be built (a missing file, a bad value) is an
+  :class:`~usdworld.batch.frames.Incomplete` with ``fails=True``: it fails the batch::
 
       id,image,labels,instances,camera
       f1,img/f1.png,gt/f1_labelIds.png,gt/f1_instanceIds.png,cam/f1.json
@@ -36,6 +38,7 @@ from __future__ import annotations
 import csv
 import os
 from collections.abc import Iterable, Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -387,7 +390,8 @@ def discover_manifest(
             else:
                 yield _manifest_row(row, where, path.parent, defaults)
 
-    return _unique(frames())
+    # Every row asks for its frame: one that cannot be built is a failure, not a stray file.
+    return (replace(item, fails=True) if isinstance(item, Incomplete) else item for item in _unique(frames()))
 
 
 # --- dispatch ----------------------------------------------------------------------------

@@ -123,8 +123,9 @@ def batch(
         f"built {counts['built']}, unchanged {counts['unchanged']}, failed {counts['failed']}, "
         f"cancelled {counts['cancelled']} of {counts['frames']} frames in {summary.seconds:.1f} s{rate}"
     )
-    _list("incomplete (not built)", [(i.name, i.reason) for i in summary.incomplete])
-    _list("failed", [(r.frame_id, r.error or "") for r in summary.failed])
+    _list("incomplete (not built)", [(i.name, i.reason) for i in summary.incomplete if not i.fails])
+    failed = [(i.name, i.reason) for i in summary.failed_inputs]
+    _list("failed", failed + [(r.frame_id, r.error or "") for r in summary.failed])
     say(f"wrote {summary.batch_file}" + (f" and {summary.index_file}" if summary.index_file else ""))
     check_failures(summary)
 

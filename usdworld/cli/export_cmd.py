@@ -17,7 +17,10 @@ def export(
         False, "--bake-edits", help="usdz: merge the edits and base layers into one root layer (usdc/usda-flat always do)."
     ),
     flatten: bool = typer.Option(
-        False, "--flatten", help="Compose everything (references, variants) into one self-contained layer, e.g. for three.js."
+        False,
+        "--flatten",
+        help="usdz/usdc: compose everything (references, variants) into one self-contained layer, e.g. for three.js "
+        "(usda-flat always is).",
     ),
     drop_inactive: bool = typer.Option(
         False, "--drop-inactive", help="Remove deleted objects instead of keeping them deactivated."
@@ -28,6 +31,7 @@ def export(
     """Export a world for other tools and validate the result (exit 1 when the validator finds errors)."""
     from usdworld.cli.output import say
     from usdworld.export import export_world
+    from usdworld.export.usd_formats import assets_folder
 
     result = export_world(
         world,
@@ -40,7 +44,7 @@ def export(
         omni=not no_omni,
     )
     extra = len(result.files) - 1
-    say(f"wrote {result.output}" + (f" (+{extra} asset file(s) beside it)" if extra else ""))
+    say(f"wrote {result.output}" + (f" (+{extra} file(s) in {assets_folder(result.output).name}/)" if extra else ""))
     check = result.check
     if check.skipped:
         say(f"{check.checker}: not run ({check.skipped})")

@@ -44,6 +44,7 @@ from typing import Any
 
 from usdworld.batch.frames import Frame, Incomplete, make_frame
 from usdworld.errors import InputError
+from usdworld.io.camera_infos import split_camera_ref
 from usdworld.io.hashing import json_type, parse_json, read_input
 from usdworld.io.limits import MAX_RANGE_CAP_M
 from usdworld.parameters import DEFAULT_PARAMETERS
@@ -277,7 +278,10 @@ def _manifest_row(row: dict[str, Any], where: str, base: Path, defaults: dict[st
         if not isinstance(value, str):
             return Incomplete(name, f"{where} -> {field}: must be a path string, got {json_type(value)}")
         path = (base / value.strip()).absolute()
-        exists = path.is_dir() if field == "library" else path.is_file()
+        if field == "library":
+            exists = path.is_dir()
+        else:  # a camera may be one camera of an info file: info.json#CAM_FRONT
+            exists = (split_camera_ref(path)[0] if field == "camera" else path).is_file()
         if not exists:
             return Incomplete(
                 name, f"{where} -> {field}: {path}: no such {'folder' if field == 'library' else 'file'}"

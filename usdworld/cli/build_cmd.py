@@ -20,7 +20,7 @@ def build(
     instances: Optional[Path] = typer.Option(None, "--instances", help="Cityscapes *_gtFine_instanceIds.png (16-bit)."),
     polygons: Optional[Path] = typer.Option(None, "--polygons", help="Cityscapes *_gtFine_polygons.json (instead of --labels)."),
     detections: Optional[Path] = typer.Option(None, "--detections", help="KITTI label_2 .txt or a detections .json."),
-    camera: Optional[Path] = typer.Option(None, "--camera", help="Cityscapes camera JSON, KITTI calib .txt or plain camera JSON."),
+    camera: Optional[Path] = typer.Option(None, "--camera", help="Cityscapes camera JSON, KITTI calib .txt, plain camera JSON or INFO.json#CAM_FRONT (mmdetection3d info)."),
     ground_plane: Optional[Path] = typer.Option(None, "--ground-plane", help="KITTI planes file (road plane) for height and pitch."),
     ground_points: Optional[Path] = typer.Option(None, "--ground-points", help="Manual pixel <-> ground pairs (JSON or CSV, >= 4)."),
     depth: DepthBackendName = typer.Option(DepthBackendName.ground, "--depth", help="Depth backend."),

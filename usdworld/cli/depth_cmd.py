@@ -13,7 +13,7 @@ from usdworld.cli.choices import DepthBackendName
 def depth(
     image: Path = typer.Argument(..., help="The photo (PNG or JPEG)."),
     output: Path = typer.Option(..., "--output", "-o", help="Folder for the depth files."),
-    camera: Optional[Path] = typer.Option(None, "--camera", help="Camera file (Cityscapes JSON, KITTI calib, plain JSON)."),
+    camera: Optional[Path] = typer.Option(None, "--camera", help="Camera file (Cityscapes JSON, KITTI calib, plain JSON, INFO.json#CAM_FRONT)."),
     labels: Optional[Path] = typer.Option(None, "--labels", help="Cityscapes labelIds PNG (ground pixels for alignment)."),
     instances: Optional[Path] = typer.Option(None, "--instances", help="Cityscapes instanceIds PNG."),
     detections: Optional[Path] = typer.Option(None, "--detections", help="KITTI label_2 / detections JSON (helps estimate the camera)."),

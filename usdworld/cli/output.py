@@ -10,11 +10,21 @@ from __future__ import annotations
 
 import logging
 
+import click
 import typer
 
 
 def quiet() -> bool:
-    """True under ``usdworld -q``: the root logger passes only warnings and errors."""
+    """True under ``usdworld -q``.
+
+    Read from the ``usdworld`` command's own ``--quiet`` option, not from the root logger's
+    level, which a library may change while a command runs (Dask's LocalCluster does).
+    Outside a command (a caller of :func:`usdworld.cli.summary.print_build_summary`, say),
+    quiet when the root logger passes only warnings and errors.
+    """
+    ctx = click.get_current_context(silent=True)
+    if ctx is not None:
+        return bool(ctx.find_root().params.get("quiet", False))
     return logging.getLogger().getEffectiveLevel() > logging.INFO
 
 

@@ -6,6 +6,7 @@ Discovery only lists files, so most trees here hold placeholder files, not image
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -263,3 +264,21 @@ def test_frame_key_hashes_content_and_options(tmp_path: Path) -> None:
     k1 = frame_key(BuildRequest(image=a, output=tmp_path / "o", library=lib))
     _touch(lib / "car.usda", b"v2")
     assert frame_key(BuildRequest(image=a, output=tmp_path / "o", library=lib)) != k1
+
+
+def test_a_manifest_camera_may_be_one_camera_of_an_info_file(tmp_path: Path) -> None:
+    info = _touch(tmp_path / "info.json", b'{"data_list": []}')
+    _touch(tmp_path / "a.png")
+    rows = [
+        {"id": "a", "image": "a.png", "camera": "info.json#CAM_FRONT"},
+        {"id": "b", "image": "a.png", "camera": "gone.json#CAM_FRONT"},
+    ]
+    (tmp_path / "frames.json").write_text(json.dumps(rows))
+    a, b = list(discover(tmp_path / "frames.json"))
+    assert isinstance(a, Frame) and a.request.camera == tmp_path / "info.json#CAM_FRONT"
+    assert isinstance(b, Incomplete) and b.fails and b.reason.endswith("gone.json#CAM_FRONT: no such file")
+    front = frame_key(replace(a.request, output=tmp_path / "o"))
+    back = frame_key(replace(a.request, camera=tmp_path / "info.json#CAM_BACK"))
+    assert front != back  # the camera's name is part of the key ...
+    info.write_bytes(b'{"data_list": [], "x": 1}')
+    assert frame_key(a.request) != front  # ... and so is the file's content

@@ -153,14 +153,24 @@ def test_resume_rebuilds_only_what_changed(dataset: Path, tmp_path: Path) -> Non
     shutil.copytree(dataset, data)
     out = tmp_path / "worlds"
 
+    summaries = []
+
     def run() -> dict[str, str]:
         with InlineExecutor() as executor:
-            summary = run_batch(discover(data, "cityscapes"), out, executor, resume=True)
-        return {r.frame_id: r.status for r in summary.records}
+            summaries.append(run_batch(discover(data, "cityscapes"), out, executor, resume=True))
+        return {r.frame_id: r.status for r in summaries[-1].records}
 
     assert run() == {i: "failed" if i == CORRUPT else "built" for i in IDS}
     stamps = {i: (out / i / "layers" / "base.usda").stat().st_mtime_ns for i in IDS if i != CORRUPT}
+    built_warnings = {r.frame_id: r.warnings for r in summaries[-1].records}
+    report = json.loads((out / IDS[1] / "report.json").read_text())
+    report["warnings"].append("an earlier warning")  # the world's report is where they are kept
+    (out / IDS[1] / "report.json").write_text(json.dumps(report))
+    built_warnings[IDS[1]] += ("an earlier warning",)
     assert run() == {i: "failed" if i == CORRUPT else "unchanged" for i in IDS}
+    assert {r.frame_id: r.warnings for r in summaries[-1].records if r.status == "unchanged"} == {
+        i: w for i, w in built_warnings.items() if i != CORRUPT
+    }
     assert stamps == {i: (out / i / "layers" / "base.usda").stat().st_mtime_ns for i in stamps}
     camera = data / "camera" / "val" / "synthcity" / f"{IDS[3]}_camera.json"
     camera.write_text(camera.read_text().replace('"z": 1.3', '"z": 1.35'))
@@ -265,6 +275,55 @@ def test_plain_progress_lines() -> None:
         "batch: 2/4 frames, 1 failed, 0 unchanged, 10.0 frames/min, ETA 0:00:12",
         "batch: 3/4 frames, 1 failed, 0 unchanged, 12.0 frames/min, ETA 0:00:05",
     ]
+
+
+def test_plain_progress_of_a_resume_gives_the_rate_of_built_frames() -> None:
+    now = [0.0]
+    stream = io.StringIO()
+    progress = PlainProgress(stream, interval_s=100.0, clock=lambda: now[0])
+    progress.start(3, "this process (1 worker)")
+    for t, status in ((1.0, "unchanged"), (2.0, "unchanged")):
+        now[0] = t
+        progress.update(FrameRecord("f", status))
+    assert progress.line() == "batch: 2/3 frames, 0 failed, 2 unchanged, no frame built yet, ETA 0:00:01"
+    now[0] = 6.0
+    progress.update(FrameRecord("g", "built"))
+    assert progress.line() == "batch: 3/3 frames, 0 failed, 2 unchanged, 10.0 frames/min, ETA 0:00:00"
+
+
+def test_cli_manifest_row_with_missing_inputs_fails_the_batch(
+    dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    image = dataset / "leftImg8bit" / "val" / "synthcity" / f"{IDS[0]}_leftImg8bit.png"
+    camera = dataset / "camera" / "val" / "synthcity" / f"{IDS[0]}_camera.json"
+    manifest = tmp_path / "frames.json"
+    manifest.write_text(
+        json.dumps(
+            [{"id": "good", "image": str(image), "camera": str(camera)}, {"id": "gone", "image": "gone.png"}]
+        )
+    )
+    out = tmp_path / "w"
+    assert main(["batch", str(manifest), "-o", str(out)]) == 1
+    captured = capsys.readouterr()
+    reason = f"frames.json -> [1] -> image: {tmp_path / 'gone.png'}: no such file"
+    assert captured.err.splitlines()[-1] == (
+        f"error: 1 of 2 frames failed (first: gone: {reason}); see {out / 'batch.json'}"
+    )
+    assert captured.out.splitlines()[1:3] == ["failed: 1", f"  gone: {reason}"]
+    doc = json.loads((out / "batch.json").read_text())
+    assert doc["incomplete"] == [{"name": "gone", "reason": reason, "fails": True}]
+    assert [(r["frame_id"], r["status"]) for r in doc["frames"]] == [("good", "built")]
+
+
+def test_a_dataset_s_partial_frame_is_listed_not_failed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    root = tmp_path / "cs"
+    write_cityscapes_tree(root, 2, width=256, height=128)
+    (root / "gtFine" / "val" / "synthcity" / f"{IDS[1]}_gtFine_instanceIds.png").unlink()
+    assert main(["batch", str(root), "--layout", "cityscapes", "-o", str(tmp_path / "w")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[1] == "incomplete (not built): 1" and out[2].startswith(f"  {IDS[1]}: ")
 
 
 def test_manifest_rows_build_the_same_worlds(inline_out: Path, dataset: Path, tmp_path: Path) -> None:

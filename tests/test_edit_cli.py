@@ -115,7 +115,13 @@ def test_every_operation(world, capsys):
     assert run(capsys, world, "delete", "person_0001") == (0, "deleted person_0001 (inactive) [step 5]\n", "")
     code, out, _ = run(capsys, world, "list")
     assert "person_0001" in out and out.splitlines()[-1] == "4 object(s), 1 deleted"
-    assert [line.split()[-1] for line in out.splitlines()[1:-1]] == ["#c03030", "edited", "deleted", "added"]
+    rows = [line.split() for line in out.splitlines()[1:-1]]  # sorted by class, then name
+    assert [(r[0], r[1], r[-1]) for r in rows] == [
+        ("car_0001", "car", "#c03030"),
+        ("person_0001", "person", "deleted"),
+        ("tree_0001", "tree", "added"),
+        ("car_0002", "truck", "edited"),
+    ]
     assert run(capsys, world, "undo", "2") == (
         0,
         "undid step 5: delete person_0001\nundid step 4: restyle car_0001\n",

@@ -37,7 +37,7 @@ EXPORTS = [
     ("usdz_baked", "usdz", "baked.usdz", {"bake_edits": True}),
     ("usdz_flat", "usdz", "flat.usdz", {"flatten": True}),
     ("usdc", "usdc", "out/world.usdc", {"bake_edits": True}),
-    ("usda_flat", "usda-flat", "out/world_flat.usda", {"bake_edits": True}),
+    ("usda_flat", "usda-flat", "flat/world_flat.usda", {}),
     ("usdc_composed", "usdc", "composed/world.usdc", {"flatten": True}),
     ("glb", "glb", "world.glb", {}),
 ]
@@ -117,17 +117,18 @@ def test_flattened_usdz_is_one_self_contained_layer(world, exports) -> None:
 
 def test_flat_layer_bakes_edits_with_relative_asset_paths(world, exports, tmp_path: Path) -> None:
     root, edited = world
-    for name in ("usdc", "usda_flat"):
-        out = exports[name]
-        layer = Sdf.Layer.FindOrOpen(str(out))
-        assert layer.subLayerPaths == []
-        text = layer.ExportToString()
-        assert "@./assets/car.usda@" in text and str(root.parent) not in text and str(out.parent) not in text
-        assert (out.parent / "assets" / "car.usda").is_file() and (out.parent / "assets" / "car.geom.usdc").is_file()
-        stage = Usd.Stage.Open(str(out))
-        deleted = stage.GetPrimAtPath(edited["deleted"])
-        assert deleted and not deleted.IsActive()  # kept, deactivated
-        assert stage.GetPrimAtPath(edited["swapped"]).GetVariantSet("model").GetVariantSelection() == edited["variant"]
+    out = exports["usdc"]
+    layer = Sdf.Layer.FindOrOpen(str(out))
+    assert layer.subLayerPaths == []
+    text = layer.ExportToString()
+    assert "@./world_assets/assets/car.usda@" in text and str(root.parent) not in text and str(out.parent) not in text
+    own = out.parent / "world_assets" / "assets"  # the export's own copies, named after it
+    assert (own / "car.usda").is_file() and (own / "car.geom.usdc").is_file()
+    assert not (out.parent / "assets").exists()
+    stage = Usd.Stage.Open(str(out))
+    deleted = stage.GetPrimAtPath(edited["deleted"])
+    assert deleted and not deleted.IsActive()  # kept, deactivated
+    assert stage.GetPrimAtPath(edited["swapped"]).GetVariantSet("model").GetVariantSelection() == edited["variant"]
     # relocatable: move the folder and it still composes
     moved = tmp_path / "moved"
     shutil.copytree(exports["usdc"].parent, moved)
@@ -160,6 +161,34 @@ def test_drop_inactive_keeps_overs_that_deactivate_referenced_prims(world, tmp_p
     assert kept and not kept.IsActive()  # removing the over would have brought it back
 
 
+def test_usda_flat_is_one_self_contained_file(world, exports, tmp_path: Path) -> None:
+    root, edited = world
+    out = exports["usda_flat"]
+    assert sorted(p.name for p in out.parent.iterdir()) == ["world_flat.usda"]  # no asset files beside it
+    layer = Sdf.Layer.FindOrOpen(str(out))
+    assert layer.subLayerPaths == [] and not layer.externalReferences  # asset meshes flattened in
+    assert out.read_text().startswith("#usda 1.0")
+    alone = tmp_path / "alone"  # nothing else in the folder, opened in a fresh process
+    alone.mkdir()
+    shutil.copyfile(out, alone / out.name)
+    plain = _plain_pxr([alone / out.name])["files"][str(alone / out.name)]
+    count, _ = scene_bounds(_composed(root))
+    assert plain["meshes"] == count and edited["deleted"] not in plain["prims"]
+    assert plain["prims"][edited["moved"]]["translate"] == [9.5, -3.0, 0.0]
+
+
+def test_two_exports_into_one_folder_keep_their_own_assets(world, tmp_path: Path) -> None:
+    root, _ = world
+    first = export_world(root, "usdc", tmp_path / "a.usdc", validate=False)
+    second = export_world(root, "usdc", tmp_path / "b.usdc", validate=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.usdc", "a_assets", "b.usdc", "b_assets"]
+    assert [f.relative_to(tmp_path / "a_assets") for f in first.files[1:]] == [
+        f.relative_to(tmp_path / "b_assets") for f in second.files[1:]
+    ]
+    shutil.rmtree(tmp_path / "a_assets")  # removing one export's assets leaves the other whole
+    assert scene_bounds(Usd.Stage.Open(str(second.output)))[0] == scene_bounds(_composed(root))[0]
+
+
 def test_composed_usdc_needs_no_other_file(world, exports) -> None:
     root, _ = world
     out = exports["usdc_composed"]
@@ -171,7 +200,8 @@ def test_composed_usdc_needs_no_other_file(world, exports) -> None:
 
 
 def test_crate_versions_are_readable_by_usd_20_08(exports) -> None:
-    crates = [exports["usdc"], exports["usdc_composed"], *exports["usdc"].parent.glob("assets/*.usdc")]
+    crates = [exports["usdc"], exports["usdc_composed"], *exports["usdc"].parent.glob("world_assets/assets/*.usdc")]
+    assert len(crates) > 2
     for crate in crates:
         assert crate.read_bytes()[:8] == b"PXR-USDC"
         assert crate_version(crate) <= (0, 8, 0), crate
@@ -264,7 +294,7 @@ def test_every_usd_export_reopens_in_plain_pxr_without_the_plugin(world, exports
     for path in usd_files:
         info = plain["files"][str(path)]
         assert (info["upAxis"], info["metersPerUnit"], info["defaultPrim"]) == ("Z", 1.0, "World"), path
-        flattened = path.name in ("flat.usdz",) or "composed" in str(path)
+        flattened = path.name in ("flat.usdz", "world_flat.usda") or "composed" in str(path)
         for prim in reference.GetPrimAtPath("/World/Objects").GetAllChildren():
             key = str(prim.GetPath())
             if not prim.IsActive() and flattened:
@@ -350,11 +380,11 @@ def test_bad_requests_are_refused_with_the_reason(world, tmp_path: Path) -> None
 
 def test_existing_different_assets_are_not_overwritten(world, tmp_path: Path) -> None:
     root, _ = world
-    (tmp_path / "assets").mkdir()
-    (tmp_path / "assets" / "car.usda").write_text("#usda 1.0\n")
+    (tmp_path / "w_assets" / "assets").mkdir(parents=True)
+    (tmp_path / "w_assets" / "assets" / "car.usda").write_text("#usda 1.0\n")
     with pytest.raises(OutputError, match="already exists with different content"):
         export_world(root, "usdc", tmp_path / "w.usdc", validate=False)
-    assert (tmp_path / "assets" / "car.usda").read_text() == "#usda 1.0\n"
+    assert (tmp_path / "w_assets" / "assets" / "car.usda").read_text() == "#usda 1.0\n"
 
 
 def test_dependencies_outside_the_world_are_refused(world, tmp_path: Path) -> None:
@@ -378,8 +408,8 @@ def test_cli_export_prints_what_it_wrote(world, tmp_path: Path, capsys: pytest.C
     out = tmp_path / "w.usdc"
     assert cli(["export", str(root.parent), "--format", "usdc", "-o", str(out), "--no-omni"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    n_other = sum(1 for f in tmp_path.rglob("*") if f.is_file() and f != out)  # assets/ and layers/ground.usdc
-    assert lines == [f"wrote {out} (+{n_other} asset file(s) beside it)", "usd: 0 errors, 0 warning(s)"]
+    n_other = sum(1 for f in (tmp_path / "w_assets").rglob("*") if f.is_file())  # assets/, layers/ground.usdc
+    assert lines == [f"wrote {out} (+{n_other} file(s) in w_assets/)", "usd: 0 errors, 0 warning(s)"]
 
 
 def test_cli_export_bad_input_exits_2(world, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

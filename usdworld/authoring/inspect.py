@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -74,7 +75,7 @@ def world_summary(stage: Usd.Stage) -> dict[str, Any]:
         "objects_inactive": inactive,
         "classes": dict(sorted(classes.items())),
         "camera_height_m": scene.get("usdworld:cameraHeight"),
-        "camera_pitch_rad": scene.get("usdworld:cameraPitch"),
+        "camera_pitch_deg": _degrees(scene.get("usdworld:cameraPitch")),
         "camera_estimated": list(scene.get("usdworld:cameraEstimated", [])),
         "camera_method": scene.get("usdworld:cameraMethod", ""),
         "dlt_rms_px": scene.get("usdworld:dltRmsPx"),
@@ -82,6 +83,11 @@ def world_summary(stage: Usd.Stage) -> dict[str, Any]:
         "edited_prims": edited,
         "objects": objects,
     }
+
+
+def _degrees(radians: float | None) -> float | None:
+    """An angle recorded in radians, in degrees (as every command prints angles); None stays None."""
+    return None if radians is None else math.degrees(radians)
 
 
 def _prim_specs(layer: Sdf.Layer):

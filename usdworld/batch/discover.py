@@ -21,7 +21,9 @@ Layouts:
   :class:`~usdworld.pipeline.BuildRequest` fields ``image`` (required), ``labels``,
   ``instances``, ``polygons``, ``detections``, ``camera``, ``ground_plane``,
   ``correspondences``, ``depth_map``, ``library`` and ``max_range_m``. Relative paths are
-  relative to the manifest's folder; empty cells and ``null`` mean "not given"::
+  relative to the manifest's folder; empty cells and ``null`` mean "not given". Every row
+  asks for its frame, so a row that cannot be built (a missing file, a bad value) is an
+  :class:`~usdworld.batch.frames.Incomplete` with ``fails=True``: it fails the batch::
 
       id,image,labels,instances,camera
       f1,img/f1.png,gt/f1_labelIds.png,gt/f1_instanceIds.png,cam/f1.json
@@ -36,11 +38,13 @@ from __future__ import annotations
 import csv
 import os
 from collections.abc import Iterable, Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from usdworld.batch.frames import Frame, Incomplete, make_frame
 from usdworld.errors import InputError
+from usdworld.io.camera_infos import split_camera_ref
 from usdworld.io.hashing import json_type, parse_json, read_input
 from usdworld.io.limits import MAX_RANGE_CAP_M
 from usdworld.parameters import DEFAULT_PARAMETERS
@@ -274,7 +278,10 @@ def _manifest_row(row: dict[str, Any], where: str, base: Path, defaults: dict[st
         if not isinstance(value, str):
             return Incomplete(name, f"{where} -> {field}: must be a path string, got {json_type(value)}")
         path = (base / value.strip()).absolute()
-        exists = path.is_dir() if field == "library" else path.is_file()
+        if field == "library":
+            exists = path.is_dir()
+        else:  # a camera may be one camera of an info file: info.json#CAM_FRONT
+            exists = (split_camera_ref(path)[0] if field == "camera" else path).is_file()
         if not exists:
             return Incomplete(
                 name, f"{where} -> {field}: {path}: no such {'folder' if field == 'library' else 'file'}"
@@ -387,7 +394,8 @@ def discover_manifest(
             else:
                 yield _manifest_row(row, where, path.parent, defaults)
 
-    return _unique(frames())
+    # Every row asks for its frame: one that cannot be built is a failure, not a stray file.
+    return (replace(item, fails=True) if isinstance(item, Incomplete) else item for item in _unique(frames()))
 
 
 # --- dispatch ----------------------------------------------------------------------------

@@ -71,10 +71,13 @@ class Incomplete:
     Attributes:
         name: the frame id, or the file's path relative to the dataset root.
         reason: what is missing or wrong, e.g. ``no gtFine/val/x/x_gtFine_instanceIds.png``.
+        fails: the frame was asked for (a manifest row), so not building it fails the batch
+            (exit 1); a dataset's stray or partial files are only listed.
     """
 
     name: str
     reason: str
+    fails: bool = False
 
 
 def make_frame(frame_id: str, source: str, image: Path, **options: object) -> Frame | Incomplete:

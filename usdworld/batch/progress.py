@@ -33,7 +33,6 @@ class _Counts:
         self.total: int | None = None
         self.done = self.failed = self.unchanged = 0
         self.t0 = clock()
-        self.ran_seconds = 0.0
 
     def add(self, record: FrameRecord) -> None:
         self.done += 1
@@ -41,9 +40,15 @@ class _Counts:
         self.unchanged += record.status == "unchanged"
 
     def rate_per_min(self) -> float | None:
+        """Frames built (or failed) per minute; unchanged frames of ``--resume`` do not count."""
         elapsed = self.clock() - self.t0
         ran = self.done - self.unchanged
         return 60.0 * ran / elapsed if elapsed > 0 and ran else None
+
+    def rate_text(self) -> str:
+        """``12.0 frames/min``; before the first build ``no frame built yet``, never a bare ``?``."""
+        rate = self.rate_per_min()
+        return f"{rate:.1f} frames/min" if rate else "no frame built yet"
 
     def eta_s(self) -> float | None:
         elapsed = self.clock() - self.t0
@@ -87,10 +92,9 @@ class PlainProgress:
     def line(self) -> str:
         """The current progress line (without newline)."""
         c = self._counts
-        rate = c.rate_per_min()
         return (
             f"batch: {c.done}/{c.total if c.total is not None else '?'} frames, {c.failed} failed, "
-            f"{c.unchanged} unchanged, {f'{rate:.1f}' if rate else '?'} frames/min, ETA {_duration(c.eta_s())}"
+            f"{c.unchanged} unchanged, {c.rate_text()}, ETA {_duration(c.eta_s())}"
         )
 
     def update(self, record: FrameRecord) -> None:
@@ -132,7 +136,7 @@ class RichProgress:
             TextColumn("[bold]batch[/]"),
             BarColumn(),
             MofNCompleteColumn(),
-            TextColumn("{task.fields[rate]} frames/min"),
+            TextColumn("{task.fields[rate]}"),
             TimeElapsedColumn(),
             TextColumn("ETA"),
             TimeRemainingColumn(),
@@ -141,14 +145,11 @@ class RichProgress:
         )
         self.console.print(f"building {total if total is not None else '?'} frames on {description}")
         self._progress.start()
-        self._task = self._progress.add_task("batch", total=total, rate="?", failed=0)
+        self._task = self._progress.add_task("batch", total=total, rate=self._counts.rate_text(), failed=0)
 
     def update(self, record: FrameRecord) -> None:
         self._counts.add(record)
-        rate = self._counts.rate_per_min()
-        self._progress.update(
-            self._task, advance=1, rate=f"{rate:.1f}" if rate else "?", failed=self._counts.failed
-        )
+        self._progress.update(self._task, advance=1, rate=self._counts.rate_text(), failed=self._counts.failed)
         if record.status == "failed":
             from rich.markup import escape
 

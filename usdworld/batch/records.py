@@ -9,7 +9,7 @@
      "frames": [{"frame_id": "...", "status": "built", "seconds": 0.71, "cpu_seconds": 0.69, "objects": 12,
                  "error": null, "key": "<sha256>", "source": "leftImg8bit/...png",
                  "warnings": [...], "worker": "host:pid", "rss_mb": 180.2, "peak_rss_mb": 201.5}, ...],
-     "incomplete": [{"name": "...", "reason": "..."}, ...]}
+     "incomplete": [{"name": "...", "reason": "...", "fails": false}, ...]}
 
 Statuses: ``built``; ``unchanged`` (``--resume`` found the same key and a complete world);
 ``failed`` (``error`` says why; the batch went on unless ``--fail-fast``); ``cancelled``
@@ -133,6 +133,11 @@ class BatchSummary:
         """The failed records."""
         return tuple(r for r in self.records if r.status == "failed")
 
+    @property
+    def failed_inputs(self) -> tuple[Incomplete, ...]:
+        """Frames asked for (manifest rows) that could not be built: they fail the batch too."""
+        return tuple(i for i in self.incomplete if i.fails)
+
     def counts(self) -> dict[str, Any]:
         """The ``summary`` object of ``batch.json``."""
         ran = self.count("built") + self.count("failed")
@@ -162,7 +167,7 @@ def batch_document(summary: BatchSummary, source: str, layout: str) -> dict[str,
         "layout": layout,
         "summary": summary.counts(),
         "frames": [r.to_json() for r in summary.records],
-        "incomplete": [{"name": i.name, "reason": i.reason} for i in summary.incomplete],
+        "incomplete": [{"name": i.name, "reason": i.reason, "fails": i.fails} for i in summary.incomplete],
     }
 
 

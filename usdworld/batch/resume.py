@@ -15,6 +15,7 @@ from dataclasses import fields
 from pathlib import Path
 
 import usdworld
+from usdworld.io.camera_infos import split_camera_ref
 from usdworld.pipeline import BuildRequest
 
 #: Bumped when the key's recipe changes, so old keys never match.
@@ -66,6 +67,9 @@ def frame_key(request: BuildRequest) -> str:
             continue
         if f.name == "library":
             doc[f.name] = folder_digest(Path(value))
+        elif f.name == "camera":  # info.json#CAM_FRONT: the file's digest and the camera's name
+            file, camera = split_camera_ref(value)
+            doc[f.name] = file_digest(file) + (f"#{camera}" if camera else "")
         elif isinstance(value, Path):
             doc[f.name] = file_digest(value)
         else:

@@ -154,17 +154,18 @@ def _summary(
 
 
 def check_failures(summary: BatchSummary) -> None:
-    """Raise :class:`FramesFailed` when any frame failed.
+    """Raise :class:`FramesFailed` when any frame failed, or a manifest row could not be built.
 
     Raises:
         FramesFailed: ``N of M frames failed (first: <id>: <error>); see OUT/batch.json``.
     """
-    failed = summary.failed
+    failed = [(r.frame_id, r.error) for r in summary.failed]
+    failed += [(i.name, i.reason) for i in summary.failed_inputs]
     if failed:
-        first = failed[0]
+        name, error = failed[0]
+        total = len(summary.records) + len(summary.failed_inputs)
         raise FramesFailed(
-            f"{len(failed)} of {len(summary.records)} frames failed (first: {first.frame_id}: {first.error}); "
-            f"see {summary.batch_file}"
+            f"{len(failed)} of {total} frames failed (first: {name}: {error}); see {summary.batch_file}"
         )
 
 

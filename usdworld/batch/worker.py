@@ -83,11 +83,16 @@ def _prepare_isolated_process() -> None:
     _isolated_ready = True
 
 
-def _objects_in(folder: Path) -> int | None:
+def _earlier_build(folder: Path) -> tuple[int | None, tuple[str, ...]]:
+    """Objects placed and warnings of the world already in ``folder`` (its ``report.json``).
+
+    An unchanged frame keeps what its build said: the warnings are not lost on ``--resume``.
+    """
     try:
-        return len(json.loads((folder / "report.json").read_text())["objects"])
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
+        report = json.loads((folder / "report.json").read_text())
+        return len(report["objects"]), tuple(str(w) for w in report.get("warnings", ()))
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None, ()
 
 
 def run_frame(task: FrameTask) -> FrameRecord:
@@ -109,7 +114,8 @@ def run_frame(task: FrameTask) -> FrameRecord:
     try:
         key = frame_key(task.request)
         if task.previous_key == key and world_complete(task.request.output):
-            status, objects = "unchanged", _objects_in(task.request.output)
+            status = "unchanged"
+            objects, warnings = _earlier_build(task.request.output)
         else:
             result = build(task.request)
             status, objects = "built", len(result.report["objects"])

@@ -70,6 +70,7 @@ def batch(
     from usdworld.batch.discover import count_frames, discover, resolve_layout
     from usdworld.batch.progress import make_progress
     from usdworld.batch.runner import check_failures, make_executor, prepare_output, run_batch
+    from usdworld.cli.output import say
     from usdworld.errors import InputError
 
     layout_name = resolve_layout(source, layout.value if layout else None)
@@ -118,13 +119,14 @@ def batch(
             logging.getLogger(name).setLevel(level)
     counts = summary.counts()
     rate = f" ({counts['frames_per_minute']:.1f} frames/min)" if counts["frames_per_minute"] else ""
-    typer.echo(
+    say(
         f"built {counts['built']}, unchanged {counts['unchanged']}, failed {counts['failed']}, "
         f"cancelled {counts['cancelled']} of {counts['frames']} frames in {summary.seconds:.1f} s{rate}"
     )
-    _list("incomplete (not built)", [(i.name, i.reason) for i in summary.incomplete])
-    _list("failed", [(r.frame_id, r.error or "") for r in summary.failed])
-    typer.echo(f"wrote {summary.batch_file}" + (f" and {summary.index_file}" if summary.index_file else ""))
+    _list("incomplete (not built)", [(i.name, i.reason) for i in summary.incomplete if not i.fails])
+    failed = [(i.name, i.reason) for i in summary.failed_inputs]
+    _list("failed", failed + [(r.frame_id, r.error or "") for r in summary.failed])
+    say(f"wrote {summary.batch_file}" + (f" and {summary.index_file}" if summary.index_file else ""))
     check_failures(summary)
 
 

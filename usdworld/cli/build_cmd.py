@@ -10,6 +10,8 @@ from typing import Optional
 
 import typer
 
+from usdworld.cli.choices import DepthBackendName, Traffic
+
 
 def build(
     image: Path = typer.Argument(..., help="The photo (PNG or JPEG)."),
@@ -18,10 +20,10 @@ def build(
     instances: Optional[Path] = typer.Option(None, "--instances", help="Cityscapes *_gtFine_instanceIds.png (16-bit)."),
     polygons: Optional[Path] = typer.Option(None, "--polygons", help="Cityscapes *_gtFine_polygons.json (instead of --labels)."),
     detections: Optional[Path] = typer.Option(None, "--detections", help="KITTI label_2 .txt or a detections .json."),
-    camera: Optional[Path] = typer.Option(None, "--camera", help="Cityscapes camera JSON, KITTI calib .txt or plain camera JSON."),
+    camera: Optional[Path] = typer.Option(None, "--camera", help="Cityscapes camera JSON, KITTI calib .txt, plain camera JSON or INFO.json#CAM_FRONT (mmdetection3d info)."),
     ground_plane: Optional[Path] = typer.Option(None, "--ground-plane", help="KITTI planes file (road plane) for height and pitch."),
     ground_points: Optional[Path] = typer.Option(None, "--ground-points", help="Manual pixel <-> ground pairs (JSON or CSV, >= 4)."),
-    depth: str = typer.Option("ground", "--depth", help="Depth backend: ground, file, monodepth, monodepth2 or hf."),
+    depth: DepthBackendName = typer.Option(DepthBackendName.ground, "--depth", help="Depth backend."),
     depth_weights: Optional[Path] = typer.Option(None, "--depth-weights", help="Weights file/folder of a network backend."),
     depth_map: Optional[Path] = typer.Option(None, "--depth-map", help="Dense metric depth for --depth file: .npy, 16-bit PNG (m*256) or .pfm."),
     library: Optional[Path] = typer.Option(
@@ -30,15 +32,16 @@ def build(
     max_range: Optional[float] = typer.Option(
         None, "--max-range", help="Farthest ground distance meshed, metres (default: scene.max_range_m, 80; at most 1000)."
     ),
-    traffic: str = typer.Option(
-        "right", "--traffic", help="The side traffic keeps to, right or left: which way vehicles face."
+    traffic: Traffic = typer.Option(
+        Traffic.right, "--traffic", help="The side traffic keeps to: which way vehicles face."
     ),
     params: Optional[Path] = typer.Option(
         None, "--params", help="Parameters JSON {section: {field: value}} over the defaults (docs/parameters.md)."
     ),
 ) -> None:
     """Build a layered USD world from one street image."""
-    from usdworld.cli.summary import print_build_summary, quiet
+    from usdworld.cli.output import quiet
+    from usdworld.cli.summary import print_build_summary
     from usdworld.io.parameters_file import read_parameters
     from usdworld.parameters import DEFAULT_PARAMETERS
     from usdworld.pipeline import BuildRequest
@@ -55,11 +58,11 @@ def build(
         ground_plane=ground_plane,
         correspondences=ground_points,
         depth_map=depth_map,
-        depth=depth,
+        depth=depth.value,
         depth_weights=depth_weights,
         library=library,
         max_range_m=max_range,
-        traffic=traffic,
+        traffic=traffic.value,
         params=read_parameters(params) if params is not None else DEFAULT_PARAMETERS,
     )
     with _log_held_until_success():

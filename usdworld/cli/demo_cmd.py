@@ -11,7 +11,8 @@ def demo(
     output: Path = typer.Option(Path("demo_world"), "--output", "-o", help="World folder to create."),
 ) -> None:
     """Build the bundled demo scene (made by usdworld itself, free to share)."""
-    from usdworld.cli.summary import print_build_summary, quiet
+    from usdworld.cli.output import quiet
+    from usdworld.cli.summary import print_build_summary
     from usdworld.demo import demo_request
     from usdworld.pipeline import build as run_build
 

@@ -15,11 +15,29 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Optional
 
 import typer
+from typer.core import TyperGroup
 
 if TYPE_CHECKING:
+    import click
+
     from usdworld.errors import EditRefused
 
+
+class _EditGroup(TyperGroup):
+    """The ``edit`` group, whose WORLD argument comes before the sub-command.
+
+    ``usdworld edit move --help`` would otherwise read ``move`` as the world and show the
+    group's help; there the sub-command's own help is shown (the world is not needed for it).
+    """
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        if args and args[0] in self.commands and any(a in ctx.help_option_names for a in args[1:]):
+            args = ["WORLD", *args]  # a stand-in world: the sub-command prints its help and exits
+        return super().parse_args(ctx, args)
+
+
 edit_app = typer.Typer(
+    cls=_EditGroup,
     no_args_is_help=True,
     help="Edit a world non-destructively: every edit goes to layers/edits.usda; the base stays untouched.",
 )
@@ -69,7 +87,9 @@ def _editor(
 
 
 def _done(result) -> None:  # EditResult
-    typer.echo(f"{result.message} [step {result.step}]")
+    from usdworld.cli.output import say
+
+    say(f"{result.message} [step {result.step}]")
 
 
 #: The option that gives each argument an :class:`EditRefused` names in ``field``.
@@ -148,13 +168,13 @@ def _world(
 
 @edit_app.command("list")
 def list_objects(ctx: typer.Context) -> None:
-    """List the objects: class, variant, position, yaw, scale, surface and edit status."""
+    """List the objects (by class, then name): class, variant, position, yaw, scale, surface, edit status."""
     import numpy as np
 
     from usdworld.layout.permissible import surface_at
 
     editor = _editor(ctx)
-    objects = editor.objects()
+    objects = sorted(editor.objects(), key=lambda o: (o.class_name, o.name))
     surfaces, _ = surface_at(
         np.array([o.position_world[:2] for o in objects]).reshape(-1, 2), editor.ground()
     )
@@ -274,8 +294,10 @@ def undo(
     editor = _editor(ctx)
     with _worded(ctx, editor):
         undone = editor.undo(steps)
+    from usdworld.cli.output import say
+
     for entry in undone:
-        typer.echo(f"undid step {entry.step}: {entry.op} {entry.args.get('name', '')}".rstrip())
+        say(f"undid step {entry.step}: {entry.op} {entry.args.get('name', '')}".rstrip())
 
 
 @edit_app.command("history")

@@ -86,7 +86,7 @@ def evaluate(
             "rendered | labelled px",
             title=f"layout vs {labels.name}",
         )
-        for name, iou in result.per_class_iou.items():
+        for name, iou in sorted(result.per_class_iou.items()):  # by class name, as every table
             table.add_row(name, _fmt(iou), str(result.intersections[name]), str(result.unions[name]))
         console.print(table)
         console.print(f"mIoU {_fmt(result.miou)} over {len(result.classes)} classes the world places")

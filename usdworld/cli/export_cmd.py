@@ -6,16 +6,21 @@ from pathlib import Path
 
 import typer
 
+from usdworld.cli.choices import ExportFormat
+
 
 def export(
     world: Path = typer.Argument(..., help="The world folder or its world.usda."),
-    fmt: str = typer.Option(..., "--format", "-f", help="usdz, usdc, usda-flat or glb."),
+    fmt: ExportFormat = typer.Option(..., "--format", "-f", help="The file format."),
     output: Path = typer.Option(..., "--output", "-o", help="File to write (.usdz/.usdc/.usda/.glb)."),
     bake_edits: bool = typer.Option(
         False, "--bake-edits", help="usdz: merge the edits and base layers into one root layer (usdc/usda-flat always do)."
     ),
     flatten: bool = typer.Option(
-        False, "--flatten", help="Compose everything (references, variants) into one self-contained layer, e.g. for three.js."
+        False,
+        "--flatten",
+        help="usdz/usdc: compose everything (references, variants) into one self-contained layer, e.g. for three.js "
+        "(usda-flat always is).",
     ),
     drop_inactive: bool = typer.Option(
         False, "--drop-inactive", help="Remove deleted objects instead of keeping them deactivated."
@@ -24,11 +29,13 @@ def export(
     no_omni: bool = typer.Option(False, "--no-omni", help="Validate USD without omni-asset-validator."),
 ) -> None:
     """Export a world for other tools and validate the result (exit 1 when the validator finds errors)."""
+    from usdworld.cli.output import say
     from usdworld.export import export_world
+    from usdworld.export.usd_formats import assets_folder
 
     result = export_world(
         world,
-        fmt,
+        fmt.value,
         output,
         bake_edits=bake_edits,
         flatten=flatten,
@@ -37,12 +44,12 @@ def export(
         omni=not no_omni,
     )
     extra = len(result.files) - 1
-    typer.echo(f"wrote {result.output}" + (f" (+{extra} asset file(s) beside it)" if extra else ""))
+    say(f"wrote {result.output}" + (f" (+{extra} file(s) in {assets_folder(result.output).name}/)" if extra else ""))
     check = result.check
     if check.skipped:
-        typer.echo(f"{check.checker}: not run ({check.skipped})")
+        say(f"{check.checker}: not run ({check.skipped})")
     else:
-        typer.echo(f"{check.checker}: 0 errors, {len(check.warnings)} warning(s)")
+        say(f"{check.checker}: 0 errors, {len(check.warnings)} warning(s)")
 
 
 def register(app: typer.Typer) -> None:

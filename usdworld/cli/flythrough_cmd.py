@@ -31,6 +31,7 @@ def flythrough(
     )
 
     from usdworld.authoring.inspect import open_world
+    from usdworld.cli.output import quiet, say
     from usdworld.cli.render_cmd import parse_size
     from usdworld.errors import InputError
     from usdworld.render.flythrough import default_video_size, render_flythrough
@@ -54,7 +55,7 @@ def flythrough(
         TimeElapsedColumn(),
         TimeRemainingColumn(),
     )
-    with Progress(*columns, console=console, transient=False) as progress:
+    with Progress(*columns, console=console, transient=False, disable=quiet()) as progress:
         task = progress.add_task("render", total=frames)
         result = render_flythrough(
             stage,
@@ -66,7 +67,7 @@ def flythrough(
             camera_path=camera,
             progress=lambda done, total: progress.update(task, completed=done),
         )
-    typer.echo(
+    say(
         f"wrote {result.path}: {result.frames} frames {result.width}x{result.height} at {fps:g} fps, "
         f"H.264 yuv420p +faststart; rendering {result.render_s:.1f} s, total {result.total_s:.1f} s"
     )

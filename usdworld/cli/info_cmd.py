@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import typer
@@ -33,7 +32,7 @@ def info(
     console.print(f"{summary['objects_active']} active objects, {summary['objects_inactive']} deleted (inactive)")
     estimated = ", ".join(summary["camera_estimated"]) or "nothing"
     console.print(
-        f"camera: height {summary['camera_height_m']:.2f} m, pitch {math.degrees(summary['camera_pitch_rad']):.2f} deg; estimated: {estimated}"
+        f"camera: height {summary['camera_height_m']:.2f} m, pitch {summary['camera_pitch_deg']:.2f} deg; estimated: {estimated}"
     )
     console.print(f"DLT ({summary['dlt_source']}): RMS {summary['dlt_rms_px']:.3g} px; edits touch {summary['edited_prims']} prims")
 

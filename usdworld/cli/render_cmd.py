@@ -71,7 +71,7 @@ def render(
         result = renderer.render(scene, pose.K, pose.world_from_cam)
     seconds = time.perf_counter() - t0
     paths = write_render_outputs(output, result, photo_rgb)
-    from usdworld.cli.summary import quiet
+    from usdworld.cli.output import quiet
 
     if quiet():
         return

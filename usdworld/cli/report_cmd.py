@@ -31,7 +31,7 @@ def report(
     ),
 ) -> None:
     """Write one HTML page with the photo, the render, every object's provenance, the camera and the evaluation."""
-    from usdworld.cli.summary import quiet
+    from usdworld.cli.output import say
     from usdworld.report_html import write_report_page
 
     if output is None:
@@ -39,8 +39,7 @@ def report(
     path = write_report_page(
         world, output, labels=labels, gt=gt, calib=calib, photo=photo, nuscenes_camera=nuscenes_camera
     )
-    if not quiet():
-        typer.echo(f"wrote {path}")
+    say(f"wrote {path}")
 
 
 def register(app: typer.Typer) -> None:

@@ -2,20 +2,14 @@
 
 from __future__ import annotations
 
-import logging
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # rich takes ~40 ms to import: only when a summary is printed (not under -q)
     from rich.console import Console
 
 
-def quiet() -> bool:
-    """True under ``usdworld -q``: the command prints only warnings and errors, not its results."""
-    return logging.getLogger().getEffectiveLevel() > logging.INFO
-
-
 def print_build_summary(report: dict[str, Any], world: str, console: Console | None = None) -> None:
-    """Print one line per object and the camera/DLT facts.
+    """Print one line per object (sorted by class, then name) and the camera/DLT facts.
 
     Args:
         report: the build report (``report.json`` content).
@@ -32,7 +26,7 @@ def print_build_summary(report: dict[str, Any], world: str, console: Console | N
     table = Table(title=f"{len(report['objects'])} objects placed from {report['source_image']}")
     for column in ("name", "variant", "x m", "y m", "depth m", "method", "scale", "yaw deg", "moved m"):
         table.add_column(column, justify="right" if column.endswith(("m", "scale", "deg")) else "left")
-    for o in report["objects"]:
+    for o in sorted(report["objects"], key=lambda o: (o["class"], o["name"])):
         moved = sum(d * d for d in o["collision_displacement_m"]) ** 0.5
         table.add_row(
             o["name"],

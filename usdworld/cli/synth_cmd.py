@@ -22,6 +22,7 @@ def synth(
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from usdworld.cli.output import quiet, say
     from usdworld.cli.render_cmd import parse_size
     from usdworld.errors import InputError
     from usdworld.synth import make_street_scene, write_cityscapes_frame
@@ -42,7 +43,7 @@ def synth(
         TextColumn("scenes"),
         TimeElapsedColumn(),
     )
-    with Progress(*columns, console=console) as progress:
+    with Progress(*columns, console=console, disable=quiet()) as progress:
         task = progress.add_task("synth", total=count)
         for i in range(count):
             name = NAME_FORMAT.format(seed=seed + i)
@@ -51,8 +52,8 @@ def synth(
             names.append(name)
             progress.update(task, completed=i + 1)
     for name in names:
-        typer.echo(str(output / f"{name}_leftImg8bit.png"))
-    typer.echo(
+        say(str(output / f"{name}_leftImg8bit.png"))
+    say(
         f"wrote {count} scene(s) of {width}x{height} to {output} (image, labelIds, instanceIds, camera, gt)"
     )
 

@@ -24,6 +24,7 @@ def vary(
 ) -> None:
     """Write N scene variations sharing the world's base, each with its own edits layer."""
     from usdworld.authoring.variations import make_variations
+    from usdworld.cli.output import say
 
     variations = make_variations(
         world,
@@ -36,9 +37,9 @@ def vary(
     )
     errors = 0
     for v in variations:
-        typer.echo(f"{v.root}: {len(v.applied)} edit(s)")
+        say(f"{v.root}: {len(v.applied)} edit(s)")
         for line in v.applied:
-            typer.echo(f"  {line}")
+            say(f"  {line}")
         if validate:
             from usdworld.authoring.validate import errors_only, validate_file
 
@@ -46,7 +47,7 @@ def vary(
             errors += len(found)
             for issue in found:
                 typer.echo(f"  error [{issue.validator}:{issue.rule}] {issue.at} {issue.message}")
-    typer.echo(f"wrote {len(variations)} variation(s) to {output}")
+    say(f"wrote {len(variations)} variation(s) to {output}")
     if errors:
         from usdworld.errors import ValidationFailed
 

@@ -12,9 +12,9 @@ Formats (see :mod:`usdworld.export.usd_formats` and :mod:`usdworld.export.gltf`)
 
 ``usdz``       the layered world and its assets in one package (``bake``: layers merged;
                ``flatten``: everything composed into one layer, for three.js / AR viewers)
-``usdc``       one crate layer, edits baked in, assets referenced beside it (``flatten``:
-               self-contained)
-``usda-flat``  the same as text
+``usdc``       one crate layer, edits baked in, assets referenced from its own folder
+               ``<name>_assets/`` beside it (``flatten``: self-contained)
+``usda-flat``  the composed world as one self-contained text layer (asset meshes in it)
 ``glb``        the composed scene as glTF 2.0, Y up, metres
 """
 
@@ -40,7 +40,8 @@ class ExportResult:
     Attributes:
         format: the export format.
         output: the main file written.
-        files: every file written (the main file first; assets copied beside it follow).
+        files: every file written (the main file first; then the files copied into its
+            ``<name>_assets/`` folder).
         check: the validator's report (``check.skipped`` says why it did not run).
     """
 
@@ -84,8 +85,8 @@ def export_world(
         output: the file to write (its suffix must match the format).
         bake_edits: usdz only: merge the world's layers (edits included) into one root layer.
             usdc/usda-flat always bake; glb is always the composed scene.
-        flatten: usdz/usdc/usda-flat: compose everything (references, variants) into one
-            self-contained layer; deactivated prims are left out.
+        flatten: usdz/usdc: compose everything (references, variants) into one
+            self-contained layer; deactivated prims are left out (usda-flat always is).
         drop_inactive: remove deleted (deactivated) prims instead of keeping them inactive.
         validate: run the format's validator and raise when it finds errors.
         omni: let USD validation use omni-asset-validator where installed.

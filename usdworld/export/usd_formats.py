@@ -6,15 +6,18 @@ layered (``usdz`` by default)
     ``UsdUtils.CreateNewUsdzPackage`` on the world: the package holds ``world.usda``,
     ``layers/edits.usda``, ``layers/base.usda`` and the assets, so layers, references and
     variant sets survive.
-baked (``usdc`` and ``usda-flat`` always; ``usdz`` with ``bake=True``)
+baked (``usdc``; ``usdz`` with ``bake=True``)
     ``UsdUtils.FlattenLayerStack``: the root, edits and base layers merged into one layer,
     so the edits are baked in while references to the assets and the ``model`` variant sets
-    stay. Asset paths are rewritten relative to the output file and the assets go beside it
-    (``assets/``; inside the package for usdz). Deleted objects (``active = false``) stay
-    deactivated unless ``drop_inactive`` is set, which removes their prim specs.
-composed (``flatten=True``)
+    stay. Asset paths are rewritten relative to the output file and the files they name go
+    into the export's own folder ``<name>_assets/`` beside it (:func:`assets_folder`; inside
+    the package for usdz), so two exports into one folder never share or overwrite assets.
+    Deleted objects (``active = false``) stay deactivated unless ``drop_inactive`` is set,
+    which removes their prim specs.
+composed (``usda-flat`` always; ``flatten=True``)
     ``Usd.Stage.Flatten``: one self-contained layer with references and variants resolved
-    and deactivated prims removed. For viewers that compose nothing themselves: three.js'
+    (the asset meshes are in it) and deactivated prims removed. Only files that are not
+    layers (textures of a user's asset) still go to ``<name>_assets/``. For viewers that compose nothing themselves: three.js'
     ``USDLoader`` reads neither sublayers nor reference list ops in crate files, and ignores
     ``active``.
 
@@ -60,8 +63,9 @@ class _Anchor:
     callback must not raise into C++).
     """
 
-    def __init__(self, world_dir: Path) -> None:
+    def __init__(self, world_dir: Path, folder: str = "") -> None:
         self.world_dir = world_dir.resolve()
+        self.folder = folder
         self.outside: list[str] = []
 
     def __call__(self, layer: Sdf.Layer, path: str) -> str:
@@ -73,7 +77,7 @@ class _Anchor:
         except ValueError:
             self.outside.append(path)
             return path
-        return "./" + PurePosixPath(*rel.parts).as_posix()
+        return "./" + PurePosixPath(self.folder, *rel.parts).as_posix()
 
 
 def _check_outside(anchor: _Anchor, root: Path) -> None:
@@ -85,17 +89,28 @@ def _check_outside(anchor: _Anchor, root: Path) -> None:
         )
 
 
-def flatten_layer_stack(stage: Usd.Stage, root: Path) -> Sdf.Layer:
+def assets_folder(out: Path) -> Path:
+    """The folder beside an export that holds its own copies of the files it needs.
+
+    ``exports/city.usdc`` -> ``exports/city_assets/``: named after the export, so every
+    export into one folder keeps its assets apart.
+    """
+    return out.parent / f"{out.stem}_assets"
+
+
+def flatten_layer_stack(stage: Usd.Stage, root: Path, folder: str = "") -> Sdf.Layer:
     """Merge the root layer stack (root, edits, base) into one anonymous layer.
 
     References, variant selections and ``active`` opinions are kept; asset paths are
-    rewritten relative to the world's folder.
+    rewritten relative to the world's folder, under ``folder``.
 
     Args:
         stage: the world stage.
         root: the world's root layer file.
+        folder: where the world folder's files will be, relative to the new layer
+            (``""``: beside it, ``city_assets``: in that folder).
     """
-    anchor = _Anchor(root.parent)
+    anchor = _Anchor(root.parent, folder)
     flat = UsdUtils.FlattenLayerStack(stage, anchor)
     _check_outside(anchor, root)
     return flat
@@ -253,9 +268,9 @@ def write_flat(
 
     Args:
         root: the world's root layer.
-        out: the ``.usdc`` or ``.usda`` file to write; the assets go next to it (``assets/``)
-            unless ``flatten``.
-        fmt: ``usdc`` or ``usda-flat``.
+        out: the ``.usdc`` or ``.usda`` file to write; the files it needs go to its own
+            :func:`assets_folder` (none for a composed layer, unless a user asset has textures).
+        fmt: ``usdc`` or ``usda-flat`` (always composed: one self-contained text layer).
         flatten: resolve references and variants too (one self-contained layer).
         drop_inactive: remove deactivated (deleted) prims instead of keeping them inactive
             (always the case with ``flatten``).
@@ -268,16 +283,17 @@ def write_flat(
         raise InputError(f"{out}: the {fmt} format needs a '{want}' file name")
     stage = open_world(root)
     out.parent.mkdir(parents=True, exist_ok=True)
-    if flatten:
-        layer, files = compose_to_layer(stage, root)
-        deps = copy_dependencies(files, root.parent, out.parent)
+    assets = assets_folder(out)
+    if flatten or fmt == "usda-flat":
+        layer, files = compose_to_layer(stage, root, assets.name)
+        deps = copy_dependencies(files, root.parent, assets)
     else:
-        layer = flatten_layer_stack(stage, root)
+        layer = flatten_layer_stack(stage, root, assets.name)
         if drop_inactive:
             removed = drop_inactive_specs(layer)
             if removed:
                 log.info("dropped %d deactivated prim(s): %s", len(removed), ", ".join(removed))
-        deps = copy_dependencies(external_dependencies(stage, root), root.parent, out.parent)
+        deps = copy_dependencies(external_dependencies(stage, root), root.parent, assets)
     _write_layer(layer, out)
     return [out, *deps]
 
@@ -412,18 +428,19 @@ def _stage_baked(root: Path, staging: Path, drop_inactive: bool) -> Path:
     return package_root
 
 
-def compose_to_layer(stage: Usd.Stage, root: Path) -> tuple[Sdf.Layer, list[Path]]:
+def compose_to_layer(stage: Usd.Stage, root: Path, folder: str = "") -> tuple[Sdf.Layer, list[Path]]:
     """The whole composed stage in one self-contained layer (``Usd.Stage.Flatten``).
 
     References and variant sets are resolved into plain prims, edits applied, deactivated
     prims removed. Asset-valued attributes (none in a usdworld world, maybe in a user's
-    asset) are rewritten relative to the world folder.
+    asset) are rewritten relative to the world folder, under ``folder`` (see
+    :func:`flatten_layer_stack`).
 
     Returns:
         The layer, and the non-layer files (textures ...) it still points to, resolved.
     """
     composed = stage.Flatten(addSourceFileComment=False)
-    anchor = _Anchor(root.parent)
+    anchor = _Anchor(root.parent, folder)
     files: list[Path] = []
 
     def relative(path: str) -> str:

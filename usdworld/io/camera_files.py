@@ -1,6 +1,6 @@
 """Read camera calibration files into a :class:`CameraSpec`.
 
-Three formats, recognised from the content:
+Four formats, recognised from the content:
 
 * Cityscapes camera JSON::
 
@@ -20,6 +20,13 @@ Three formats, recognised from the content:
     {"K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]],   # or "fx", "fy", "cx", "cy"
      "height_m": 1.5, "pitch_deg": 2.0, "roll_deg": 0.0, "yaw_deg": 0.0}
 
+* one camera of an mmdetection3d info JSON (nuScenes, KITTI ...), named after a ``#``:
+  ``info.json#CAM_FRONT`` (:mod:`usdworld.io.camera_infos`): ``K`` from ``cam2img``; with
+  ``cam2ego`` (nuScenes) also the height, pitch and roll above the ego frame's ground.
+
+Files that are close but not enough get their own one-line message: an info file without
+``#CAMERA`` (it lists the cameras), a pickled info file, a KITTI calib file without ``P2``.
+
 A KITTI ground-plane file (``planes/*.txt``: a ``# Matrix`` / ``WIDTH 4`` / ``HEIGHT 1``
 header, then ``a b c d`` with ``a x + b y + c z + d = 0`` in the rectified camera frame,
 y down) gives the camera height ``|d| / ||(a, b, c)||`` and the pitch and roll from the
@@ -31,12 +38,21 @@ from __future__ import annotations
 import logging
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from usdworld.errors import CalibrationError, InputError
+from usdworld.io.camera_infos import (
+    info_without_camera_message,
+    is_info_document,
+    is_pickle,
+    parse_info_json,
+    pickle_message,
+    read_info_camera,
+    split_camera_ref,
+)
 from usdworld.io.hashing import (
     PathLike,
     as_array,
@@ -190,6 +206,41 @@ def _parse_kitti(text: str, name: str) -> _Parsed:
         )
     out.cam_offset = offset
     return out
+
+
+def _parse_info(doc: Any, name: str, camera: str) -> _Parsed:
+    if not is_info_document(doc):
+        raise InputError(
+            f"{name}: not an mmdetection3d info file (no data_list), so '#{camera}' names no camera; "
+            "pass the camera file without '#'"
+        )
+    info = read_info_camera(doc, name, camera)
+    out = _Parsed("info")
+    out.K = info.K
+    entries = (("fx", "0,0"), ("fy", "1,1"), ("cx", "0,2"), ("cy", "1,2"))
+    out.K_where = {k: f"{info.K_where}[{ij}] ({k})" for k, ij in entries}
+    if info.up_cam is not None and info.height_m is not None:
+        if not info.height_m > 0:
+            raise CalibrationError(
+                f"{info.pose_where}: the camera is {info.height_m:g} m above the ground; must be > 0"
+            )
+        out.height_m, out.pitch, out.roll = pose_from_ground_plane(info.up_cam, info.height_m)
+        out.where = {k: info.pose_where for k in ("height_m", "pitch", "roll")}
+    return out
+
+
+def _not_a_camera_file(text: str, name: str) -> InputError:
+    """The error for a file no reader took: specific for a KITTI calib file without P2."""
+    keys = list(_kitti_entries(text, name))
+    if keys:
+        return InputError(
+            f"{name}: a KITTI-style calib file without a P2 line (it has {', '.join(keys[:6])}); "
+            "usdworld reads camera 2, the left colour camera, from P2: pass the frame's full calib/<id>.txt"
+        )
+    return InputError(
+        f"{name}: not a camera file usdworld knows; pass a Cityscapes camera JSON, a JSON with "
+        "K / height_m / pitch_deg, a KITTI calib file with a P2 line or 'INFO.json#CAM_FRONT'"
+    )
 
 
 def read_kitti_projection(path: PathLike) -> np.ndarray:
@@ -369,17 +420,18 @@ def _check_extrinsics(p: _Parsed) -> None:
 def read_camera(
     path: PathLike, image: SourceImage | None = None, planes_path: PathLike | None = None
 ) -> CameraSpec:
-    """Read a Cityscapes camera JSON, a KITTI calib file or a plain camera JSON.
+    """Read a Cityscapes camera JSON, a KITTI calib file, a plain camera JSON or one camera of an info file.
 
     Args:
-        path: the camera file (format recognised from its content).
+        path: the camera file (format recognised from its content), or ``INFO.json#CAMERA``.
         image: the photo; when given, the principal point must fit its size.
         planes_path: optional KITTI ground-plane file giving height, pitch and roll.
 
     Returns:
         CameraSpec with ``K`` (3, 3) float64 or None, height/pitch/roll/yaw or None
-        (radians), ``source`` (``cityscapes``, ``kitti`` or ``plain``), the camera file
-        (role ``camera``) and the planes file in ``extra_files`` (role ``ground_plane``).
+        (radians), ``source`` (``cityscapes``, ``kitti``, ``plain`` or ``info``), the camera
+        file (role ``camera``; an info file's name ends in ``#CAMERA``) and the planes file
+        in ``extra_files`` (role ``ground_plane``).
 
     Raises:
         InputError: unrecognised or malformed file, a missing field (named by its path),
@@ -387,10 +439,20 @@ def read_camera(
         CalibrationError: fx or fy <= 0, a principal point far outside the image,
             height <= 0, or |pitch| or |roll| >= 45 degrees.
     """
-    data, file = read_input(path, "camera")
+    file_path, info_camera = split_camera_ref(path)
+    data, file = read_input(file_path, "camera")
     name = file.name
+    if is_pickle(data):
+        raise InputError(pickle_message(name))
     text = decode_text(data, name)
-    if text.lstrip().startswith("{"):
+    if info_camera is not None:
+        parsed = _parse_info(parse_info_json(data, name), name, info_camera)
+        file = replace(file, name=f"{name}#{info_camera}")
+    elif text.lstrip().startswith("{"):
+        if '"data_list"' in text:  # an info file, which may hold NaN: read as evaluate --gt reads it
+            info = parse_info_json(data, name)
+            if is_info_document(info):
+                raise InputError(info_without_camera_message(info, name))
         doc = as_object(parse_json(data, name), name)
         parsed = (
             _parse_cityscapes(doc, name)
@@ -400,10 +462,7 @@ def read_camera(
     elif any(k in _kitti_entries(text, name) for k in ("P2", "P_rect_02")):
         parsed = _parse_kitti(text, name)
     else:
-        raise InputError(
-            f"{name}: not a camera file usdworld knows; pass a Cityscapes camera JSON, a JSON with "
-            "K / height_m / pitch_deg, or a KITTI calib file with a P2 line"
-        )
+        raise _not_a_camera_file(text, name)
 
     extra: tuple[InputFile, ...] = ()
     if planes_path is not None:

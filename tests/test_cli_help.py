@@ -1,0 +1,121 @@
+"""``usdworld ... --help`` and ``-q``: choices listed, flags as flags, edit sub-command help,
+quiet edits and exports, sorted tables."""
+
+from __future__ import annotations
+
+import io
+import json
+import re
+
+import pytest
+from test_edit_support import fresh_world
+
+from usdworld.cli.choices import DepthBackendName, ExportFormat, Traffic
+from usdworld.cli.main import COMMANDS, main
+
+
+def _run(capsys, *args: str) -> tuple[int, str, str]:
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_choices_mirror_the_domain_tables() -> None:
+    from usdworld.export import FORMATS
+    from usdworld.layout.heading import TRAFFIC_SIDES
+    from usdworld.perception.depth import BACKEND_NAMES
+
+    assert [c.value for c in DepthBackendName] == list(BACKEND_NAMES)
+    assert [c.value for c in ExportFormat] == list(FORMATS)
+    assert [c.value for c in Traffic] == list(TRAFFIC_SIDES)
+
+
+@pytest.mark.parametrize(
+    ("command", "expected"),
+    [
+        (["build"], ["--depth <ground|monodepth|monodepth2|hf|file>", "--traffic <right|left>"]),
+        (["depth"], ["--depth <ground|monodepth|monodepth2|hf|file>"]),
+        (["export"], ["-f, --format <usdz|usdc|usda-flat|glb>"]),
+        (["batch"], ["--layout <cityscapes|kitti|manifest>"]),
+    ],
+)
+def test_help_lists_the_choices(capsys, command, expected) -> None:
+    code, out, _ = _run(capsys, *command, "--help")
+    assert code == 0
+    for text in expected:
+        assert text in out, out
+
+
+def test_no_help_page_shows_a_bool_or_a_free_text_choice(capsys) -> None:
+    pages = [[name] for name in COMMANDS]
+    pages += [["edit", sub] for sub in ("list", "move", "rotate", "delete", "add", "replace", "restyle")]
+    pages += [["edit", sub] for sub in ("undo", "history", "reset", "check")]
+    pages += [["assets", "add"], ["assets", "list"]]
+    for page in pages:
+        code, out, _ = _run(capsys, *page, "--help")
+        assert code == 0, page
+        assert "<bool>" not in out and "BOOLEAN" not in out, (page, out)
+        # A help text that spells out "a, b or c" belongs in the metavar as <a|b|c>.
+        assert not re.search(r"<str>\s+\S+: \w+, \w+(, \w+)* or \w+", out), (page, out)
+
+
+@pytest.mark.parametrize(
+    "sub", ["list", "move", "rotate", "delete", "add", "replace", "restyle", "undo", "history", "reset", "check"]
+)
+def test_edit_subcommand_help_without_a_world(capsys, sub) -> None:
+    code, out, err = _run(capsys, "edit", sub, "--help")
+    assert code == 0 and err == ""
+    assert out.startswith(f"Usage: usdworld edit {{world}} {sub} [OPTIONS]"), out
+    assert "Commands:" not in out
+
+
+def test_edit_subcommand_help_with_a_world(capsys) -> None:
+    code, out, _ = _run(capsys, "edit", "some/world.usda", "move", "--help")
+    assert code == 0 and out.startswith("Usage: usdworld edit {world} move [OPTIONS]") and "--to" in out
+
+
+def test_edit_group_help_still_lists_the_subcommands(capsys) -> None:
+    code, out, _ = _run(capsys, "edit", "--help")
+    assert code == 0 and "Commands:" in out and "move" in out
+
+
+def test_bad_choice_is_a_usage_error(capsys, tmp_path) -> None:
+    code, _, err = _run(capsys, "export", tmp_path, "-f", "obj", "-o", tmp_path / "x.obj")
+    assert code == 2 and "'obj' is not one of 'usdz', 'usdc', 'usda-flat', 'glb'" in err
+
+
+def test_quiet_edits_print_nothing_and_info_gives_degrees(capsys, tmp_path_factory, tmp_path) -> None:
+    world = fresh_world(tmp_path_factory, tmp_path / "world")
+    code, out, err = _run(capsys, "-q", "edit", world, "rotate", "car_0001", "--yaw-deg", "30")
+    assert (code, out, err) == (0, "", "")
+    code, out, err = _run(capsys, "-q", "edit", world, "undo")
+    assert (code, out, err) == (0, "", "")
+    code, out, _ = _run(capsys, "edit", world, "rotate", "car_0001", "--yaw-deg", "30")
+    assert code == 0 and out == "rotated car_0001 to 30.0 deg [step 1]\n"
+    code, out, _ = _run(capsys, "info", world, "--json")
+    pitch = json.loads(out)["camera_pitch_deg"]
+    code, out, _ = _run(capsys, "info", world)
+    assert isinstance(pitch, float) and f"pitch {pitch:.2f} deg" in out
+
+
+def test_build_table_is_sorted_by_class_then_name() -> None:
+    from rich.console import Console
+
+    from usdworld.cli.summary import print_build_summary
+
+    def obj(name: str, cls: str) -> dict:
+        return {
+            "name": name, "class": cls, "variant": "v", "position_world": [1.0, 2.0, 0.0], "depth_m": 3.0,
+            "depth_method": "ground", "scale": 1.0, "yaw_deg": 0.0, "collision_displacement_m": [0.0, 0.0],
+        }
+
+    report = {
+        "objects": [obj("tree_0001", "tree"), obj("car_0002", "car"), obj("person_0001", "person"), obj("car_0001", "car")],
+        "source_image": "x.png",
+        "camera": {"height_m": 1.5, "pitch_deg": 1.0, "K": [[700.0, 0, 0], [0, 700.0, 0], [0, 0, 1]], "estimated": []},
+        "dlt": {"source": "camera", "rms_px": 0.0},
+    }
+    text = io.StringIO()
+    print_build_summary(report, "w/world.usda", Console(file=text, width=160))
+    names = re.findall(r"\b(\w+_\d{4})\b", text.getvalue())
+    assert names == ["car_0001", "car_0002", "person_0001", "tree_0001"]

@@ -16,6 +16,8 @@ contact" means further along the horizontal viewing direction of the contact pix
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
@@ -23,8 +25,16 @@ from usdworld.parameters.placement import PlacementParams
 
 
 def _depth_grid(params: PlacementParams) -> np.ndarray:
-    """(G,) float64 candidate depths, log-spaced over ``silhouette_depth_range_m``, metres."""
-    return np.geomspace(*params.silhouette_depth_range_m, params.silhouette_grid_points)
+    """(G,) float64 candidate depths, log-spaced over ``silhouette_depth_range_m``, metres (read-only)."""
+    return _geomspace(*params.silhouette_depth_range_m, params.silhouette_grid_points)
+
+
+@functools.lru_cache(maxsize=8)
+def _geomspace(start: float, stop: float, num: int) -> np.ndarray:
+    """``np.geomspace``, made once per grid (every object searches the same one), read-only."""
+    grid = np.geomspace(start, stop, num)
+    grid.setflags(write=False)
+    return grid
 
 
 def top_offsets(

@@ -99,14 +99,16 @@ def silhouette_rows(
     if rate <= 1e-6:
         return np.full(depths.shape, np.nan)
     base = camera.center_world[:2][None, :] + (depths / rate)[:, None] * ahead[None, :]
-    points = [np.column_stack([base, np.zeros(len(depths))])]
-    for offset in offsets_m:
-        top = base + offset * ahead[None, :]
-        points.append(np.column_stack([top, np.full(len(depths), height_m)]))
-    rows = []
-    for pts in points:
-        px, depth = camera.project(pts)
-        rows.append(np.where(depth > near_plane_m, px[:, 1], np.nan))
+    # Three stacks projected at once, each as camera.project would on its own: the contact
+    # points, and the top's near and far edges.
+    points = np.empty((3, len(depths), 3))
+    points[0, :, :2] = base
+    points[0, :, 2] = 0.0
+    for k, offset in enumerate(offsets_m, start=1):
+        points[k, :, :2] = base + offset * ahead[None, :]
+        points[k, :, 2] = height_m
+    px, depth = camera.project_stacked(points)
+    rows = np.where(depth > near_plane_m, px[:, :, 1], np.nan)
     top_row = np.fmin(rows[1], rows[2])
     return rows[0] - top_row
 

@@ -24,10 +24,20 @@ from usdworld.perception.objects import ImageObject
 
 def box_corners(centre_xy: np.ndarray, yaw: float, size_lwh: np.ndarray) -> np.ndarray:
     """(8, 3) float64 world corners of an upright box standing on the ground (bottom four first)."""
+    offsets, h = _foot_offsets(yaw, size_lwh)
+    return _corners_at(np.asarray(centre_xy, dtype=np.float64), offsets, h)
+
+
+def _foot_offsets(yaw: float, size_lwh: np.ndarray) -> tuple[np.ndarray, float]:
+    """((4, 2) float64 footprint corners relative to the centre, turned by ``yaw``; the height)."""
     l, w, h = (float(v) for v in size_lwh)
     c, s = np.cos(yaw), np.sin(yaw)
-    local = _local_corners(l, w)
-    foot = np.asarray(centre_xy, dtype=np.float64) + local @ np.array([[c, s], [-s, c]])
+    return _local_corners(l, w) @ np.array([[c, s], [-s, c]]), h
+
+
+def _corners_at(centre_xy: np.ndarray, offsets: np.ndarray, h: float) -> np.ndarray:
+    """(8, 3) float64 corners of the box whose footprint corners are ``centre_xy + offsets``."""
+    foot = centre_xy + offsets
     corners = np.empty((8, 3))
     corners[:4, :2] = foot
     corners[4:, :2] = foot
@@ -176,8 +186,9 @@ def align_box_columns(
         return ground
     start = np.asarray(ground, dtype=np.float64)
     centre = start.copy()
+    offsets, h = _foot_offsets(yaw, size)  # the turn is fixed: only the centre moves
     for _ in range(params.box_align_iterations):
-        px, depth = camera.project(box_corners(centre, yaw, size))
+        px, depth = camera.project(_corners_at(centre, offsets, h))
         if not np.isfinite(px).all():
             return ground
         error_px = 0.5 * (x0 + x1) - 0.5 * (px[:, 0].min() + px[:, 0].max())

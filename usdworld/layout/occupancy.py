@@ -1,17 +1,17 @@
-"""A coarse raster that shows, cheaply, that a disk of the ground holds no free spot.
+"""A coarse raster that shows, cheaply, how far around a spot the ground holds no free spot.
 
 Collision resolution (:mod:`usdworld.layout.collision`) looks for the nearest spot where a
 box overlaps none of the boxes already settled. In a pile of contradictory boxes (a
 detector's raw output) most boxes find none, and proving that with the exact candidate
-search costs milliseconds per box. :func:`disk_blocked` proves it in a fraction of that:
+search costs milliseconds per box. :func:`blocked_radius` proves it in a fraction of that:
 a spot (the box's centre) is blocked by a settled box when it lies inside that box grown
 by the moving box's half extents and shrunk by the overlap tolerance, an open rectangle.
 The disk is painted on a raster of square cells; a cell counts as blocked only when the
-whole closed cell lies, with a safety margin, inside one such rectangle. When every cell
-that meets the disk is blocked, so is every spot in the disk, and the caller can stop.
+whole closed cell lies, with a safety margin, inside one such rectangle. Every spot nearer
+than the nearest cell that is not blocked is blocked, and the caller need not test it.
 
-The answer is one-sided: True is a proof, False only means "search exactly". So the
-raster's size changes how often the shortcut is taken, never a result.
+The answer is one-sided: the radius is a proof, and a smaller one only means "search
+exactly". So the raster's size changes how much is skipped, never a result.
 """
 
 from __future__ import annotations

@@ -275,3 +275,13 @@ def test_pile_shortcut_drops_a_full_disk_cheaply():
     small, big = resolve_collisions(*_identical_pile(300)), resolve_collisions(*_identical_pile(600))
     assert big.placed.sum() == small.placed.sum()
     assert big.pair_checks < 1.2 * small.pair_checks
+
+
+def test_degenerate_bounds_place_only_the_first_of_a_pile():
+    # A bound of zero, below zero or NaN (a hand-edited parameters file) finds no spot to
+    # move to: the first box stays, the rest are dropped, as the exact rings decide.
+    centers, half, priority = _identical_pile(5)
+    for bound in (-1.0, 0.0, float("nan")):
+        result = resolve_collisions(centers, half, priority, CollisionParams(max_displacement_m=bound))
+        np.testing.assert_array_equal(result.placed, [True, False, False, False, False])
+        np.testing.assert_array_equal(result.displacement, 0.0)

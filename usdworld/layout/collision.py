@@ -340,7 +340,7 @@ def _examined_radius(rx: np.ndarray, ry: np.ndarray, max_m: float, most: int) ->
         The radius, metres, or None when the first ring is already over ``most`` spots.
     """
     rx, ry = np.sort(rx), np.sort(ry)
-    top = max(rx[-1], ry[-1])
+    top = max(rx[-1] if len(rx) else -np.inf, ry[-1] if len(ry) else -np.inf)  # none within a bound < 0
     done, reach = None, min(_FIRST_RING_M, max_m)
     while True:
         last = not reach < max_m or bool(top <= reach)

@@ -6,6 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from usdworld.layout import collision
 from usdworld.layout.collision import TOLERANCE_M, footprint_half_extents, overlaps, resolve_collisions
 from usdworld.parameters.collision import CollisionParams
 
@@ -238,3 +239,49 @@ def test_max_candidates_drops_what_it_cannot_reach():
         result = resolve_collisions(centers, half, priority, CollisionParams(max_candidates=cap))
         assert result.placed.sum() == expected
         assert overlaps(result.centers[result.placed], half[result.placed]) == []
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.integers(20, 120),
+    st.sampled_from([2.0, 6.0, 25.0]),
+    st.sampled_from([3.0, 8.0]),
+    st.sampled_from([200, 4096, 65536]),
+    st.integers(0, 2**31 - 1),
+)
+def test_pile_shortcut_changes_no_result(n, side, max_m, cap, seed):
+    # The raster that proves a disk blocked (usdworld.layout.occupancy) only skips rings
+    # with no free spot: with it and without it, the same boxes land on the same bits.
+    rng = np.random.default_rng(seed)
+    centers = rng.uniform(-side, side, (n, 2))
+    half = footprint_half_extents(np.column_stack([rng.uniform(3.5, 5, n), rng.uniform(1.6, 2, n)]), rng.uniform(0, np.pi, n))
+    priority = rng.uniform(0, 50, n)
+    params = CollisionParams(max_displacement_m=max_m, max_candidates=cap)
+    fast = resolve_collisions(centers, half, priority, params)
+    original = collision.blocked_radius
+    collision.blocked_radius = lambda *args: -np.inf
+    try:
+        exact = resolve_collisions(centers, half, priority, params)
+    finally:
+        collision.blocked_radius = original
+    assert fast.centers.tobytes() == exact.centers.tobytes()
+    np.testing.assert_array_equal(fast.placed, exact.placed)
+    assert fast.pair_checks <= exact.pair_checks
+
+
+def test_pile_shortcut_drops_a_full_disk_cheaply():
+    # 600 identical cars on one spot: once the disk is full, each further car is refused by
+    # the raster, not by searching every ring (the exact search made 2.9x the checks of 300).
+    small, big = resolve_collisions(*_identical_pile(300)), resolve_collisions(*_identical_pile(600))
+    assert big.placed.sum() == small.placed.sum()
+    assert big.pair_checks < 1.2 * small.pair_checks
+
+
+def test_degenerate_bounds_place_only_the_first_of_a_pile():
+    # A bound of zero, below zero or NaN (a hand-edited parameters file) finds no spot to
+    # move to: the first box stays, the rest are dropped, as the exact rings decide.
+    centers, half, priority = _identical_pile(5)
+    for bound in (-1.0, 0.0, float("nan")):
+        result = resolve_collisions(centers, half, priority, CollisionParams(max_displacement_m=bound))
+        np.testing.assert_array_equal(result.placed, [True, False, False, False, False])
+        np.testing.assert_array_equal(result.displacement, 0.0)

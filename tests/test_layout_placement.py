@@ -8,8 +8,9 @@ from usdworld.authoring.asset_library import library_dirs
 from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.class_table import load_class_table
-from usdworld.layout.placement import place_objects
+from usdworld.layout.placement import Skipped, SkipReason, place_objects, skip_warnings
 from usdworld.layout.yaw import RoadAxis
+from usdworld.parameters.collision import CollisionParams
 from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.objects import ImageObject
 
@@ -53,7 +54,7 @@ def test_a_sliver_of_stuff_past_a_near_car_is_not_put_behind_it():
         PlacementParams(),
     )
     placed = {p.obj.ref: p for p in placements}
-    assert 2 not in placed and "tree_0001" in skipped
+    assert 2 not in placed and skipped == [Skipped("tree_0001", SkipReason.NO_DEPTH)]
     assert placed[3].depth_method == "top_row"
     assert placed[3].depth_m > placed[1].depth_m
 
@@ -84,3 +85,37 @@ def test_a_person_under_a_crown_does_not_push_the_tree():
     gap = np.linalg.norm(placed[2].position_world[:2] - placed[1].position_world[:2])
     assert gap < crown  # the person stands under the crown ...
     assert np.all(placed[2].collision_displacement == 0.0)  # ... and nothing was moved
+
+
+def test_each_skipped_object_is_named_once_with_its_reason(caplog):
+    # Twelve copies of one car box and a sliver of tree past it (as above): with a 1 m
+    # displacement bound, the first car stays, the rest of the pile is dropped as piled;
+    # the sliver has no depth. Each one is named in exactly one warning, the one with its
+    # reason, and placement itself logs nothing (it used to log the pile a second time).
+    cars = [_obj("car", (380, 280, 640, 420), ref) for ref in range(1, 13)]
+    tree = _obj("tree", (500, 200, 512, 250), 20, hidden=True, by=1)
+    objects = [*cars, tree]
+    sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
+    collision = CollisionParams(max_displacement_m=1.0)
+    with caplog.at_level("WARNING"):
+        placements, skipped = place_objects(
+            objects,
+            CAM,
+            np.linalg.inv(CAM.px_from_ground()),
+            RoadAxis(0.0, np.zeros(2), "camera_forward"),
+            sizes,
+            load_class_table(),
+            PlacementParams(),
+            collision=collision,
+        )
+    assert caplog.records == []
+    piled = [s.name for s in skipped if s.reason is SkipReason.PILED]
+    assert [s for s in skipped if s.reason is SkipReason.NO_DEPTH] == [Skipped("tree_0001", SkipReason.NO_DEPTH)]
+    assert 0 < len(piled) < len(cars) and len(placements) == len(cars) - len(piled)
+    assert len({s.name for s in skipped}) == len(skipped)  # nobody twice
+    warnings = skip_warnings(skipped, 80.0, collision)
+    assert warnings == [
+        "not placed (no visible ground contact, or only a bound beyond 80 m): tree_0001",
+        f"{len(piled)} objects not placed: each would have to move more than 1 m, or past 65536 candidate "
+        "spots, to clear the objects already placed (a pile of contradictory boxes): " + ", ".join(piled),
+    ]

@@ -136,7 +136,7 @@ def _place(objects: list[ImageObject], sidewalk: np.ndarray | None = None) -> tu
     placements, skipped = place_objects(
         objects, LEVEL, ground_from_px, FORWARD, sizes, TABLE, PARAMS, sidewalk_ground=sidewalk
     )
-    return {p.obj.ref: p for p in placements}, skipped
+    return {p.obj.ref: p for p in placements}, [s.name for s in skipped]
 
 
 def test_a_tree_behind_a_parked_car_stands_in_the_row_of_the_trees_seen():

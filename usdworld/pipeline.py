@@ -49,7 +49,7 @@ from usdworld.io.exif import read_exif_focal
 from usdworld.layout.focal_cues import estimate_focal
 from usdworld.layout.camera_cues import height_observations, road_top_row, street_view, vanishing_yaw
 from usdworld.layout.model import WorldModel
-from usdworld.layout.placement import place_objects
+from usdworld.layout.placement import Skipped, place_objects, skip_warnings
 from usdworld.layout.surfaces import SURFACE_CLASSES, build_surfaces, fill_hidden_ground, surface_points
 from usdworld.layout.heading import check_traffic
 from usdworld.layout.yaw import road_axis
@@ -272,14 +272,11 @@ def _inputs(request: BuildRequest, head: SceneHead) -> tuple[InputFile, ...]:
     return tuple(inputs)
 
 
-def _warnings(head: SceneHead, skipped: list[str], max_range_m: float) -> tuple[str, ...]:
+def _warnings(head: SceneHead, skipped: list[Skipped], max_range_m: float, params: Parameters) -> tuple[str, ...]:
     warnings = []
     if not head.objects:
         warnings.append(f"{head.image.file.name}: no objects found; the world has ground and camera only")
-    if skipped:
-        warnings.append(
-            f"not placed (no visible ground contact, or only a bound beyond {max_range_m:g} m): " + ", ".join(skipped)
-        )
+    warnings.extend(skip_warnings(skipped, max_range_m, params.collision))
     if head.camera.estimated:
         warnings.append(f"camera estimated ({', '.join(head.camera.estimated)}): {head.camera.method}")
     return tuple(warnings)
@@ -405,7 +402,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         depth_kind=dense.kind,
         depth_alignment=dense.alignment,
         depth_fit=dense.fit,
-        warnings=_warnings(head, skipped, max_range_m),
+        warnings=_warnings(head, skipped, max_range_m, params),
     )
 
 

@@ -38,6 +38,8 @@ class PinholeCamera:
     roll: float = 0.0
     yaw: float = 0.0
     _world_from_cam: np.ndarray = field(init=False, repr=False, compare=False)
+    _cam_from_px: np.ndarray = field(init=False, repr=False, compare=False)
+    _center_world: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         K = np.asarray(self.K, dtype=np.float64)
@@ -55,6 +57,12 @@ class PinholeCamera:
         R = rotation_world_from_vehicle(self.pitch, self.roll, self.yaw) @ WORLD_FROM_CAM_LEVEL
         R.setflags(write=False)
         object.__setattr__(self, "_world_from_cam", R)
+        K_inv = np.linalg.inv(K)  # once: rays are cast for every object several times
+        K_inv.setflags(write=False)
+        object.__setattr__(self, "_cam_from_px", K_inv)
+        center = np.array([0.0, 0.0, self.height_m])
+        center.setflags(write=False)
+        object.__setattr__(self, "_center_world", center)
 
     @property
     def fx(self) -> float:
@@ -79,8 +87,8 @@ class PinholeCamera:
 
     @property
     def center_world(self) -> np.ndarray:
-        """(3,) float64 camera centre in the world frame."""
-        return np.array([0.0, 0.0, self.height_m])
+        """(3,) float64 camera centre in the world frame (read-only)."""
+        return self._center_world
 
     def world_from_cam(self) -> np.ndarray:
         """(4, 4) float64 rigid transform taking camera points to world points."""
@@ -155,7 +163,7 @@ class PinholeCamera:
         """
         px = np.asarray(points_px, dtype=np.float64).reshape(-1, 2)
         homog = np.column_stack([px, np.ones(len(px))])
-        rays_cam = homog @ np.linalg.inv(self.K).T
+        rays_cam = homog @ self._cam_from_px.T
         return rays_cam @ self._world_from_cam.T
 
     def px_from_ground(self) -> np.ndarray:
@@ -168,7 +176,7 @@ class PinholeCamera:
         """Image row of the horizon (vanishing line of the ground) at column ``u`` (default: centre)."""
         u = self.cx if u is None else u
         # Horizon: pixels whose ray is horizontal, i.e. world-z component 0.
-        r = np.linalg.inv(self.K).T @ self._world_from_cam.T[:, 2]  # line coefficients a u + b v + c = 0
+        r = self._cam_from_px.T @ self._world_from_cam.T[:, 2]  # line coefficients a u + b v + c = 0
         if abs(r[1]) < 1e-12:
             raise CalibrationError("the horizon is vertical in the image (camera rolled by 90 degrees)")
         return float(-(r[0] * u + r[2]) / r[1])

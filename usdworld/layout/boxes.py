@@ -10,6 +10,8 @@ Frames: world (Z up, metres, ground z = 0, camera above the origin); image pixel
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
@@ -22,11 +24,31 @@ from usdworld.perception.objects import ImageObject
 
 def box_corners(centre_xy: np.ndarray, yaw: float, size_lwh: np.ndarray) -> np.ndarray:
     """(8, 3) float64 world corners of an upright box standing on the ground (bottom four first)."""
+    offsets, h = _foot_offsets(yaw, size_lwh)
+    return _corners_at(np.asarray(centre_xy, dtype=np.float64), offsets, h)
+
+
+def _foot_offsets(yaw: float, size_lwh: np.ndarray) -> tuple[np.ndarray, float]:
+    """((4, 2) float64 footprint corners relative to the centre, turned by ``yaw``; the height)."""
     l, w, h = (float(v) for v in size_lwh)
     c, s = np.cos(yaw), np.sin(yaw)
-    local = np.array([[sx * l / 2, sy * w / 2] for sx in (-1, 1) for sy in (-1, 1)])
-    foot = np.asarray(centre_xy, dtype=np.float64) + local @ np.array([[c, s], [-s, c]])
-    return np.concatenate([np.column_stack([foot, np.full(4, z)]) for z in (0.0, h)])
+    return _local_corners(l, w) @ np.array([[c, s], [-s, c]]), h
+
+
+def _corners_at(centre_xy: np.ndarray, offsets: np.ndarray, h: float) -> np.ndarray:
+    """(8, 3) float64 corners of the box whose footprint corners are ``centre_xy + offsets``."""
+    foot = centre_xy + offsets
+    corners = np.empty((8, 3))
+    corners[:4, :2] = foot
+    corners[4:, :2] = foot
+    corners[:4, 2] = 0.0
+    corners[4:, 2] = h
+    return corners
+
+
+def _local_corners(l: float, w: float) -> np.ndarray:
+    """(4, 2) float64 footprint corners in the box's own frame, (+-l/2, +-w/2), x major."""
+    return np.array([[-l / 2, -w / 2], [-l / 2, w / 2], [l / 2, -w / 2], [l / 2, w / 2]])
 
 
 def box_corners_turned(centre_xy: np.ndarray, yaws: np.ndarray, size_lwh: np.ndarray) -> np.ndarray:
@@ -40,7 +62,7 @@ def box_corners_turned(centre_xy: np.ndarray, yaws: np.ndarray, size_lwh: np.nda
     l, w, h = (float(v) for v in size_lwh)
     yaws = np.asarray(yaws, dtype=np.float64).reshape(-1)
     c, s = np.cos(yaws), np.sin(yaws)
-    local = np.array([[sx * l / 2, sy * w / 2] for sx in (-1, 1) for sy in (-1, 1)])
+    local = _local_corners(l, w)
     rot = np.empty((len(yaws), 2, 2))
     rot[:, 0, 0], rot[:, 0, 1], rot[:, 1, 0], rot[:, 1, 1] = c, s, -s, c
     foot = np.asarray(centre_xy, dtype=np.float64) + local @ rot  # (K, 4, 2): one 4x2 by 2x2 product per yaw
@@ -99,14 +121,13 @@ def fit_view_angle(
     x0, y0, x1, y1 = (float(b) for b in obj.box_px)
     observed = (x1 - x0) / (y1 - y0)
     bearing = float(np.arctan2(ground[1], ground[0]))
-    angles_deg = params.view_angles_deg
+    angles_deg, angles = _turns(params.view_angle_step_deg)
     # All turns at once, each trial box projected exactly as on its own (same products, same bits).
-    px, depth = camera.project_stacked(
-        box_corners_turned(ground, bearing + np.radians(angles_deg), np.asarray(size_lwh))
-    )
+    px, depth = camera.project_stacked(box_corners_turned(ground, bearing + angles, np.asarray(size_lwh)))
     ok = np.isfinite(px).all(axis=(1, 2)) & np.all(depth > 0, axis=1)
-    with np.errstate(invalid="ignore"):
-        aspects = np.ptp(px[:, :, 0], axis=1) / np.maximum(np.ptp(px[:, :, 1], axis=1), 1e-9)
+    u, v = px[:, :, 0], px[:, :, 1]
+    with np.errstate(invalid="ignore"):  # the spans as np.ptp takes them: max - min
+        aspects = (u.max(axis=1) - u.min(axis=1)) / np.maximum(v.max(axis=1) - v.min(axis=1), 1e-9)
     curve = np.where(ok, aspects, np.nan)
     if not np.isfinite(curve).all():
         return float(view_angle_from_box(x1 - x0, y1 - y0, tuple(size_lwh)))
@@ -121,6 +142,17 @@ def fit_view_angle(
     a0, a1 = angles_deg[k - 1], angles_deg[k]
     t = (observed - rising[k - 1]) / max(rising[k] - rising[k - 1], 1e-12)
     return float(np.radians(a0 + np.clip(t, 0.0, 1.0) * (a1 - a0)))
+
+
+@functools.lru_cache(maxsize=8)
+def _turns(step_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """The turns tried by :func:`fit_view_angle` (:attr:`PlacementParams.view_angles_deg`),
+    in degrees and in radians, made once per step (read-only (K,) float64 each)."""
+    degrees = PlacementParams(view_angle_step_deg=step_deg).view_angles_deg
+    radians = np.radians(degrees)
+    degrees.setflags(write=False)
+    radians.setflags(write=False)
+    return degrees, radians
 
 
 def align_box_columns(
@@ -154,8 +186,9 @@ def align_box_columns(
         return ground
     start = np.asarray(ground, dtype=np.float64)
     centre = start.copy()
+    offsets, h = _foot_offsets(yaw, size)  # the turn is fixed: only the centre moves
     for _ in range(params.box_align_iterations):
-        px, depth = camera.project(box_corners(centre, yaw, size))
+        px, depth = camera.project(_corners_at(centre, offsets, h))
         if not np.isfinite(px).all():
             return ground
         error_px = 0.5 * (x0 + x1) - 0.5 * (px[:, 0].min() + px[:, 0].max())

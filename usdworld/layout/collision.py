@@ -18,6 +18,12 @@ boxes settled nearby and an exact search becomes cubic, so an object that would 
 move further than ``CollisionParams.max_displacement_m``, or whose search ring would
 hold more than ``max_candidates`` spots, is not placed (``CollisionResult.placed``); the
 caller drops it with a warning. No normal scene comes near either bound.
+
+In a pile most boxes find no spot, and the exact rings would test every spot up to the
+bound to say so. A coarse raster (:func:`usdworld.layout.occupancy.blocked_radius`) first
+proves how far around the box every spot is blocked; the rings within that radius are
+skipped, and a box whose whole search disk is blocked is refused at once. A proof only
+skips spots that the exact test would reject, so the result stays the same bit for bit.
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from usdworld.layout.occupancy import blocked_radius
 from usdworld.parameters.collision import CollisionParams
 
 #: Boxes may overlap by at most this much (metres); the default of ``CollisionParams.tolerance_m``.
@@ -163,8 +170,16 @@ class _Settled:
         self.grid.insert(i, self.out[i], self.half[i])
 
     def around(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """(M,) int64 settled boxes that may touch the box from ``lo`` to ``hi`` ((2,) float64 each)."""
-        return np.unique(np.array(self.grid.query(lo[0], lo[1], hi[0], hi[1]), dtype=np.int64))
+        """(M,) int64 settled boxes, ascending, that may touch the box from ``lo`` to ``hi``
+        ((2,) float64 each). A query over more grid cells than there are settled boxes
+        tests every box at once instead (the same boxes, and maybe more that are far off)."""
+        span = self.grid._cells(lo[0] - _PAD_M, lo[1] - _PAD_M, hi[0] + _PAD_M, hi[1] + _PAD_M, _MAX_QUERY_CELLS)
+        if span is not None and len(span[0]) * len(span[1]) <= len(self.grid.placed):
+            return np.unique(np.array(self.grid.query(lo[0], lo[1], hi[0], hi[1]), dtype=np.int64))
+        ids = np.array(self.grid.placed, dtype=np.int64)
+        c, hh = self.out[ids], self.half[ids]
+        apart = np.any((c - hh > hi + _PAD_M) | (c + hh < lo - _PAD_M), axis=1)  # NaN is never apart
+        return np.sort(ids[~apart])
 
     def clear(self, cand: np.ndarray, h: np.ndarray, ids: np.ndarray) -> np.ndarray:
         """(K,) bool: candidate centres ((K, 2) float64, half extents ``h``) that overlap none of
@@ -242,7 +257,12 @@ class _Search:
 
 
 def _nearest_clear(
-    c0: np.ndarray, h: np.ndarray, pc: np.ndarray, ph: np.ndarray, settled: _Settled, search: _Search
+    c0: np.ndarray,
+    h: np.ndarray,
+    pc: np.ndarray,
+    ph: np.ndarray,
+    settled: _Settled,
+    search: _Search,
 ) -> np.ndarray | None:
     """The candidate nearest ``c0`` (ties by x, then y) that overlaps no settled box, or None.
 
@@ -255,6 +275,9 @@ def _nearest_clear(
     one boolean matrix product; the free new spot first in the order (distance, x, y)
     (the distance computed as ``np.linalg.norm`` does) is the one sorting all candidates
     at once would give. None also when a ring's square holds more than ``search.most`` spots.
+    Rings within the radius that :func:`~usdworld.layout.occupancy.blocked_radius` proves
+    blocked by the boxes ``pc`` are not tested (a proof from some of the settled boxes
+    holds for all of them).
     """
     clearance, max_m = search.clearance, search.max_m
     xs = np.concatenate([[c0[0]], pc[:, 0] - ph[:, 0] - h[0] - clearance, pc[:, 0] + ph[:, 0] + h[0] + clearance])
@@ -266,30 +289,66 @@ def _nearest_clear(
     dx, dy = xs - c0[0], ys - c0[1]
     dx2, dy2 = dx * dx, dy * dy
     rx, ry = np.sqrt(dx2), np.sqrt(dy2)  # a candidate's distance is at least each of these
+    examined = _examined_radius(rx, ry, max_m, search.most)
+    if examined is None:
+        return None
+    settled.checks += len(pc)
+    blocked = blocked_radius(c0, h, examined, pc, ph, settled.tol)  # every spot this near is blocked
+    if blocked >= examined:
+        return None  # every spot the rings would examine is blocked: the same None, found cheaply
     done, reach = -np.inf, min(_FIRST_RING_M, max_m)
     while True:
         last = not reach < max_m or (bool(np.all(rx <= reach)) and bool(np.all(ry <= reach)))
-        sx = np.nonzero(rx <= (max_m if last else reach))[0]
-        sy = np.nonzero(ry <= (max_m if last else reach))[0]
-        if len(sx) * len(sy) > search.most:  # a pile: too many spots to consider
-            return None
-        dist = np.sqrt(dx2[sx][:, None] + dy2[sy][None, :])
-        new = (dist <= (max_m if last else reach)) & ~(dist <= done)
-        if new.any():
-            lo = np.array([xs[sx].min(), ys[sy].min()])
-            hi = np.array([xs[sx].max(), ys[sy].max()])
-            ids = settled.around(lo - h, hi + h)
-            settled.checks += (len(sx) + len(sy)) * len(ids)
-            if len(ids):
-                ox, oy = settled.out[ids, 0], settled.out[ids, 1]
-                hx, hy = settled.half[ids, 0], settled.half[ids, 1]
-                new &= ~_blocked(xs[sx], ys[sy], ox, oy, h[0] + hx, h[1] + hy, settled.tol)
-            a, b = np.nonzero(new)
-            if len(a):
-                k = np.lexsort((iy[sy][b], ix[sx][a], ys[sy][b], xs[sx][a], dist[a, b]))[0]
-                return np.array([xs[sx][a[k]], ys[sy][b[k]]])
+        r = max_m if last else reach
+        if not r <= blocked:  # else every spot within r is blocked (and the ring is under the cap)
+            sx, sy = np.nonzero(rx <= r)[0], np.nonzero(ry <= r)[0]
+            if len(sx) * len(sy) > search.most:  # a pile: too many spots to consider
+                return None
+            dist = np.sqrt(dx2[sx][:, None] + dy2[sy][None, :])
+            new = (dist <= r) & ~(dist <= done)
+            if new.any():
+                lo = np.array([xs[sx].min(), ys[sy].min()])
+                hi = np.array([xs[sx].max(), ys[sy].max()])
+                ids = settled.around(lo - h, hi + h)
+                settled.checks += (len(sx) + len(sy)) * len(ids)
+                if len(ids):
+                    ox, oy = settled.out[ids, 0], settled.out[ids, 1]
+                    hx, hy = settled.half[ids, 0], settled.half[ids, 1]
+                    new &= ~_blocked(xs[sx], ys[sy], ox, oy, h[0] + hx, h[1] + hy, settled.tol)
+                a, b = np.nonzero(new)
+                if len(a):
+                    k = np.lexsort((iy[sy][b], ix[sx][a], ys[sy][b], xs[sx][a], dist[a, b]))[0]
+                    return np.array([xs[sx][a[k]], ys[sy][b[k]]])
         if last:
             return None
+        done, reach = reach, min(reach * 2.0, max_m)
+
+
+def _examined_radius(rx: np.ndarray, ry: np.ndarray, max_m: float, most: int) -> float | None:
+    """How far from the original centre the rings of :func:`_nearest_clear` test spots.
+
+    The rings' sizes depend on the candidates alone, so this follows them without any
+    overlap test: the search examines every spot within the returned radius before it
+    returns None, either past ``max_m`` or at the first ring over ``most`` spots.
+
+    Args:
+        rx, ry: (NX,) and (NY,) float64 distances of the candidate coordinates along each axis.
+        max_m: the search's radius, metres.
+        most: the most spots one ring may hold.
+
+    Returns:
+        The radius, metres, or None when the first ring is already over ``most`` spots.
+    """
+    rx, ry = np.sort(rx), np.sort(ry)
+    top = max(rx[-1] if len(rx) else -np.inf, ry[-1] if len(ry) else -np.inf)  # none within a bound < 0
+    done, reach = None, min(_FIRST_RING_M, max_m)
+    while True:
+        last = not reach < max_m or bool(top <= reach)
+        r = max_m if last else reach
+        if np.searchsorted(rx, r, side="right") * np.searchsorted(ry, r, side="right") > most:
+            return done
+        if last:
+            return r
         done, reach = reach, min(reach * 2.0, max_m)
 
 

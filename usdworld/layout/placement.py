@@ -20,8 +20,8 @@
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass, field, replace
+from enum import Enum
 
 import numpy as np
 
@@ -51,12 +51,34 @@ from usdworld.parameters.scene import SceneParams
 from usdworld.perception.depth.fusion import DepthCue
 from usdworld.perception.objects import ImageObject
 
-logger = logging.getLogger(__name__)
-
 #: The scene defaults (the range beyond which partial placements are dropped, unless given).
 DEFAULT_SCENE = SceneParams()
 
-__all__ = ["AssetSizes", "DepthMethod", "Placement", "place_objects"]
+__all__ = ["AssetSizes", "DepthMethod", "Placement", "SkipReason", "Skipped", "place_objects", "skip_warnings"]
+
+
+class SkipReason(Enum):
+    """Why an object was not placed."""
+
+    #: Nothing gives its depth: no visible ground contact and no usable height, or only an
+    #: upper bound beyond the world's range (and no occluder or street row to stand behind).
+    NO_DEPTH = "no_depth"
+    #: It would have to move further than ``CollisionParams.max_displacement_m``, or search
+    #: more than ``max_candidates`` spots, to clear the objects already placed (a pile).
+    PILED = "piled"
+
+
+@dataclass(frozen=True)
+class Skipped:
+    """An object not placed.
+
+    Attributes:
+        name: its prim name, as it would have been placed.
+        reason: why it was not.
+    """
+
+    name: str
+    reason: SkipReason
 
 
 @dataclass(frozen=True)
@@ -152,9 +174,9 @@ def place_objects(
         perception: the depth cues' error model and fusion.
 
     Returns:
-        Placements in the same order as ``objects`` and the names of objects that
-        could not be placed (stuff with no visible ground contact and no usable height,
-        objects piled beyond ``CollisionParams.max_displacement_m``).
+        Placements in the same order as ``objects`` and the objects that could not be
+        placed, each once with its reason (stuff with no visible ground contact and no
+        usable height first, then objects piled beyond ``CollisionParams.max_displacement_m``).
         Names are given before skipping, so they stay stable.
     """
     ctx = PlacementContext(
@@ -174,10 +196,36 @@ def place_objects(
     drafts = move_behind_occluders(drafts, ctx)
     drafts, unplaced = onto_street_rows(drafts, unplaced, ctx, sidewalk_ground)
     drafts, unplaced = drop_unbounded(drafts, unplaced, ctx, max_partial_depth_m)
-    drafts, skipped = place_behind_occluders(drafts, unplaced, ctx)
+    drafts, no_depth = place_behind_occluders(drafts, unplaced, ctx)
     drafts = apply_ordering(drafts, ctx)
     placements, piled = resolve_footprints(drafts, ctx)
-    return placements, skipped + piled
+    skipped = [Skipped(n, SkipReason.NO_DEPTH) for n in no_depth] + [Skipped(n, SkipReason.PILED) for n in piled]
+    return placements, skipped
+
+
+def skip_warnings(skipped: list[Skipped], max_partial_depth_m: float, collision: CollisionParams) -> list[str]:
+    """One warning per reason, naming every object skipped for it (in the order given).
+
+    Args:
+        skipped: what :func:`place_objects` did not place.
+        max_partial_depth_m: the range it was given, metres.
+        collision: the collision thresholds it was given.
+    """
+    no_depth = [s.name for s in skipped if s.reason is SkipReason.NO_DEPTH]
+    piled = [s.name for s in skipped if s.reason is SkipReason.PILED]
+    warnings = []
+    if no_depth:
+        warnings.append(
+            f"not placed (no visible ground contact, or only a bound beyond {max_partial_depth_m:g} m): "
+            + ", ".join(no_depth)
+        )
+    if piled:
+        warnings.append(
+            f"{len(piled)} objects not placed: each would have to move more than {collision.max_displacement_m:g} m, "
+            f"or past {collision.max_candidates} candidate spots, to clear the objects already placed "
+            "(a pile of contradictory boxes): " + ", ".join(piled)
+        )
+    return warnings
 
 
 def draft_all(
@@ -231,7 +279,7 @@ def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> tuple[list
     stuff region (a hedge, a facade chunk) should make way for them, not push them. Among
     each kind, the nearer and more confident settle first. An object with no free spot
     within ``CollisionParams.max_displacement_m`` (a pile of contradictory boxes) is not
-    placed; a warning says how many and why.
+    placed (:func:`skip_warnings` says how many and why).
 
     Returns:
         The placements, in draft order, and the names of the objects not placed.
@@ -250,15 +298,6 @@ def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> tuple[list
     )
     resolved = resolve_collisions(centers, half, priority, params=ctx.collision)
     piled = [d.name for d, ok in zip(drafts, resolved.placed) if not ok]
-    if piled:
-        logger.warning(
-            "%d objects not placed: each would have to move more than %g m, or past %d candidate spots, "
-            "to clear the objects already placed (a pile of contradictory boxes): %s",
-            len(piled),
-            ctx.collision.max_displacement_m,
-            ctx.collision.max_candidates,
-            ", ".join(piled),
-        )
     placements = []
     for d, disp, center, ok in zip(drafts, resolved.displacement, resolved.centers, resolved.placed):
         if not ok:

@@ -16,6 +16,8 @@ contact" means further along the horizontal viewing direction of the contact pix
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
@@ -23,8 +25,16 @@ from usdworld.parameters.placement import PlacementParams
 
 
 def _depth_grid(params: PlacementParams) -> np.ndarray:
-    """(G,) float64 candidate depths, log-spaced over ``silhouette_depth_range_m``, metres."""
-    return np.geomspace(*params.silhouette_depth_range_m, params.silhouette_grid_points)
+    """(G,) float64 candidate depths, log-spaced over ``silhouette_depth_range_m``, metres (read-only)."""
+    return _geomspace(*params.silhouette_depth_range_m, params.silhouette_grid_points)
+
+
+@functools.lru_cache(maxsize=8)
+def _geomspace(start: float, stop: float, num: int) -> np.ndarray:
+    """``np.geomspace``, made once per grid (every object searches the same one), read-only."""
+    grid = np.geomspace(start, stop, num)
+    grid.setflags(write=False)
+    return grid
 
 
 def top_offsets(
@@ -89,14 +99,16 @@ def silhouette_rows(
     if rate <= 1e-6:
         return np.full(depths.shape, np.nan)
     base = camera.center_world[:2][None, :] + (depths / rate)[:, None] * ahead[None, :]
-    points = [np.column_stack([base, np.zeros(len(depths))])]
-    for offset in offsets_m:
-        top = base + offset * ahead[None, :]
-        points.append(np.column_stack([top, np.full(len(depths), height_m)]))
-    rows = []
-    for pts in points:
-        px, depth = camera.project(pts)
-        rows.append(np.where(depth > near_plane_m, px[:, 1], np.nan))
+    # Three stacks projected at once, each as camera.project would on its own: the contact
+    # points, and the top's near and far edges.
+    points = np.empty((3, len(depths), 3))
+    points[0, :, :2] = base
+    points[0, :, 2] = 0.0
+    for k, offset in enumerate(offsets_m, start=1):
+        points[k, :, :2] = base + offset * ahead[None, :]
+        points[k, :, 2] = height_m
+    px, depth = camera.project_stacked(points)
+    rows = np.where(depth > near_plane_m, px[:, :, 1], np.nan)
     top_row = np.fmin(rows[1], rows[2])
     return rows[0] - top_row
 

@@ -119,3 +119,10 @@ def test_each_skipped_object_is_named_once_with_its_reason(caplog):
         f"{len(piled)} objects not placed: each would have to move more than 1 m, or past 65536 candidate "
         "spots, to clear the objects already placed (a pile of contradictory boxes): " + ", ".join(piled),
     ]
+
+
+def test_a_warning_names_at_most_twenty_skipped_objects() -> None:
+    skipped = [Skipped(f"car_{k:04d}", SkipReason.PILED) for k in range(1, 26)]
+    (warning,) = skip_warnings(skipped, 80.0, CollisionParams())
+    assert warning.startswith("25 objects not placed")
+    assert warning.endswith("car_0019, car_0020 and 5 more") and "car_0021" not in warning

@@ -203,8 +203,21 @@ def place_objects(
     return placements, skipped
 
 
+#: Names a warning lists before it only counts the rest (a detector's raw output can pile
+#: hundreds of boxes; a warning stays one readable line).
+MAX_NAMED = 20
+
+
+def _named(names: list[str]) -> str:
+    """``a, b, c`` or, past :data:`MAX_NAMED`, the first ones and ``and N more``."""
+    if len(names) <= MAX_NAMED:
+        return ", ".join(names)
+    return ", ".join(names[:MAX_NAMED]) + f" and {len(names) - MAX_NAMED} more"
+
+
 def skip_warnings(skipped: list[Skipped], max_partial_depth_m: float, collision: CollisionParams) -> list[str]:
-    """One warning per reason, naming every object skipped for it (in the order given).
+    """One warning per reason, naming the objects skipped for it (in the order given; past
+    :data:`MAX_NAMED` names, how many more).
 
     Args:
         skipped: what :func:`place_objects` did not place.
@@ -217,13 +230,13 @@ def skip_warnings(skipped: list[Skipped], max_partial_depth_m: float, collision:
     if no_depth:
         warnings.append(
             f"not placed (no visible ground contact, or only a bound beyond {max_partial_depth_m:g} m): "
-            + ", ".join(no_depth)
+            + _named(no_depth)
         )
     if piled:
         warnings.append(
             f"{len(piled)} objects not placed: each would have to move more than {collision.max_displacement_m:g} m, "
             f"or past {collision.max_candidates} candidate spots, to clear the objects already placed "
-            "(a pile of contradictory boxes): " + ", ".join(piled)
+            "(a pile of contradictory boxes): " + _named(piled)
         )
     return warnings
 

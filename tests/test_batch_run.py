@@ -374,7 +374,7 @@ def test_kitti_tree_of_real_frames(
     frames = sorted(p.stem for p in (shared_data / "kitti" / "training" / "image_2").glob("*.png"))
     n = len(frames)
     assert (
-        main(["-q", "batch", str(shared_data / "kitti" / "training"), "--layout", "kitti", "-o", str(out)])
+        main(["batch", str(shared_data / "kitti" / "training"), "--layout", "kitti", "-o", str(out)])
         == 0
     )
     assert capsys.readouterr().out.startswith(f"built {n}, unchanged 0, failed 0, cancelled 0 of {n} frames in ")

@@ -122,7 +122,7 @@ def test_street_world_has_cars_a_person_and_ground(tmp_path: Path) -> None:
 
 
 # --------------------------------------------------------------------------------------------
-# External tools (node, npm packages, chromium, blender)
+# External tools (node, npm packages, chromium)
 # --------------------------------------------------------------------------------------------
 
 REPO = Path(__file__).resolve().parents[1]

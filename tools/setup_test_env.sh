@@ -22,6 +22,9 @@ fi
 # requirement would pull a multi-GB CUDA build.
 python3 -m pip install -q "torch==2.13.0"
 python3 -m pip install -q -e ".[test,render,depth,batch,serve]"
+# The blender extra (bpy, Blender 4.5 LTS) without its numpy<2 requirement: resolving it would
+# downgrade numpy and opencv-python-headless; its other requirements come explicitly.
+python3 -m pip install -q --no-deps "bpy>=4.5,<4.6" zstandard cython
 # Browser clients (Debian chromium, node packages pinned in web/package-lock.json), and the
 # browser editor's build tools (webapp/), so the test that its committed page is current runs.
 bash tools/setup_web.sh

@@ -4,24 +4,14 @@
 #   - node >= 20 with npm (kept if present; Debian's own nodejs is 18, too old for playwright-core);
 #   - web/'s npm packages exactly as pinned in web/package-lock.json (three, playwright-core,
 #     esbuild, gltf-validator), then the bundled test page in web/dist.
-# Optional: --with-blender also installs Debian's blender (~640 MB) for the Blender import tests.
 # Safe to run twice: installed packages are skipped, npm ci only runs when node_modules is stale.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-
-with_blender=0
-for arg in "$@"; do
-  case "$arg" in
-    --with-blender) with_blender=1 ;;
-    *) echo "usage: tools/setup_web.sh [--with-blender]" >&2; exit 2 ;;
-  esac
-done
 
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; else sudo "$@"; fi; }
 
 apt_packages=(chromium)
 command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1 || apt_packages+=(nodejs npm)
-[ "$with_blender" = 1 ] && apt_packages+=(blender python3-numpy)  # its glTF importer needs numpy
 missing=()
 for p in "${apt_packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

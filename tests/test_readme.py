@@ -125,7 +125,7 @@ def test_plan_runs_every_kind_of_example_and_says_why_it_leaves_one_out() -> Non
     left_out = {s.text: s.skip for s in steps if s.skip}
     # what is left out, and only that: installs, the suite, the server, and the real-data examples
     assert left_out["usdworld serve demo_world/world.usda"].startswith("a server")
-    assert left_out["python3 -m pytest -q"] == "runs the test suite itself"
+    assert left_out["python3 -m pytest -q -n auto"] == "runs the test suite itself"
     assert all(
         re.match(
             r"(installs|runs the test suite|a server|needs outside data|uses \S+, which a left-out)", why

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import typer
 
+from usdworld.cli.ground_truth_options import CALIB, GT, NUSCENES_CAMERA
+
 
 def _fmt(value: object, digits: int = 3) -> str:
     return "-" if value is None else f"{value:.{digits}f}" if isinstance(value, float) else str(value)
@@ -18,18 +20,12 @@ def evaluate(
         "--labels",
         help="Cityscapes *_gtFine_labelIds.png (default: the world's labels input, found next to it).",
     ),
-    gt: Path | None = typer.Option(
-        None, "--gt", help="3D ground truth: synth *_gt.json, KITTI label_2 .txt or nuScenes info JSON."
-    ),
+    gt: Path | None = GT,
     photo: Path | None = typer.Option(
         None, "--photo", help="The source photo for SSIM (default: found next to the world)."
     ),
-    calib: Path | None = typer.Option(
-        None, "--calib", help="KITTI calib file for --gt label_2 (default: ../calib/<same name>)."
-    ),
-    nuscenes_camera: str = typer.Option(
-        "CAM_FRONT", "--nuscenes-camera", help="Camera of a nuScenes info file."
-    ),
+    calib: Path | None = CALIB,
+    nuscenes_camera: str = NUSCENES_CAMERA,
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object (last)."),
 ) -> None:
     """Render the world from its source camera and compare it with its labels, photo and 3D ground truth."""

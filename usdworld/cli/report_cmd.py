@@ -6,6 +6,8 @@ from pathlib import Path
 
 import typer
 
+from usdworld.cli.ground_truth_options import CALIB, GT, NUSCENES_CAMERA
+
 
 def report(
     world: Path = typer.Argument(..., help="A world's world.usda (or its folder)."),
@@ -17,18 +19,12 @@ def report(
         "--labels",
         help="Cityscapes *_gtFine_labelIds.png for the layout IoU (default: the world's labels input, found next to it).",
     ),
-    gt: Path | None = typer.Option(
-        None, "--gt", help="3D ground truth: synth *_gt.json, KITTI label_2 .txt or nuScenes info JSON."
-    ),
-    calib: Path | None = typer.Option(
-        None, "--calib", help="KITTI calib file for --gt label_2 (default: ../calib/<same name>)."
-    ),
+    gt: Path | None = GT,
+    calib: Path | None = CALIB,
     photo: Path | None = typer.Option(
         None, "--photo", help="The source photo (default: found next to the world)."
     ),
-    nuscenes_camera: str = typer.Option(
-        "CAM_FRONT", "--nuscenes-camera", help="Camera of a nuScenes info file."
-    ),
+    nuscenes_camera: str = NUSCENES_CAMERA,
 ) -> None:
     """Write one HTML page with the photo, the render, every object's provenance, the camera and the evaluation."""
     from usdworld.cli.output import say

@@ -162,7 +162,9 @@ class PinholeCamera:
             (N, 3) float64 world directions scaled so that their camera-z (depth) is 1.
         """
         px = np.asarray(points_px, dtype=np.float64).reshape(-1, 2)
-        homog = np.column_stack([px, np.ones(len(px))])
+        homog = np.empty((len(px), 3))  # (u, v, 1), as np.column_stack makes it
+        homog[:, :2] = px
+        homog[:, 2] = 1.0
         rays_cam = homog @ self._cam_from_px.T
         return rays_cam @ self._world_from_cam.T
 

@@ -138,21 +138,46 @@ def predicted_top_rows(
         v_top: (G, N) float64 predicted top rows (NaN where the bottom is above the horizon).
         depth: (G, N) float64 depth of the object's top along the optical axis.
     """
+    v_top, depth, _ = _top_rows(h, pitch, K, obs)
+    return v_top, depth
+
+
+def _top_rows(
+    h: np.ndarray, pitch: np.ndarray, K: np.ndarray, obs: HeightObservations
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`predicted_top_rows`, and the top's pixels per metre of height spread,
+    ``fy * height_std_m / max(depth, 0.1)`` ((G, N) float64, which the cost reuses).
+
+    Temporaries are reused in place (``out=``) and the products that do not depend on the
+    edge are made once: every value is the same float operation on the same operands.
+    """
     fy, cy = K[1, 1], K[1, 2]
     b = ((obs.v_bottom - cy) / fy)[None, :]
     c, s = np.cos(pitch)[:, None], np.sin(pitch)[:, None]
     hh = h[:, None]
-    denom = s + b * c
+    denom = b * c
+    np.add(s, denom, out=denom)  # s + b c
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(denom > 1e-9, hh / denom, np.nan)
-        forward = t * (c - b * s)
+        t = hh / denom
+        t[~(denom > 1e-9)] = np.nan
+        forward = b * s
+        np.subtract(c, forward, out=forward)
+        np.multiply(t, forward, out=forward)  # t (c - b s)
         dz = obs.height_m[None, :] - hh
+        s_dz, c_dz = s * dz, c * dz
         rows, depths = [], []
         for offset in (obs.top_near_m, obs.top_far_m):
             ahead = forward + offset[None, :]
-            z_cam = c * ahead - s * dz
-            y_cam = -(s * ahead + c * dz)
-            rows.append(np.where(z_cam > 0.1, cy + fy * y_cam / z_cam, np.nan))
+            z_cam = c * ahead
+            np.subtract(z_cam, s_dz, out=z_cam)  # c ahead - s dz
+            y_cam = s * ahead
+            np.add(y_cam, c_dz, out=y_cam)
+            np.negative(y_cam, out=y_cam)  # -(s ahead + c dz)
+            row = np.multiply(fy, y_cam, out=y_cam)
+            np.divide(row, z_cam, out=row)
+            np.add(cy, row, out=row)  # cy + fy y_cam / z_cam
+            row[~(z_cam > 0.1)] = np.nan
+            rows.append(row)
             depths.append(z_cam)
     far_higher = rows[1] < rows[0]
     depth = np.where(far_higher, depths[1], depths[0])
@@ -162,10 +187,16 @@ def predicted_top_rows(
     # replaced by g tanh(g / tau): exact when the edges coincide (a flat object) and when
     # they are far apart, smooth in between.
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        tau = np.maximum(fy * obs.height_std_m[None, :] / np.maximum(depth, 0.1), 1e-6)
+        spread_px = fy * obs.height_std_m[None, :] / np.maximum(depth, 0.1)
+        tau = np.maximum(spread_px, 1e-6)
         gap = rows[1] - rows[0]
-        v_top = 0.5 * (rows[0] + rows[1] - gap * np.tanh(gap / tau))
-    return v_top, depth
+        np.divide(gap, tau, out=tau)
+        np.tanh(tau, out=tau)
+        np.multiply(gap, tau, out=tau)  # gap tanh(gap / tau)
+        v_top = rows[0] + rows[1]
+        np.subtract(v_top, tau, out=v_top)
+        np.multiply(0.5, v_top, out=v_top)
+    return v_top, depth, spread_px
 
 
 def _object_cost(
@@ -181,10 +212,18 @@ def _object_cost(
     out = np.empty(len(h))
     step = max(1, _BLOCK_ELEMENTS // len(obs))
     for a in range(0, len(h), step):
-        v_top, z = predicted_top_rows(h[a : a + step], pitch[a : a + step], K, obs)
-        sigma = np.sqrt((K[1, 1] * obs.height_std_m[None, :] / np.maximum(z, 0.1)) ** 2 + params.edge_noise_px**2)
-        r = (v_top - obs.v_top[None, :]) / sigma
-        out[a : a + step] = np.where(np.isfinite(r), np.log1p(r**2), params.unprojectable_cost).sum(axis=1)
+        v_top, _, spread_px = _top_rows(h[a : a + step], pitch[a : a + step], K, obs)
+        # sqrt(spread^2 + noise^2), the top row's sigma, in place
+        sigma = np.square(spread_px, out=spread_px)
+        np.add(sigma, params.edge_noise_px**2, out=sigma)
+        np.sqrt(sigma, out=sigma)
+        r = np.subtract(v_top, obs.v_top[None, :], out=v_top)
+        np.divide(r, sigma, out=r)
+        finite = np.isfinite(r)
+        cost = np.square(r, out=r)
+        np.log1p(cost, out=cost)
+        cost[~finite] = params.unprojectable_cost
+        out[a : a + step] = cost.sum(axis=1)
     return out
 
 

@@ -124,11 +124,14 @@ def fit_view_angle(
     angles_deg, angles = _turns(params.view_angle_step_deg)
     # All turns at once, each trial box projected exactly as on its own (same products, same bits).
     px, depth = camera.project_stacked(box_corners_turned(ground, bearing + angles, np.asarray(size_lwh)))
-    ok = np.isfinite(px).all(axis=(1, 2)) & np.all(depth > 0, axis=1)
-    u, v = px[:, :, 0], px[:, :, 1]
-    with np.errstate(invalid="ignore"):  # the spans as np.ptp takes them: max - min
-        aspects = (u.max(axis=1) - u.min(axis=1)) / np.maximum(v.max(axis=1) - v.min(axis=1), 1e-9)
-    curve = np.where(ok, aspects, np.nan)
+    if not (np.isfinite(px).all() and (depth > 0).all()):  # a turn projects off the image plane
+        return float(view_angle_from_box(x1 - x0, y1 - y0, tuple(size_lwh)))
+    # The spans as np.ptp takes them, max - min over the 8 corners of each turn; corner-major
+    # (8, K, 2) so that each reduction is 7 elementwise passes (max and min select, in any order).
+    by_corner = np.ascontiguousarray(px.transpose(1, 0, 2))
+    span = by_corner.max(axis=0) - by_corner.min(axis=0)
+    with np.errstate(invalid="ignore"):
+        curve = span[:, 0] / np.maximum(span[:, 1], 1e-9)
     if not np.isfinite(curve).all():
         return float(view_angle_from_box(x1 - x0, y1 - y0, tuple(size_lwh)))
     peak = int(np.argmax(curve))
@@ -141,7 +144,7 @@ def fit_view_angle(
     k = min(max(k, 1), peak)
     a0, a1 = angles_deg[k - 1], angles_deg[k]
     t = (observed - rising[k - 1]) / max(rising[k] - rising[k - 1], 1e-12)
-    return float(np.radians(a0 + np.clip(t, 0.0, 1.0) * (a1 - a0)))
+    return float(np.radians(a0 + min(max(t, 0.0), 1.0) * (a1 - a0)))
 
 
 @functools.lru_cache(maxsize=8)
@@ -185,16 +188,22 @@ def align_box_columns(
     if x0 <= 0.5 or x1 >= camera.width - 0.5:
         return ground
     start = np.asarray(ground, dtype=np.float64)
-    centre = start.copy()
+    cx, cy = float(start[0]), float(start[1])
     offsets, h = _foot_offsets(yaw, size)  # the turn is fixed: only the centre moves
+    target = 0.5 * (x0 + x1)
     for _ in range(params.box_align_iterations):
-        px, depth = camera.project(_corners_at(centre, offsets, h))
+        px, depth = camera.project(_corners_at(np.array([cx, cy]), offsets, h))
         if not np.isfinite(px).all():
             return ground
-        error_px = 0.5 * (x0 + x1) - 0.5 * (px[:, 0].min() + px[:, 0].max())
-        bearing = np.arctan2(centre[1], centre[0])
-        left = np.array([-np.sin(bearing), np.cos(bearing)])
-        centre = centre - left * error_px * float(np.mean(depth)) / camera.fx
+        u = px[:, 0]
+        error_px = target - 0.5 * (float(u.min()) + float(u.max()))
+        bearing = np.arctan2(cy, cx)
+        # The step along ``left = (-sin, cos)``, each coordinate in plain floats with numpy's
+        # elementwise order: centre - left * error * mean depth / fx.
+        scale = float(np.mean(depth))
+        lx, ly = -float(np.sin(bearing)), float(np.cos(bearing))
+        cx, cy = cx - lx * error_px * scale / camera.fx, cy - ly * error_px * scale / camera.fx
+    centre = np.array([cx, cy])
     shift = centre - start
     limit = params.box_align_max_shift * float(size[1])
     norm = float(np.linalg.norm(shift))

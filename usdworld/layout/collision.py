@@ -28,6 +28,7 @@ skips spots that the exact test would reject, so the result stays the same bit f
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -175,7 +176,7 @@ class _Settled:
         tests every box at once instead (the same boxes, and maybe more that are far off)."""
         span = self.grid._cells(lo[0] - _PAD_M, lo[1] - _PAD_M, hi[0] + _PAD_M, hi[1] + _PAD_M, _MAX_QUERY_CELLS)
         if span is not None and len(span[0]) * len(span[1]) <= len(self.grid.placed):
-            return np.unique(np.array(self.grid.query(lo[0], lo[1], hi[0], hi[1]), dtype=np.int64))
+            return np.array(sorted(set(self.grid.query(lo[0], lo[1], hi[0], hi[1]))), dtype=np.int64)
         ids = np.array(self.grid.placed, dtype=np.int64)
         c, hh = self.out[ids], self.half[ids]
         apart = np.any((c - hh > hi + _PAD_M) | (c + hh < lo - _PAD_M), axis=1)  # NaN is never apart
@@ -339,13 +340,15 @@ def _examined_radius(rx: np.ndarray, ry: np.ndarray, max_m: float, most: int) ->
     Returns:
         The radius, metres, or None when the first ring is already over ``most`` spots.
     """
-    rx, ry = np.sort(rx), np.sort(ry)
+    # Sorted Python floats: bisect_right counts what np.searchsorted(side="right") counts
+    # (the distances are finite: the candidates are within max_m).
+    rx, ry = sorted(rx.tolist()), sorted(ry.tolist())
     top = max(rx[-1] if len(rx) else -np.inf, ry[-1] if len(ry) else -np.inf)  # none within a bound < 0
     done, reach = None, min(_FIRST_RING_M, max_m)
     while True:
         last = not reach < max_m or bool(top <= reach)
         r = max_m if last else reach
-        if np.searchsorted(rx, r, side="right") * np.searchsorted(ry, r, side="right") > most:
+        if bisect.bisect_right(rx, r) * bisect.bisect_right(ry, r) > most:
             return done
         if last:
             return r

@@ -16,6 +16,7 @@ exactly". So the raster's size changes how much is skipped, never a result.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -84,17 +85,29 @@ def blocked_radius(
     if not ok.any():
         return nothing
     first, last = first[ok], last[ok] + 1
-    diff = np.zeros((n + 1, n + 1), dtype=np.int32)
-    np.add.at(diff, (first[:, 0], first[:, 1]), 1)
-    np.add.at(diff, (first[:, 0], last[:, 1]), -1)
-    np.add.at(diff, (last[:, 0], first[:, 1]), -1)
-    np.add.at(diff, (last[:, 0], last[:, 1]), 1)
+    # Each box adds one to a rectangle of a difference array; its two sums count the boxes
+    # covering each cell.
+    side = n + 1
+    up = np.concatenate([first[:, 0] * side + first[:, 1], last[:, 0] * side + last[:, 1]])
+    down = np.concatenate([first[:, 0] * side + last[:, 1], last[:, 0] * side + first[:, 1]])
+    diff = (np.bincount(up, minlength=side * side) - np.bincount(down, minlength=side * side)).reshape(side, side)
     free = np.cumsum(np.cumsum(diff, axis=0), axis=1)[:n, :n] == 0
-    # Each cell's nearest point to c0; a spot within the disk lies in a cell no further than it.
-    edges = np.arange(n + 1, dtype=np.float64) * cell  # from the origin, the same on both axes
-    gap = np.maximum(np.maximum(edges[:-1] - r, r - edges[1:]), 0.0)
-    nearest = np.sqrt(gap[:, None] ** 2 + gap[None, :] ** 2)
-    free &= nearest <= r
+    nearest, within = _cell_distances(r, cell, n)
+    free &= within
     if not free.any():
         return radius
     return min(float(nearest[free].min()) - MARGIN_M, radius)
+
+
+@functools.lru_cache(maxsize=64)
+def _cell_distances(r: float, cell: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each raster cell's nearest point to the disk's centre: ((n, n) float64 distances, metres,
+    and (n, n) bool which are within ``r``), read-only; a spot within the disk lies in a cell
+    no further than it. The searches' radii repeat (rings double up to a bound), so few are made."""
+    edges = np.arange(n + 1, dtype=np.float64) * cell  # from the origin, the same on both axes
+    gap = np.maximum(np.maximum(edges[:-1] - r, r - edges[1:]), 0.0)
+    nearest = np.sqrt(gap[:, None] ** 2 + gap[None, :] ** 2)
+    within = nearest <= r
+    nearest.setflags(write=False)
+    within.setflags(write=False)
+    return nearest, within

@@ -47,6 +47,9 @@ def _root(
     debug: bool = typer.Option(False, "--debug", help="Show tracebacks and debug logging."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="Only print warnings and errors."),
 ) -> None:
+    from usdworld.cli.output import set_quiet
+
+    set_quiet(quiet)
     level = logging.DEBUG if debug else (logging.WARNING if quiet else logging.INFO)
     logging.basicConfig(level=level, format="%(levelname)s: %(message)s", stream=sys.stderr, force=True)
     for noisy in ("omni", "omni.asset_validator", "omni.asset_validator._plugins"):
@@ -93,6 +96,7 @@ def commands_for(args: Sequence[str]) -> tuple[str, ...]:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI and return its exit code (never raises for user errors)."""
+    from usdworld.cli.output import set_quiet
     from usdworld.errors import UsdWorldError
 
     args = list(sys.argv[1:] if argv is None else argv)
@@ -105,6 +109,7 @@ def main(argv: list[str] | None = None) -> int:
                 make_app(commands_for(args))(args=args, prog_name="usdworld", standalone_mode=True)
             finally:
                 held = list(caught or [])
+                set_quiet(None)  # the run is over: a later caller in this process is not under its -q
     except SystemExit as exc:
         code = exc.code
         code = code if isinstance(code, int) else (0 if code is None else 1)

@@ -10,21 +10,29 @@ from __future__ import annotations
 
 import logging
 
-import click
 import typer
+
+#: The ``usdworld`` command's own ``--quiet`` for the run in progress; None outside a run.
+_quiet_option: bool | None = None
+
+
+def set_quiet(flag: bool | None) -> None:
+    """Record the run's ``--quiet`` (the root callback does); None when the run ends."""
+    global _quiet_option
+    _quiet_option = flag
 
 
 def quiet() -> bool:
     """True under ``usdworld -q``.
 
-    Read from the ``usdworld`` command's own ``--quiet`` option, not from the root logger's
-    level, which a library may change while a command runs (Dask's LocalCluster does).
-    Outside a command (a caller of :func:`usdworld.cli.summary.print_build_summary`, say),
-    quiet when the root logger passes only warnings and errors.
+    Read from the ``usdworld`` command's own ``--quiet`` option (:func:`set_quiet`), not from
+    the root logger's level, which a library may change while a command runs (Dask's
+    LocalCluster does). Outside a command (a caller of
+    :func:`usdworld.cli.summary.print_build_summary`, say), quiet when the root logger passes
+    only warnings and errors.
     """
-    ctx = click.get_current_context(silent=True)
-    if ctx is not None:
-        return bool(ctx.find_root().params.get("quiet", False))
+    if _quiet_option is not None:
+        return _quiet_option
     return logging.getLogger().getEffectiveLevel() > logging.INFO
 
 

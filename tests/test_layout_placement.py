@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from layout_support import box_object
 
 from usdworld.authoring.asset_library import library_dirs
 from usdworld.authoring.asset_measures import asset_catalogue
@@ -18,29 +19,12 @@ K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
 CAM = PinholeCamera(1024, 512, K, 1.3)
 
 
-def _obj(class_name: str, box: tuple[int, int, int, int], ref: int, **flags) -> ImageObject:
-    x0, y0, x1, y1 = box
-    return ImageObject(
-        class_name=class_name,
-        source_label=class_name,
-        instance_id=ref if class_name == "car" else -1,
-        box_px=np.array(box, dtype=np.int64),
-        mask=np.ones((y1 - y0, x1 - x0), bool),
-        contact_px=np.array([(x0 + x1) / 2.0, y1 - 0.5]),
-        bottom_truncated=False,
-        bottom_occluded=flags.get("hidden", False),
-        top_truncated=False,
-        occluded_by=flags.get("by", -1),
-        ref=ref,
-    )
-
-
 def test_a_sliver_of_stuff_past_a_near_car_is_not_put_behind_it():
-    car = _obj("car", (380, 280, 640, 420), 1)  # about 8 m away
+    car = box_object("car", (380, 280, 640, 420), 1)  # about 8 m away
     # Bottoms above the horizon (row 256): no ground point. The sliver's top row puts a
     # 7 m tree beyond the world's range; right behind the car it would be 0.15 x 0.7 m.
-    sliver = _obj("tree", (500, 200, 512, 250), 2, hidden=True, by=1)
-    crown = _obj("tree", (400, 60, 620, 250), 3, hidden=True, by=1)  # a whole crown: its top row places it
+    sliver = box_object("tree", (500, 200, 512, 250), 2, hidden=True, by=1)
+    crown = box_object("tree", (400, 60, 620, 250), 3, hidden=True, by=1)  # a whole crown: its top row places it
     objects = [car, sliver, crown]
     sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
     ground_from_px = np.linalg.inv(CAM.px_from_ground())
@@ -61,8 +45,8 @@ def test_a_sliver_of_stuff_past_a_near_car_is_not_put_behind_it():
 
 def test_a_person_under_a_crown_does_not_push_the_tree():
     # 59 px tall: a 1.75 m person at the 24 m its contact row gives (so its cues agree)
-    person = _obj("person", (560, 241, 580, 300), 1)
-    tree = _obj("tree", (480, 120, 660, 300), 2)  # its crown overhangs the person
+    person = box_object("person", (560, 241, 580, 300), 1)
+    tree = box_object("tree", (480, 120, 660, 300), 2)  # its crown overhangs the person
     # a trunk: only the middle columns reach the bottom
     mask = np.pad(np.ones((140, 180), bool), ((0, 40), (0, 0)))
     mask[140:, 45:55] = True  # 35-45 px (about 1.2 m) left of the person
@@ -92,8 +76,8 @@ def test_each_skipped_object_is_named_once_with_its_reason(caplog):
     # displacement bound, the first car stays, the rest of the pile is dropped as piled;
     # the sliver has no depth. Each one is named in exactly one warning, the one with its
     # reason, and placement itself logs nothing (it used to log the pile a second time).
-    cars = [_obj("car", (380, 280, 640, 420), ref) for ref in range(1, 13)]
-    tree = _obj("tree", (500, 200, 512, 250), 20, hidden=True, by=1)
+    cars = [box_object("car", (380, 280, 640, 420), ref) for ref in range(1, 13)]
+    tree = box_object("tree", (500, 200, 512, 250), 20, hidden=True, by=1)
     objects = [*cars, tree]
     sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
     collision = CollisionParams(max_displacement_m=1.0)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from layout_support import box_object
 
 from usdworld.authoring.asset_library import library_dirs
 from usdworld.authoring.asset_measures import asset_catalogue
@@ -37,26 +38,6 @@ def _px(x: float, y: float, z: float = 0.0) -> tuple[float, float]:
     """Pixel of a world point seen by the level camera."""
     px, _ = LEVEL.project(np.array([[x, y, z]]))
     return float(px[0, 0]), float(px[0, 1])
-
-
-def _obj(
-    class_name: str, box: tuple[int, int, int, int], ref: int, hidden: bool = False, by: int = -1
-) -> ImageObject:
-    """An object whose mask fills its box, its contact below the box's middle column."""
-    x0, y0, x1, y1 = box
-    return ImageObject(
-        class_name=class_name,
-        source_label=class_name,
-        instance_id=ref if class_name == "car" else -1,
-        box_px=np.array(box, dtype=np.int64),
-        mask=np.ones((y1 - y0, x1 - x0), bool),
-        contact_px=np.array([(x0 + x1) / 2.0, y1 - 0.5]),
-        bottom_truncated=False,
-        bottom_occluded=hidden,
-        top_truncated=False,
-        occluded_by=by,
-        ref=ref,
-    )
 
 
 def _ctx(objects: list[ImageObject], depth_map: DepthMap | None = None) -> PlacementContext:
@@ -93,8 +74,8 @@ def _draft(obj: ImageObject, name: str, front: float, method: DepthMethod, back:
 
 # --- occluder bounds: move behind occluders -------------------------------------------------
 
-CAR = _obj("car", (400, 300, 600, 400), 1)
-HIDDEN_TREE = _obj("tree", (450, 100, 550, 300), 2, hidden=True, by=1)
+CAR = box_object("car", (400, 300, 600, 400), 1)
+HIDDEN_TREE = box_object("tree", (450, 100, 550, 300), 2, hidden=True, by=1)
 
 
 def test_a_contact_bound_short_of_its_occluder_moves_just_behind_it():
@@ -130,8 +111,8 @@ def test_an_occluder_whose_own_depth_is_only_an_upper_bound_does_not_bound():
 
 
 def test_a_building_never_bounds_what_it_hides():
-    building = _obj("building", (300, 50, 700, 400), 1)
-    tree = _obj("tree", (450, 100, 550, 300), 2, hidden=True, by=1)
+    building = box_object("building", (300, 50, 700, 400), 1)
+    tree = box_object("tree", (450, 100, 550, 300), 2, hidden=True, by=1)
     ctx = _ctx([building, tree])
     drafts = [
         _draft(building, "building_0001", 10.0, DepthMethod.CONTACT),
@@ -144,7 +125,7 @@ def test_a_building_never_bounds_what_it_hides():
 
 
 def test_an_object_with_no_cue_goes_right_behind_its_occluder():
-    person = _obj("person", (470, 150, 530, 300), 2, hidden=True, by=1)
+    person = box_object("person", (470, 150, 530, 300), 2, hidden=True, by=1)
     ctx = _ctx([CAR, person])
     car = _draft(CAR, "car_0001", 10.0, DepthMethod.CONTACT, back=2.0)
     (_, placed), skipped = place_behind_occluders([car], [(person, "person_0001")], ctx)
@@ -153,7 +134,7 @@ def test_an_object_with_no_cue_goes_right_behind_its_occluder():
     assert placed.depth_method == "behind_car_0001"
     assert placed.confidence == pytest.approx(PARAMS.confidence_behind)
     # a facade whose base the car hides could stand anywhere behind it: it is not put there
-    facade = _obj("building", (100, 20, 900, 300), 3, hidden=True, by=1)
+    facade = box_object("building", (100, 20, 900, 300), 3, hidden=True, by=1)
     placed, skipped = place_behind_occluders([car], [(facade, "building_0001")], _ctx([CAR, facade]))
     assert len(placed) == 1 and skipped == ["building_0001"]
 
@@ -166,7 +147,7 @@ def test_an_object_whose_foot_is_hidden_stands_on_its_class_row():
     # depth 4 fx / (u - cx).
     u_mid = _px(20.0, -4.0)[0]
     x0, x1 = round(u_mid) - 30, round(u_mid) + 30
-    tree = _obj("tree", (x0, 150, x1, 260), 2, hidden=True)
+    tree = box_object("tree", (x0, 150, x1, 260), 2, hidden=True)
     # its lowest pixel is off to one side (a hem of the crown), not below its trunk
     tree = ImageObject(**{**tree.__dict__, "contact_px": np.array([x1 - 5.5, 259.5])})
     ctx = _ctx([tree])
@@ -193,7 +174,7 @@ def test_facades_stand_at_the_sidewalks_back_edge():
     assert rows["pole"].offset_m == pytest.approx(-(2.2 + PARAMS.post_kerb_setback_m))
     # a facade whose base is hidden stands on that row below its contact pixel
     u, v = _px(25.0, -5.8)
-    facade = _obj("building", (round(u) - 40, 60, round(u) + 40, round(v)), 3, hidden=True)
+    facade = box_object("building", (round(u) - 40, 60, round(u) + 40, round(v)), 3, hidden=True)
     moved = onto_street_line(facade, "building_0001", float("inf"), {}, [rows["building"]], _ctx([facade]))
     assert moved is not None
     assert moved.front_depth_m == pytest.approx(5.8 * FX / (float(facade.contact_px[0]) - CX))
@@ -205,7 +186,7 @@ def test_a_contact_beyond_its_row_by_more_than_the_outlier_distance_is_off_its_r
     ctx = _ctx([])
     for beyond, off in ((PARAMS.row_outlier_m + 0.2, True), (PARAMS.row_outlier_m - 0.2, False)):
         u, v = _px(20.0, -4.0 - beyond)
-        tree = _obj("tree", (round(u) - 20, 150, round(u) + 20, 260), 2)
+        tree = box_object("tree", (round(u) - 20, 150, round(u) + 20, 260), 2)
         tree = ImageObject(**{**tree.__dict__, "contact_px": np.array([u, v])})
         assert off_its_row(_draft(tree, "tree_0001", 20.0, DepthMethod.CONTACT), [row], ctx) is off
         # nearer than the row is never off it, nor is a car
@@ -242,9 +223,9 @@ def test_depth_method_strings_are_those_written_to_usd():
 def test_ordering_rules_change_only_the_depths_the_map_decided():
     # Three contacts on the same row: rule 1 gives the map's object the nearest depth; the
     # farther object placed by its seen contact keeps its own.
-    a = _obj("car", (100, 300, 200, 400), 1)
-    b = _obj("car", (400, 300, 500, 400), 2)
-    c = _obj("car", (700, 300, 800, 400), 3)
+    a = box_object("car", (100, 300, 200, 400), 1)
+    b = box_object("car", (400, 300, 500, 400), 2)
+    c = box_object("car", (700, 300, 800, 400), 3)
     dm = DepthMap(np.ones((512, 1024), np.float32), np.ones((512, 1024), bool), "test")
     ctx = _ctx([a, b, c], depth_map=dm)
     near = _draft(a, "car_0001", 9.0, DepthMethod.CONTACT)
@@ -259,6 +240,6 @@ def test_ordering_rules_change_only_the_depths_the_map_decided():
 
 
 def test_drafts_by_ref_skips_objects_without_a_ref():
-    anon = _obj("car", (0, 300, 50, 400), -1)
+    anon = box_object("car", (0, 300, 50, 400), -1)
     d = _draft(anon, "car_0001", 10.0, DepthMethod.CONTACT)
     assert drafts_by_ref([d]) == {}

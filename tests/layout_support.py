@@ -1,0 +1,35 @@
+"""Objects for the placement tests: a box filled by its mask (shared by the test modules)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from usdworld.perception.objects import ImageObject
+
+
+def box_object(
+    class_name: str, box: tuple[int, int, int, int], ref: int, hidden: bool = False, by: int = -1
+) -> ImageObject:
+    """An object whose mask fills its box, its contact below the box's middle column.
+
+    Args:
+        class_name: its class (a car gets ``ref`` as its instance id, others are stuff).
+        box: (x0, y0, x1, y1) pixels, x1/y1 exclusive.
+        ref: its identifier in the image.
+        hidden: its bottom is hidden.
+        by: the ``ref`` of what hides it (-1 none).
+    """
+    x0, y0, x1, y1 = box
+    return ImageObject(
+        class_name=class_name,
+        source_label=class_name,
+        instance_id=ref if class_name == "car" else -1,
+        box_px=np.array(box, dtype=np.int64),
+        mask=np.ones((y1 - y0, x1 - x0), bool),
+        contact_px=np.array([(x0 + x1) / 2.0, y1 - 0.5]),
+        bottom_truncated=False,
+        bottom_occluded=hidden,
+        top_truncated=False,
+        occluded_by=by,
+        ref=ref,
+    )

@@ -109,3 +109,24 @@ def write_rig(
     for obj in objects:
         _object_provenance(stage.GetPrimAtPath(f"{OBJECTS_PATH}/{obj.placement.name}"), obj)
     stage.GetRootLayer().Save()
+
+
+def rig_view(stage: Usd.Stage, camera: str | None) -> tuple[str | None, str | None]:
+    """Resolve ``render --camera``: a bare view name of a rig's world to its camera prim and photo.
+
+    Args:
+        stage: the composed world.
+        camera: ``--camera`` as given: a prim path, a view name (``CAM_BACK``) or None.
+
+    Returns:
+        (prim path or None for the default camera, the view's photo file name or None when
+        ``camera`` names no view of the rig; the world's source image is used then).
+    """
+    if camera is None or "/" in camera:
+        return camera, None
+    world = stage.GetPrimAtPath(WORLD_PATH)
+    names = world.GetAttribute("usdworld:views").Get() if world else None
+    images = world.GetAttribute("usdworld:viewImages").Get() if world else None
+    if names and images and camera in list(names):
+        return f"{CAMERAS_PATH}/{camera}", str(images[list(names).index(camera)])
+    return f"{CAMERAS_PATH}/{camera}", None

@@ -6,10 +6,13 @@ build maps detector labels (barrier and traffic_cone are not placed and are left
 box is *seen* when some camera's ``cam_instances`` holds it (its centre, through
 ``lidar2cam``, within :data:`SAME_BOX_M` of the box's).
 
-Matching: each world object goes to the nearest ground-truth box of its class within the
-gate ``max(gate_min_m, gate_rel * range)`` (range from the ego origin). A seen box is
-*placed once* when exactly one object went to it, *placed more than once* when several
-did; its BEV error is the distance to the nearest of them. *Duplicates* follow the issue:
+Matching: world objects and ground-truth boxes of one class are paired one to one,
+minimising the summed BEV distance (Hungarian), pairs only within the gate
+``max(gate_min_m, gate_rel * range)`` (range from the ego origin). An unpaired object
+whose nearest box of its class within the gate is paired is a second placement of that
+box; otherwise it is an extra (unmatched) object. A seen box is *placed once* when it is
+paired and has no second placement, *placed more than once* when it has; its BEV error is
+the distance to its paired object. *Duplicates* follow the issue:
 pairs of objects of one class within ``duplicate_m`` of each other; the ground truth's own
 pairs that close are counted beside them, since two real pedestrians may stand that close.
 """
@@ -100,21 +103,31 @@ def evaluate_bev(
         missed, unmatched objects, median and p90 BEV error), ``duplicate_pairs`` and
         ``gt_pairs_within``, and ``boxes`` (per seen box: class, views, count, error).
     """
-    assigned: dict[int, list[tuple[str, float]]] = {b.index: [] for b in boxes}
-    unmatched = []
-    for name, cls, xy in objects:
-        best = None
-        for b in boxes:
-            if b.class_name != cls:
-                continue
+    from scipy.optimize import linear_sum_assignment  # lazy: only the evaluation needs it
+
+    gates = np.array([max(gate_min_m, gate_rel * float(np.linalg.norm(b.centre_ego))) for b in boxes])
+    dist = np.full((len(objects), len(boxes)), np.inf)
+    for i, (_, cls, xy) in enumerate(objects):
+        for j, b in enumerate(boxes):
             d = float(np.linalg.norm(np.asarray(xy) - b.centre_ego))
-            gate = max(gate_min_m, gate_rel * float(np.linalg.norm(b.centre_ego)))
-            if d <= gate and (best is None or d < best[0]):
-                best = (d, b.index)
-        if best is None:
-            unmatched.append((name, cls))
+            if b.class_name == cls and d <= gates[j]:
+                dist[i, j] = d
+    cost = np.where(np.isfinite(dist), dist, 1e6)
+    assigned: dict[int, list[tuple[str, float]]] = {b.index: [] for b in boxes}
+    matched = set()
+    for i, j in zip(*linear_sum_assignment(cost)) if len(objects) and len(boxes) else ():
+        if np.isfinite(dist[i, j]):
+            assigned[boxes[j].index].append((objects[i][0], float(dist[i, j])))
+            matched.add(int(i))
+    unmatched = []
+    for i, (name, cls, _) in enumerate(objects):
+        if i in matched:
+            continue
+        j = int(np.argmin(dist[i])) if len(boxes) else -1
+        if j >= 0 and np.isfinite(dist[i, j]) and assigned[boxes[j].index]:
+            assigned[boxes[j].index].append((name, float(dist[i, j])))  # a second object of a placed box
         else:
-            assigned[best[1]].append((name, best[0]))
+            unmatched.append((name, cls))
     rows = []
     for b in boxes:
         if not b.seen_by:
@@ -127,7 +140,7 @@ def evaluate_bev(
                 "views": list(b.seen_by),
                 "range_m": float(np.linalg.norm(b.centre_ego)),
                 "count": len(hits),
-                "error_m": min(d for _, d in hits) if hits else None,
+                "error_m": hits[0][1] if hits else None,
                 "objects": [n for n, _ in hits],
             }
         )

@@ -38,6 +38,13 @@ class ViewsParams:
         "cues carries a spread.",
         "convention: above the 6 % median relative depth error measured on nuScenes CAM_FRONT, as a cue-less object is less sure",
     )
+    cut_sigma_share: float = param(
+        0.5,
+        "fraction",
+        "An object cut by its image's border has a footprint centre known only to within part of its "
+        "size: this share of its larger footprint extent is added to both standard deviations.",
+        "geometry: the hidden part of a cut box moves its centre by up to half the object's length",
+    )
     association_gate_chi2: float = param(
         9.21,
         "1",

@@ -47,6 +47,27 @@ from usdworld.views.types import ViewSet, ViewSpec
 
 log = logging.getLogger(__name__)
 
+#: What ``build --views`` may name: a views manifest, or an mmdetection3d nuScenes info file.
+LAYOUTS = ("manifest", "nuscenes")
+
+
+def read_view_set(path: Path, layout: str, sample: str | None) -> ViewSet:
+    """The views ``build --views PATH --layout LAYOUT [--sample TOKEN]`` names.
+
+    Raises:
+        InputError: an unknown layout, ``--sample`` with a manifest, or a bad file.
+    """
+    from usdworld.views.manifest import read_views_manifest
+    from usdworld.views.nuscenes import read_nuscenes_views
+
+    if layout not in LAYOUTS:
+        raise InputError(f"--layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
+    if layout == "manifest":
+        if sample is not None:
+            raise InputError("--sample picks a sample of a nuScenes info file; use it with --layout nuscenes")
+        return read_views_manifest(path)
+    return read_nuscenes_views(path, sample)
+
 
 @dataclass(frozen=True)
 class ViewsRequest:

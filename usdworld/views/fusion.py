@@ -4,7 +4,8 @@ the uncertainties, then fusion (layout level: pure numpy).
 Each view places its objects as a single image would; :func:`observations` takes them
 into the rig's world with their uncertainty as a ground-plane covariance: along the
 viewing ray the spread of the object's depth cues, across it a small share of the range
-(:class:`~usdworld.parameters.views.ViewsParams`). :func:`fuse` merges, greedily and
+(:class:`~usdworld.parameters.views.ViewsParams`), both widened for an object cut by
+the image's border. :func:`fuse` merges, greedily and
 nearest first, objects of one class from different views whose Mahalanobis distance is
 inside the gate, and places each group at the information-weighted mean of its
 observations. That one formula triangulates where the views' rays cross (the across-ray
@@ -119,8 +120,9 @@ def observations(
     for p in placements:
         moved = to_world(p, world_from_ground)
         rng = float(np.linalg.norm(moved.position_world[:2] - camera))
-        lateral = max(params.lateral_sigma_min_m, params.lateral_sigma_rel * rng)
-        out.append(Observation(view, view_name, image_name, moved, camera, depth_sigma(p, params), lateral))
+        cut = params.cut_sigma_share * float(max(p.size_m[0], p.size_m[1])) if p.obj.cut_sides else 0.0
+        lateral = max(params.lateral_sigma_min_m, params.lateral_sigma_rel * rng) + cut
+        out.append(Observation(view, view_name, image_name, moved, camera, depth_sigma(p, params) + cut, lateral))
     return out
 
 

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from usdworld.errors import InputError
+from usdworld.io.camera_infos import is_info_document, is_pickle, parse_info_json
 from usdworld.io.hashing import PathLike, as_array, as_float, as_floats, as_object, parse_json, read_input
 from usdworld.views.types import ViewSet, ViewSpec, check_pose
 
@@ -133,6 +134,14 @@ def _view(entry_value: Any, index: int, folder: Path, where: str) -> ViewSpec:
     )
 
 
+def _lenient_json(data: bytes) -> Any:
+    """The document when ``data`` parses as JSON with NaN allowed (as info files hold), else None."""
+    try:
+        return parse_info_json(data, "")
+    except InputError:
+        return None
+
+
 def read_views_manifest(path: PathLike) -> ViewSet:
     """Read a views manifest (format in the module docstring).
 
@@ -147,6 +156,8 @@ def read_views_manifest(path: PathLike) -> ViewSet:
             a pose that is not rigid or puts the camera below the ground, or two views of one name.
     """
     data, file = read_input(path, "views")
+    if is_pickle(data) or is_info_document(_lenient_json(data)):
+        raise InputError(f"{file.name}: an mmdetection3d info file, not a views manifest; pass --layout nuscenes")
     doc = as_object(parse_json(data, file.name), file.name)
     unknown = sorted(set(doc) - {"views"})
     if unknown:

@@ -71,6 +71,11 @@ def _table(title: str, result: dict) -> str:
             f"{cls:22s} {r['seen']:4d}  {r['placed_once']:4d}  {r['placed_more']:4d}  {r['missed']:6d}  "
             f"{r['unmatched_objects']:5d}  {med:>8s}  {p90:>5s}"
         )
+    for label, lo, hi in (("within 30 m", 0.0, 30.0), ("beyond 30 m", 30.0, float("inf"))):
+        sel = [r for r in result["boxes"] if lo <= r["range_m"] < hi]
+        errors = [r["error_m"] for r in sel if r["error_m"] is not None]
+        med = f"{np.median(errors):.2f} m" if errors else "-"
+        lines.append(f"{label}: {len(sel)} boxes, {sum(r['count'] == 1 for r in sel)} placed once, median BEV error {med}")
     o = result["overall"]
     share = o["placed_once"] / o["seen"] if o["seen"] else float("nan")
     lines.append(

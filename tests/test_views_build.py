@@ -8,14 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from pxr import Usd, UsdGeom
+from views_support import CAMERAS, OBJECTS, seen_by, world_from_cam, write_rig
 
 from usdworld.authoring.validate import errors_only, validate_file
 from usdworld.cli.main import main
 from usdworld.parameters.views import ViewsParams
 from usdworld.views.build import ViewsRequest, build_views
 from usdworld.views.manifest import read_views_manifest
-
-from views_support import CAMERAS, OBJECTS, seen_by, world_from_cam, write_rig
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +40,11 @@ def test_every_object_is_placed_once_near_its_truth(rig: tuple[Path, Path]) -> N
     objects = _objects(rig[1])
     assert len(objects) == len(OBJECTS)
     for cls, x, y, _, _ in OBJECTS:
-        near = [n for n, (xy, _, _) in objects.items() if n.startswith(cls) and np.hypot(*(xy - (x, y))) < 0.05 * np.hypot(x, y)]
+        near = [
+            n
+            for n, (xy, _, _) in objects.items()
+            if n.startswith(cls) and np.hypot(*(xy - (x, y))) < 0.05 * np.hypot(x, y)
+        ]
         assert len(near) == 1, (cls, x, y, near)
         _, views, method = objects[near[0]]
         assert sorted(views) == seen_by((cls, x, y))
@@ -51,7 +54,9 @@ def test_every_object_is_placed_once_near_its_truth(rig: tuple[Path, Path]) -> N
 def test_without_association_the_overlap_is_placed_twice(tmp_path: Path, rig: tuple[Path, Path]) -> None:
     """The fusion is what places the objects both views see once (gate 0: no merges)."""
     views = read_views_manifest(rig[0])
-    build_views(ViewsRequest(views, tmp_path / "w", jobs=1, views_params=ViewsParams(association_gate_chi2=0.0)))
+    build_views(
+        ViewsRequest(views, tmp_path / "w", jobs=1, views_params=ViewsParams(association_gate_chi2=0.0))
+    )
     both = sum(len(seen_by(o[:3])) == 2 for o in OBJECTS)
     assert len(_objects(tmp_path / "w")) == len(OBJECTS) + both
 
@@ -64,11 +69,15 @@ def test_cameras_sit_at_their_poses_and_the_source_camera_is_the_first_view(rig:
         pose = world_from_cam(position, heading)
         assert M[:3, 3] == pytest.approx(pose[:3, 3], abs=1e-9)
         assert -M[:3, 2] == pytest.approx(pose[:3, 2], abs=1e-9)  # USD cameras look down -Z
-        assert cam.GetFocalLengthAttr().Get() / cam.GetHorizontalApertureAttr().Get() == pytest.approx(600.0 / 800.0)
+        assert cam.GetFocalLengthAttr().Get() / cam.GetHorizontalApertureAttr().Get() == pytest.approx(
+            600.0 / 800.0
+        )
     source = UsdGeom.Camera(stage.GetPrimAtPath("/World/SourceCamera"))
     front = UsdGeom.Camera(stage.GetPrimAtPath("/World/Cameras/front"))
     t = Usd.TimeCode.Default()
-    assert np.array(source.ComputeLocalToWorldTransform(t)) == pytest.approx(np.array(front.ComputeLocalToWorldTransform(t)))
+    assert np.array(source.ComputeLocalToWorldTransform(t)) == pytest.approx(
+        np.array(front.ComputeLocalToWorldTransform(t))
+    )
     world = stage.GetPrimAtPath("/World")
     assert list(world.GetAttribute("usdworld:views").Get()) == ["front", "left"]
     assert list(world.GetAttribute("usdworld:viewImages").Get()) == ["front.png", "left.png"]
@@ -89,15 +98,29 @@ def test_a_process_pool_builds_the_same_world(tmp_path: Path, rig: tuple[Path, P
         assert (tmp_path / "w" / layer).read_bytes() == (rig[1] / layer).read_bytes()
 
 
-def test_cli_builds_a_views_manifest_and_refuses_mixed_options(tmp_path: Path, rig: tuple[Path, Path], capsys) -> None:
+def test_cli_builds_a_views_manifest_and_refuses_mixed_options(
+    tmp_path: Path, rig: tuple[Path, Path], capsys
+) -> None:
     assert main(["build", "--views", str(rig[0]), "-o", str(tmp_path / "w"), "--jobs", "1"]) == 0
     assert (tmp_path / "w" / "world.usda").is_file()
     capsys.readouterr()
     for args, message in (
-        (["--views", str(rig[0]), "--labels", "x.png"], "error: --labels: a views build takes each view's inputs from --views; drop --labels\n"),
-        (["--sample", "abc"], "error: --layout, --sample and --jobs go with --views (several views, one world)\n"),
-        ([], "error: pass the photo (usdworld build IMAGE -o OUT), or several views with --views VIEWS.json\n"),
-        (["--views", str(rig[0]), "--sample", "abc"], "error: --sample picks a sample of a nuScenes info file; use it with --layout nuscenes\n"),
+        (
+            ["--views", str(rig[0]), "--labels", "x.png"],
+            "error: --labels: a views build takes each view's inputs from --views; drop --labels\n",
+        ),
+        (
+            ["--sample", "abc"],
+            "error: --layout, --sample and --jobs go with --views (several views, one world)\n",
+        ),
+        (
+            [],
+            "error: pass the photo (usdworld build IMAGE -o OUT), or several views with --views VIEWS.json\n",
+        ),
+        (
+            ["--views", str(rig[0]), "--sample", "abc"],
+            "error: --sample picks a sample of a nuScenes info file; use it with --layout nuscenes\n",
+        ),
     ):
         assert main(["build", *args, "-o", str(tmp_path / "x")]) == 2
         assert capsys.readouterr().err == message

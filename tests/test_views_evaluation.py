@@ -21,7 +21,11 @@ def test_counts_placed_once_more_than_once_missed_and_extra() -> None:
     objects = [
         ("car_0001", "car", np.array([20.5, 0.0])),  # box 0, 0.5 m off
         ("car_0002", "car", np.array([21.0, 4.0])),  # box 1, 1 m off
-        ("car_0003", "car", np.array([20.0, 4.4])),  # box 1 again: nearer, so it takes box 1 and car_0002 is the second
+        (
+            "car_0003",
+            "car",
+            np.array([20.0, 4.4]),
+        ),  # box 1 again: nearer, so it takes box 1 and car_0002 is the second
         ("person_0001", "person", np.array([30.0, 10.0])),  # beyond every person's gate: extra; box 2 missed
         ("person_0002", "car", np.array([10.0, -3.0])),  # a car where a person is: classes must agree
     ]
@@ -44,7 +48,9 @@ def test_counts_placed_once_more_than_once_missed_and_extra() -> None:
 
 def test_the_gate_grows_with_range() -> None:
     far = [BevBox(0, "car", np.array([60.0, 0.0]), ("CAM_FRONT",))]
-    assert evaluate_bev([("c", "car", np.array([68.0, 0.0]))], far)["overall"]["placed_once"] == 1  # 8 m < 0.15 * 60
+    assert (
+        evaluate_bev([("c", "car", np.array([68.0, 0.0]))], far)["overall"]["placed_once"] == 1
+    )  # 8 m < 0.15 * 60
     assert evaluate_bev([("c", "car", np.array([70.0, 0.0]))], far)["overall"]["missed"] == 1
 
 

@@ -7,14 +7,13 @@ import math
 
 import numpy as np
 import pytest
+from layout_support import box_object
 
 from usdworld.layout.draft import DepthMethod
 from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
 from usdworld.perception.depth.fusion import DepthCue
 from usdworld.views.fusion import Observation, associate, depth_sigma, fuse, observations
-
-from layout_support import box_object
 
 PARAMS = ViewsParams()
 
@@ -37,15 +36,23 @@ def _placement(cls: str, x: float, y: float, sigma: float | None = 1.0, ref: int
     )
 
 
-def _obs(view: int, cls: str, xy: tuple[float, float], camera: tuple[float, float], sigma_r: float, ref: int = 1) -> Observation:
-    return Observation(view, f"v{view}", f"v{view}.png", _placement(cls, *xy, ref=ref), np.array(camera), sigma_r, 0.1)
+def _obs(
+    view: int, cls: str, xy: tuple[float, float], camera: tuple[float, float], sigma_r: float, ref: int = 1
+) -> Observation:
+    return Observation(
+        view, f"v{view}", f"v{view}.png", _placement(cls, *xy, ref=ref), np.array(camera), sigma_r, 0.1
+    )
 
 
 def test_crossing_rays_triangulate_the_point_their_depths_miss() -> None:
     """Two views 20 m apart see a car at (10, 10) along perpendicular rays; each depth is 2 m off
     along its own ray, but the rays pin the point: the fused car is near (10, 10), not between the guesses."""
-    a = _obs(0, "car", (12.0, 12.0), (0.0, 0.0), sigma_r=3.0)  # ray (1, 1)/sqrt2 from the origin, 2.8 m too far
-    b = _obs(1, "car", (8.5, 11.5), (20.0, 0.0), sigma_r=3.0)  # ray (-1, 1)/sqrt2 from (20, 0), 2.1 m too near
+    a = _obs(
+        0, "car", (12.0, 12.0), (0.0, 0.0), sigma_r=3.0
+    )  # ray (1, 1)/sqrt2 from the origin, 2.8 m too far
+    b = _obs(
+        1, "car", (8.5, 11.5), (20.0, 0.0), sigma_r=3.0
+    )  # ray (-1, 1)/sqrt2 from (20, 0), 2.1 m too near
     (obj,) = fuse([a, b], PARAMS)
     assert obj.placement.position_world[:2] == pytest.approx([10.0, 10.0], abs=0.1)
     assert obj.method == "triangulated"
@@ -62,8 +69,14 @@ def test_parallel_rays_average_the_depths_by_inverse_variance() -> None:
 
 
 def test_what_never_merges() -> None:
-    same_view = [_obs(0, "car", (20.0, 0.0), (0.0, 0.0), 1.0, ref=1), _obs(0, "car", (20.5, 0.0), (0.0, 0.0), 1.0, ref=2)]
-    other_class = [_obs(0, "car", (20.0, 0.0), (0.0, 0.0), 1.0), _obs(1, "person", (20.0, 0.0), (0.0, 0.5), 1.0)]
+    same_view = [
+        _obs(0, "car", (20.0, 0.0), (0.0, 0.0), 1.0, ref=1),
+        _obs(0, "car", (20.5, 0.0), (0.0, 0.0), 1.0, ref=2),
+    ]
+    other_class = [
+        _obs(0, "car", (20.0, 0.0), (0.0, 0.0), 1.0),
+        _obs(1, "person", (20.0, 0.0), (0.0, 0.5), 1.0),
+    ]
     far_apart = [_obs(0, "car", (20.0, 0.0), (0.0, 0.0), 0.5), _obs(1, "car", (20.0, 5.0), (0.0, 0.5), 0.5)]
     for obs in (same_view, other_class, far_apart):
         assert associate(obs, PARAMS) == [[0], [1]]
@@ -94,7 +107,9 @@ def test_observations_move_placements_into_the_world_with_their_uncertainty() ->
     assert o.placement.position_world == pytest.approx([1.0, 12.0, 0.0])
     assert o.placement.yaw == pytest.approx(turn)
     assert o.sigma_range_m == pytest.approx(0.8)
-    assert o.sigma_lateral_m == pytest.approx(max(PARAMS.lateral_sigma_min_m, PARAMS.lateral_sigma_rel * 10.0))
+    assert o.sigma_lateral_m == pytest.approx(
+        max(PARAMS.lateral_sigma_min_m, PARAMS.lateral_sigma_rel * 10.0)
+    )
     cov = o.covariance()
     assert cov[1, 1] == pytest.approx(0.8**2) and cov[0, 0] == pytest.approx(o.sigma_lateral_m**2)
 
@@ -102,5 +117,14 @@ def test_observations_move_placements_into_the_world_with_their_uncertainty() ->
 def test_depth_sigma_fuses_the_cues_and_falls_back_without_them() -> None:
     p = _placement("car", 20.0, 0.0, sigma=None)
     assert depth_sigma(p, PARAMS) == pytest.approx(PARAMS.fallback_depth_rel_sigma * 20.0)
-    two = Placement(**{**p.__dict__, "cues": (DepthCue("contact", 20.0, 1.0), DepthCue("height", 21.0, 1.0), DepthCue("cnn", None, None))})
+    two = Placement(
+        **{
+            **p.__dict__,
+            "cues": (
+                DepthCue("contact", 20.0, 1.0),
+                DepthCue("height", 21.0, 1.0),
+                DepthCue("cnn", None, None),
+            ),
+        }
+    )
     assert depth_sigma(two, PARAMS) == pytest.approx(1.0 / math.sqrt(2.0))

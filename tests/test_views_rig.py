@@ -8,12 +8,11 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from views_support import K, world_from_cam
 
 from usdworld.errors import CalibrationError
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.views.rig import ground_pose, heading, world_from_ground
-
-from views_support import K, world_from_cam
 
 
 def test_a_level_camera_has_its_height_and_no_tilt() -> None:

@@ -96,5 +96,9 @@ def seen_by(cls_x_y: tuple[str, float, float]) -> list[str]:
     """The views whose detections hold the object at (x, y)."""
     for cls, x, y, yaw, size in OBJECTS:
         if (cls, x, y) == cls_x_y:
-            return [n for n, (p, h) in CAMERAS.items() if image_box(world_from_cam(p, h), box_corners(x, y, yaw, size))]
+            return [
+                n
+                for n, (p, h) in CAMERAS.items()
+                if image_box(world_from_cam(p, h), box_corners(x, y, yaw, size))
+            ]
     raise KeyError(cls_x_y)

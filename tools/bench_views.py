@@ -28,9 +28,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from usdworld.resources import evaluation_data_dir  # noqa: E402
-from usdworld.views.build import ViewsRequest, build_views, view_model  # noqa: E402
-from usdworld.views.nuscenes import read_nuscenes_views  # noqa: E402
+from usdworld.resources import evaluation_data_dir
+from usdworld.views.build import ViewsRequest, build_views, view_model
+from usdworld.views.nuscenes import read_nuscenes_views
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--jobs", type=int, default=1)
     args = parser.parse_args(argv)
-    info = args.info or sorted((evaluation_data_dir() / "nuscenes" / "demo").glob("*.pkl.DERIVED.json"))[0]
+    info = args.info or min((evaluation_data_dir() / "nuscenes" / "demo").glob("*.pkl.DERIVED.json"))
     views = read_nuscenes_views(info)
     counts = range(1, len(views.views) + 1)
     rig_s: dict[int, list[float]] = {k: [] for k in counts}
@@ -58,9 +58,11 @@ def main(argv: list[str] | None = None) -> int:
                 for i in range(k):
                     view_model(request, i)
                 floor_s[k].append(time.perf_counter() - t0)
-    print(f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
-          f"load average {os.getloadavg()[0]:.1f}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
-          f"jobs {args.jobs}, median of {args.runs}")
+    print(
+        f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
+        f"load average {os.getloadavg()[0]:.1f}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
+        f"jobs {args.jobs}, median of {args.runs}"
+    )
     print("| views | objects (boxes) | build --views s | floor: views alone, summed s | ratio | s per view |")
     print("|---|---|---|---|---|---|")
     for k in counts:

@@ -31,10 +31,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from usdworld.evaluation.views import evaluate_bev, read_bev_boxes  # noqa: E402
-from usdworld.resources import evaluation_data_dir  # noqa: E402
+from usdworld.evaluation.views import evaluate_bev, read_bev_boxes
+from usdworld.resources import evaluation_data_dir
 
 
 def _default_info() -> Path:
@@ -75,7 +75,9 @@ def _table(title: str, result: dict) -> str:
         sel = [r for r in result["boxes"] if lo <= r["range_m"] < hi]
         errors = [r["error_m"] for r in sel if r["error_m"] is not None]
         med = f"{np.median(errors):.2f} m" if errors else "-"
-        lines.append(f"{label}: {len(sel)} boxes, {sum(r['count'] == 1 for r in sel)} placed once, median BEV error {med}")
+        lines.append(
+            f"{label}: {len(sel)} boxes, {sum(r['count'] == 1 for r in sel)} placed once, median BEV error {med}"
+        )
     o = result["overall"]
     share = o["placed_once"] / o["seen"] if o["seen"] else float("nan")
     lines.append(
@@ -90,7 +92,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("info", nargs="?", type=Path, default=None)
     parser.add_argument("--sample", default=None, help="sample token (default: the first)")
-    parser.add_argument("--out", type=Path, default=None, help="world folder to write (default: a temporary one)")
+    parser.add_argument(
+        "--out", type=Path, default=None, help="world folder to write (default: a temporary one)"
+    )
     parser.add_argument("--jobs", type=int, default=None, help="worker processes for the views")
     parser.add_argument("--json", action="store_true", help="print the results as one JSON line at the end")
     args = parser.parse_args(argv)
@@ -108,8 +112,10 @@ def main(argv: list[str] | None = None) -> int:
     boxes = read_bev_boxes(info, args.sample)
     after = evaluate_bev(fused, boxes)
     before = evaluate_bev(_unfused(result.report), boxes)
-    print(f"{info.name}: {len(result.report['views']['cameras'])} views built in {seconds:.1f} s; "
-          f"fusion {result.report['views']['fusion']}")
+    print(
+        f"{info.name}: {len(result.report['views']['cameras'])} views built in {seconds:.1f} s; "
+        f"fusion {result.report['views']['fusion']}"
+    )
     print(_table("before fusion (every view's objects)", before))
     print(_table("world (fused)", after))
     if args.json:

@@ -67,9 +67,18 @@ def _object_provenance(prim: Usd.Prim, obj: FusedObject) -> None:
     _set(prim, "usdworld:viewImages", Sdf.ValueTypeNames.StringArray, [o.image_name for o in obs])
     boxes = [Gf.Vec4f(*(float(b) for b in o.placement.obj.box_px)) for o in obs]
     _set(prim, "usdworld:viewBBoxes", Sdf.ValueTypeNames.Float4Array, Vt.Vec4fArray(boxes))
-    _set(prim, "usdworld:viewDepths", Sdf.ValueTypeNames.FloatArray, [float(o.placement.depth_m) for o in obs])
-    _set(prim, "usdworld:viewDepthSigmas", Sdf.ValueTypeNames.FloatArray, [float(o.sigma_range_m) for o in obs])
-    _set(prim, "usdworld:viewDepthMethods", Sdf.ValueTypeNames.StringArray, [o.placement.depth_method for o in obs])
+    _set(
+        prim, "usdworld:viewDepths", Sdf.ValueTypeNames.FloatArray, [float(o.placement.depth_m) for o in obs]
+    )
+    _set(
+        prim, "usdworld:viewDepthSigmas", Sdf.ValueTypeNames.FloatArray, [float(o.sigma_range_m) for o in obs]
+    )
+    _set(
+        prim,
+        "usdworld:viewDepthMethods",
+        Sdf.ValueTypeNames.StringArray,
+        [o.placement.depth_method for o in obs],
+    )
     cues = [
         f"{o.view_name}:{c.name}={c.depth_m:.3f}+-{c.sigma_m:.3f}"
         for o in obs

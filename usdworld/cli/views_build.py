@@ -8,7 +8,17 @@ from typing import Any
 from usdworld.errors import InputError
 
 #: The single-image options that a views build takes from each view instead.
-PER_VIEW_OPTIONS = ("image", "labels", "instances", "polygons", "detections", "camera", "ground_plane", "ground_points", "depth_map")
+PER_VIEW_OPTIONS = (
+    "image",
+    "labels",
+    "instances",
+    "polygons",
+    "detections",
+    "camera",
+    "ground_plane",
+    "ground_points",
+    "depth_map",
+)
 
 
 def check_options(views: Path | None, given: dict[str, Any], layout_given: bool) -> None:
@@ -26,7 +36,9 @@ def check_options(views: Path | None, given: dict[str, Any], layout_given: bool)
         if layout_given:
             raise InputError("--layout, --sample and --jobs go with --views (several views, one world)")
         if given.get("image") is None:
-            raise InputError("pass the photo (usdworld build IMAGE -o OUT), or several views with --views VIEWS.json")
+            raise InputError(
+                "pass the photo (usdworld build IMAGE -o OUT), or several views with --views VIEWS.json"
+            )
         return
     for name in PER_VIEW_OPTIONS:
         if given.get(name) is not None:

@@ -66,7 +66,9 @@ def read_bev_boxes(info: Path, token: str | None = None) -> list[BevBox]:
     ego_from_lidar = np.array(sample["lidar_points"]["lidar2ego"], dtype=np.float64)
     seen_centres = []
     for cam, boxes in sample.get("cam_instances", {}).items():
-        ego_from_cam = ego_from_lidar @ np.linalg.inv(np.array(sample["images"][cam]["lidar2cam"], dtype=np.float64))
+        ego_from_cam = ego_from_lidar @ np.linalg.inv(
+            np.array(sample["images"][cam]["lidar2cam"], dtype=np.float64)
+        )
         for b in boxes:
             c = ego_from_cam @ np.array([*b["bbox_3d"][:3], 1.0])
             seen_centres.append((cam, c[:3]))

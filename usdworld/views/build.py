@@ -163,7 +163,9 @@ def view_camera_spec(view: ViewSpec, source: InputFile) -> CameraSpec:
         return CameraSpec(view.K, height_m, pitch, roll, 0.0, "views", file)
     read = read_camera(view.camera, read_image(view.image))
     if read.K is None:
-        raise InputError(f"{read.file.name}: gives no intrinsics; view {view.name} needs K or a camera file with them")
+        raise InputError(
+            f"{read.file.name}: gives no intrinsics; view {view.name} needs K or a camera file with them"
+        )
     return CameraSpec(read.K, height_m, pitch, roll, 0.0, read.source, read.file, read.extra_files)
 
 
@@ -171,7 +173,9 @@ def view_model(request: ViewsRequest, index: int) -> WorldModel:
     """One view's own world, in its ground frame (a worker process's task)."""
     view = request.views.views[index]
     spec = view_camera_spec(view, request.views.source)
-    return build_model(request.view_request(view, request.views.source, spec), asset_library.library_dirs(request.library))
+    return build_model(
+        request.view_request(view, request.views.source, spec), asset_library.library_dirs(request.library)
+    )
 
 
 def _view_models(request: ViewsRequest) -> list[WorldModel]:
@@ -187,14 +191,19 @@ def build_rig_model(request: ViewsRequest) -> RigModel:
     """Build every view, move its objects into the world, fuse them and make one ground (no output written)."""
     view_models = _view_models(request)
     views = request.views.views
-    poses = [world_from_ground(v.world_from_cam, m.camera.camera.world_from_cam()) for v, m in zip(views, view_models)]
+    poses = [
+        world_from_ground(v.world_from_cam, m.camera.camera.world_from_cam())
+        for v, m in zip(views, view_models)
+    ]
     obs = []
     for i, (v, m, pose) in enumerate(zip(views, view_models, poses)):
         obs.extend(observations(i, v.name, m.image_name, m.placements, pose, request.views_params))
     objects = fuse(obs, request.views_params)
     params = request.parameters
     surfaces = rig_surfaces(
-        [(m.surfaces, pose) for m, pose in zip(view_models, poses)], params.placement.curb_height_m, params.scene.max_range_m
+        [(m.surfaces, pose) for m, pose in zip(view_models, poses)],
+        params.placement.curb_height_m,
+        params.scene.max_range_m,
     )
     inputs = [request.views.source]
     for m in view_models:

@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -122,7 +122,9 @@ def observations(
         rng = float(np.linalg.norm(moved.position_world[:2] - camera))
         cut = params.cut_sigma_share * float(max(p.size_m[0], p.size_m[1])) if p.obj.cut_sides else 0.0
         lateral = max(params.lateral_sigma_min_m, params.lateral_sigma_rel * rng) + cut
-        out.append(Observation(view, view_name, image_name, moved, camera, depth_sigma(p, params) + cut, lateral))
+        out.append(
+            Observation(view, view_name, image_name, moved, camera, depth_sigma(p, params) + cut, lateral)
+        )
     return out
 
 
@@ -142,7 +144,11 @@ def _method(group: Sequence[Observation], cov: np.ndarray, params: ViewsParams) 
     if len(group) == 1:
         return "single"
     depth_only = 1.0 / sum(1.0 / o.sigma_range_m**2 for o in group)
-    return "triangulated" if float(np.linalg.eigvalsh(cov)[-1]) < params.triangulated_ratio * depth_only else "fused"
+    return (
+        "triangulated"
+        if float(np.linalg.eigvalsh(cov)[-1]) < params.triangulated_ratio * depth_only
+        else "fused"
+    )
 
 
 def associate(obs: Sequence[Observation], params: ViewsParams) -> list[list[int]]:

@@ -66,7 +66,9 @@ def rig_surfaces(
             mesh = extrude_surface(name, section, top, -SLAB_DEPTH_M)
             if mesh is not None:
                 out.append(mesh)
-    terrain = manifold3d.CrossSection.square((2.0 * max_range_m, 2.0 * max_range_m)).translate((-max_range_m, -max_range_m))
+    terrain = manifold3d.CrossSection.square((2.0 * max_range_m, 2.0 * max_range_m)).translate(
+        (-max_range_m, -max_range_m)
+    )
     for section in (road, sidewalk):
         if section is not None and not section.is_empty():
             terrain = terrain - section

@@ -80,7 +80,9 @@ def _pose(entry: dict[str, Any], where: str) -> np.ndarray:
             f"{where}: give the pose as camera_to_world, or as ego_to_world and camera_to_ego (one of the two)"
         )
     if has_world:
-        return check_pose(_matrix(entry["camera_to_world"], f"{where} -> camera_to_world", 4), f"{where} -> camera_to_world")
+        return check_pose(
+            _matrix(entry["camera_to_world"], f"{where} -> camera_to_world", 4), f"{where} -> camera_to_world"
+        )
     for key in ("ego_to_world", "camera_to_ego"):
         if key not in entry:
             raise InputError(f"{where}: {key} is missing (camera_to_ego needs ego_to_world, and back)")
@@ -114,7 +116,9 @@ def _view(entry_value: Any, index: int, folder: Path, where: str) -> ViewSpec:
     if "K" in entry:
         K = _matrix(entry["K"], f"{where} -> K", 3)
         if not (K[1, 0] == 0 and np.allclose(K[2], [0.0, 0.0, 1.0]) and K[0, 0] > 0 and K[1, 1] > 0):
-            raise InputError(f"{where} -> K: must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0, got {K.tolist()}")
+            raise InputError(
+                f"{where} -> K: must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0, got {K.tolist()}"
+            )
     timestamp = as_float(entry["timestamp"], f"{where} -> timestamp") if "timestamp" in entry else None
     if "instances" in paths and "labels" not in paths:
         raise InputError(f"{where}: instances needs labels (the labelIds PNG of the same photo)")
@@ -157,7 +161,9 @@ def read_views_manifest(path: PathLike) -> ViewSet:
     """
     data, file = read_input(path, "views")
     if is_pickle(data) or is_info_document(_lenient_json(data)):
-        raise InputError(f"{file.name}: an mmdetection3d info file, not a views manifest; pass --layout nuscenes")
+        raise InputError(
+            f"{file.name}: an mmdetection3d info file, not a views manifest; pass --layout nuscenes"
+        )
     doc = as_object(parse_json(data, file.name), file.name)
     unknown = sorted(set(doc) - {"views"})
     if unknown:
@@ -172,6 +178,8 @@ def read_views_manifest(path: PathLike) -> ViewSet:
     seen: dict[str, int] = {}
     for i, view in enumerate(views):
         if view.name in seen:
-            raise InputError(f"{file.name} -> views -> [{i}] -> name: {view.name!r} is also view [{seen[view.name]}]'s name")
+            raise InputError(
+                f"{file.name} -> views -> [{i}] -> name: {view.name!r} is also view [{seen[view.name]}]'s name"
+            )
         seen[view.name] = i
     return ViewSet(views=views, source=file, frame="manifest world")

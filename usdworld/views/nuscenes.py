@@ -44,7 +44,9 @@ NEAR_PLANE_M = 0.1
 def _sample(doc: dict[str, Any], name: str, token: str | None) -> tuple[int, dict[str, Any]]:
     samples = doc.get("data_list")
     if not isinstance(samples, list) or not samples or not all(isinstance(s, dict) for s in samples):
-        raise InputError(f"{name}: an mmdetection3d info file without samples (data_list is empty or not a list)")
+        raise InputError(
+            f"{name}: an mmdetection3d info file without samples (data_list is empty or not a list)"
+        )
     if token is None:
         return 0, samples[0]
     for i, s in enumerate(samples):
@@ -71,7 +73,9 @@ def _pose(entry: dict[str, Any], sample: dict[str, Any], where: str) -> np.ndarr
     if "lidar2cam" in entry and isinstance(lidar, dict) and "lidar2ego" in lidar:
         ego_from_lidar = _matrix(lidar["lidar2ego"], f"{where} -> lidar_points -> lidar2ego", ((4, 4),))
         cam_from_lidar = _matrix(entry["lidar2cam"], f"{where} -> lidar2cam", ((4, 4),))
-        return check_pose(ego_from_lidar @ np.linalg.inv(cam_from_lidar), f"{where} -> lidar2ego @ inverse(lidar2cam)")
+        return check_pose(
+            ego_from_lidar @ np.linalg.inv(cam_from_lidar), f"{where} -> lidar2ego @ inverse(lidar2cam)"
+        )
     return check_pose(_matrix(entry["cam2ego"], f"{where} -> cam2ego", ((4, 4),)), f"{where} -> cam2ego")
 
 
@@ -161,7 +165,9 @@ def read_nuscenes_views(path: PathLike, token: str | None = None) -> ViewSet:
         raise InputError(pickle_message(file.name))
     doc = parse_info_json(data, file.name)
     if not is_info_document(doc):
-        raise InputError(f"{file.name}: not an mmdetection3d info file (no data_list); --layout nuscenes reads one")
+        raise InputError(
+            f"{file.name}: not an mmdetection3d info file (no data_list); --layout nuscenes reads one"
+        )
     index, sample = _sample(doc, file.name, token)
     meta = doc.get("metainfo") if isinstance(doc.get("metainfo"), dict) else {}
     categories = {int(v): str(k) for k, v in (meta.get("categories") or {}).items()}
@@ -181,10 +187,17 @@ def read_nuscenes_views(path: PathLike, token: str | None = None) -> ViewSet:
         pose = _pose(entry, sample, where)
         image = folder / Path(str(entry["img_path"])).name
         if not image.is_file():
-            raise InputError(f"{where} -> img_path: {image.name} is not beside {file.name}; put the photos there")
+            raise InputError(
+                f"{where} -> img_path: {image.name} is not beside {file.name}; put the photos there"
+            )
         dets_file = InputFile("detections", f"{file.name}#{cam}", file.sha256)
         dets = _detections(
-            instances.get(cam, []), categories, K, _image_size(image), dets_file, f"{base} -> cam_instances -> {cam}"
+            instances.get(cam, []),
+            categories,
+            K,
+            _image_size(image),
+            dets_file,
+            f"{base} -> cam_instances -> {cam}",
         )
         timestamp = float(entry["timestamp"]) if isinstance(entry.get("timestamp"), (int, float)) else None
         views.append(ViewSpec(cam, image, pose, K=K, timestamp=timestamp, detection_items=dets))

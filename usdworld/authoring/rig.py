@@ -17,16 +17,19 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 from usdworld.authoring.camera import define_camera, world_from_usdcam
-from usdworld.geometry.camera import PinholeCamera
-from usdworld.layout.model import WorldModel
-from usdworld.views.fusion import FusedObject
-from usdworld.views.types import ViewSet
 from usdworld.world_files import BASE_LAYER, CAMERA_PATH, OBJECTS_PATH, WORLD_PATH
+
+if TYPE_CHECKING:  # annotations only: ``render --camera`` imports this module, and layout's imports cost it
+    from usdworld.geometry.camera import PinholeCamera
+    from usdworld.layout.model import WorldModel
+    from usdworld.views.fusion import FusedObject
+    from usdworld.views.types import ViewSet
 
 #: Where the rig's cameras go.
 CAMERAS_PATH = f"{WORLD_PATH}/Cameras"

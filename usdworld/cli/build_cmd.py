@@ -39,11 +39,22 @@ def build(
         None, "--params", help="Parameters JSON {section: {field: value}} over the defaults (docs/parameters.md)."
     ),
     views: Optional[Path] = typer.Option(
-        None, "--views", help="Several views, one world: a views manifest JSON, or with --layout nuscenes an mmdetection3d info JSON."
+        None,
+        "--views",
+        help="Several views, one world: a views manifest JSON, "
+        "or with --layout nuscenes an mmdetection3d info JSON.",
     ),
-    layout: Optional[ViewsLayout] = typer.Option(None, "--layout", help="What --views names (default: manifest)."),
-    sample: Optional[str] = typer.Option(None, "--sample", help="With --layout nuscenes: the sample's token (default: the first)."),
-    jobs: Optional[int] = typer.Option(None, "--jobs", help="With --views: worker processes for the views (default: one per view, up to the CPUs)."),
+    layout: Optional[ViewsLayout] = typer.Option(
+        None, "--layout", help="What --views names (default: manifest)."
+    ),
+    sample: Optional[str] = typer.Option(
+        None, "--sample", help="With --layout nuscenes: the sample's token (default: the first)."
+    ),
+    jobs: Optional[int] = typer.Option(
+        None,
+        "--jobs",
+        help="With --views: worker processes for the views (default: one per view, up to the CPUs).",
+    ),
 ) -> None:
     """Build a layered USD world from one street image, or from several views of one rig (--views)."""
     from usdworld.cli.output import quiet
@@ -55,18 +66,30 @@ def build(
 
     from usdworld.cli import views_build
 
-    per_view = dict(
-        image=image, labels=labels, instances=instances, polygons=polygons, detections=detections, camera=camera,
-        ground_plane=ground_plane, ground_points=ground_points, depth_map=depth_map,
-    )  # fmt: skip
+    per_view = {
+        "image": image,
+        "labels": labels,
+        "instances": instances,
+        "polygons": polygons,
+        "detections": detections,
+        "camera": camera,
+        "ground_plane": ground_plane,
+        "ground_points": ground_points,
+        "depth_map": depth_map,
+    }
     views_build.check_options(views, per_view, any(v is not None for v in (layout, sample, jobs)))
     if views is not None:
-        shared = dict(
-            depth=depth.value, depth_weights=depth_weights, library=library, max_range_m=max_range,
-            traffic=traffic.value, params=read_parameters(params) if params is not None else DEFAULT_PARAMETERS,
-        )  # fmt: skip
+        shared = {
+            "depth": depth.value,
+            "depth_weights": depth_weights,
+            "library": library,
+            "max_range_m": max_range,
+            "traffic": traffic.value,
+            "params": read_parameters(params) if params is not None else DEFAULT_PARAMETERS,
+        }
+        layout_name = (layout or ViewsLayout.manifest).value
         with _log_held_until_success():
-            result = views_build.run(views, (layout or ViewsLayout.manifest).value, sample, jobs, output, shared)
+            result = views_build.run(views, layout_name, sample, jobs, output, shared)
         if not quiet():
             print_build_summary(result.report, str(result.world))
         return

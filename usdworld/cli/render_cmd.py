@@ -26,7 +26,10 @@ def render(
     output: Path = typer.Option(..., "--output", "-o", help="Folder for the images (created if missing)."),
     size: str | None = typer.Option(None, "--size", help="WIDTHxHEIGHT; default the source image's size."),
     camera: str | None = typer.Option(
-        None, "--camera", help="Camera prim path, or a view's name in a multi-view world (/World/Cameras/NAME); default /World/SourceCamera."
+        None,
+        "--camera",
+        help="Camera prim path, or a view's name in a multi-view world (/World/Cameras/NAME); "
+        "default /World/SourceCamera.",
     ),
     photo: Path | None = typer.Option(
         None, "--photo", help="The source photo (default: found next to the world)."

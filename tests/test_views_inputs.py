@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import pickle
 from pathlib import Path
 
 import cv2
@@ -171,6 +172,13 @@ def test_a_nuscenes_sample_gives_one_view_per_camera_with_its_boxes(tmp_path: Pa
     assert views.frame == "ego frame of sample t0"
     with pytest.raises(InputError, match="no sample with token 'zz'; its samples are t0"):
         read_nuscenes_views(tmp_path / "info.json", "zz")
+
+
+def test_a_pickled_info_file_is_refused_with_how_to_convert_it(tmp_path: Path) -> None:
+    path = tmp_path / "nuscenes_infos_val.pkl"
+    path.write_bytes(pickle.dumps({"data_list": []}, protocol=4))
+    with pytest.raises(InputError, match="^nuscenes_infos_val.pkl: a Python pickle .* pass that to --views$"):
+        read_nuscenes_views(path)
 
 
 def test_a_nuscenes_photo_must_lie_beside_the_info_file(tmp_path: Path) -> None:

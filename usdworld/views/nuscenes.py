@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from usdworld.errors import InputError
-from usdworld.io.camera_infos import is_info_document, is_pickle, parse_info_json, pickle_message
+from usdworld.io.camera_infos import is_info_document, is_pickle, parse_info_json
 from usdworld.io.hashing import PathLike, read_input
 from usdworld.io.images import read_image
 from usdworld.io.types import Detection, Detections, InputFile
@@ -162,7 +162,10 @@ def read_nuscenes_views(path: PathLike, token: str | None = None) -> ViewSet:
     """
     data, file = read_input(path, "views")
     if is_pickle(data):
-        raise InputError(pickle_message(file.name))
+        raise InputError(
+            f"{file.name}: a Python pickle (an mmdetection3d info file?); usdworld does not unpickle files (that "
+            "can run code): convert it to JSON (numpy arrays as lists) and pass that to --views"
+        )
     doc = parse_info_json(data, file.name)
     if not is_info_document(doc):
         raise InputError(

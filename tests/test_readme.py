@@ -44,6 +44,8 @@ OUTSIDE_DATA = (
     (r"\bcityscapes/", "a Cityscapes dataset folder"),
     (r"\bstreet\.jpg\b|\bstreet_detections\.json\b|\bdet\.json\b", "your own photo and detections"),
     (r"\bframes\.json\b", "a batch manifest of your frames"),
+    (r"\.pkl\.DERIVED\.json\b", "a nuScenes info file"),
+    (r"\bviews\.json\b", "your own views manifest"),
     (r"--depth-weights\b|--depth-map\b", "network weights or a depth file"),
 )
 #: Every kind of example that must run (the first word after ``usdworld``).

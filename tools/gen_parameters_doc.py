@@ -20,7 +20,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from usdworld.parameters import Parameters  # noqa: E402
-from usdworld.parameters.base import plain  # noqa: E402
+from usdworld.parameters.base import plain, section_rows  # noqa: E402
+from usdworld.parameters.views import ViewsParams  # noqa: E402
 
 #: The generated page.
 DOC_FILE = REPO / "docs" / "parameters.md"
@@ -63,13 +64,26 @@ def render(params: Parameters) -> str:
         if not section:
             lines.append("_No fields yet._")
             continue
-        lines += ["| name | value | unit | origin | meaning |", "|---|---|---|---|---|"]
-        for r in section:
-            value = json.dumps(plain(r["value"]))
-            lines.append(
-                f"| `{r['name']}` | `{value}` | {_cell(r['unit'])} | {_cell(r['origin'])} | {_cell(r['doc'])} |"
-            )
+        lines += _table(section)
+    lines += [
+        "",
+        "## views",
+        "",
+        "Association and fusion of the objects of several views (`build --views` only; a section of its own, "
+        "recorded in `report.json` under `views -> parameters`).",
+        "",
+        *_table(section_rows(ViewsParams())),
+    ]
     return "\n".join(lines) + "\n"
+
+
+def _table(rows: list[dict]) -> list[str]:
+    """Markdown table lines of a section's rows."""
+    lines = ["| name | value | unit | origin | meaning |", "|---|---|---|---|---|"]
+    for r in rows:
+        value = json.dumps(plain(r["value"]))
+        lines.append(f"| `{r['name']}` | `{value}` | {_cell(r['unit'])} | {_cell(r['origin'])} | {_cell(r['doc'])} |")
+    return lines
 
 
 def main() -> int:

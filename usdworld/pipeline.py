@@ -43,7 +43,7 @@ from usdworld.io.images import read_image
 from usdworld.io.label_table import label_lookups
 from usdworld.io.labels import read_polygons, read_segmentation
 from usdworld.io.limits import MAX_RANGE_CAP_M
-from usdworld.io.types import CameraSpec, InputFile, Segmentation, SourceImage
+from usdworld.io.types import CameraSpec, Detections, InputFile, Segmentation, SourceImage
 from usdworld.geometry.focal import FocalEstimate
 from usdworld.io.exif import read_exif_focal
 from usdworld.layout.focal_cues import estimate_focal
@@ -93,6 +93,10 @@ class BuildRequest:
         params: the tuned numbers (``--params FILE``).
         traffic: the side traffic keeps to, ``right`` or ``left`` (``--traffic``): which
             way vehicles face (:mod:`usdworld.layout.heading`).
+        camera_spec: the camera already read, used instead of reading ``camera`` (a view of
+            a rig: its known pose gives height, pitch and roll; :mod:`usdworld.views`).
+        detection_items: detections already read, used instead of reading ``detections``
+            (a nuScenes info's 2D boxes of one camera).
     """
 
     image: Path
@@ -111,6 +115,8 @@ class BuildRequest:
     max_range_m: float | None = None
     params: Parameters = DEFAULT_PARAMETERS
     traffic: str = "right"
+    camera_spec: CameraSpec | None = None
+    detection_items: Detections | None = None
 
     def __post_init__(self) -> None:
         check_traffic(self.traffic)
@@ -203,9 +209,11 @@ def _objects(
     params: Parameters,
 ) -> list[ImageObject]:
     lookups = label_lookups()
-    if request.detections is None:
+    if request.detections is None and request.detection_items is None:
         return objects_from_segmentation(seg, view, table, lookups, params.perception) if seg is not None else []
-    if request.detections.suffix.lower() == ".json":
+    if request.detection_items is not None:
+        dets = request.detection_items
+    elif request.detections.suffix.lower() == ".json":
         dets = read_detections_json(request.detections, image)
     else:
         dets = read_kitti_labels(request.detections, image)
@@ -264,6 +272,8 @@ def _inputs(request: BuildRequest, head: SceneHead) -> tuple[InputFile, ...]:
     for path, role in ((request.detections, "detections"), (request.correspondences, "correspondences")):
         if path is not None:
             inputs.append(read_input(path, role)[1])
+    if request.detection_items is not None:
+        inputs.append(request.detection_items.file)
     if head.spec is not None:
         inputs.append(head.spec.file)
         inputs.extend(head.spec.extra_files)
@@ -298,7 +308,9 @@ def read_scene_head(
     """
     image = read_image(request.image)
     seg = _read_segmentation(request, image)
-    spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
+    spec = request.camera_spec
+    if spec is None and request.camera is not None:
+        spec = read_camera(request.camera, image, request.ground_plane)
     segments = detect_segments(image.rgb, params.camera)
     vanishing = find_vanishing_point(segments, image.width, image.height, params.camera)
     view = street_view(spec, image.width, image.height, vanishing, params.placement.curb_height_m, params.camera)

@@ -10,11 +10,11 @@ from typing import Optional
 
 import typer
 
-from usdworld.cli.choices import DepthBackendName, Traffic
+from usdworld.cli.choices import DepthBackendName, Traffic, ViewsLayout
 
 
 def build(
-    image: Path = typer.Argument(..., help="The photo (PNG or JPEG)."),
+    image: Optional[Path] = typer.Argument(None, help="The photo (PNG or JPEG); omit it with --views."),
     output: Path = typer.Option(..., "--output", "-o", help="World folder to create (replaced if it holds a world; its edits are kept)."),
     labels: Optional[Path] = typer.Option(None, "--labels", help="Cityscapes *_gtFine_labelIds.png (8-bit)."),
     instances: Optional[Path] = typer.Option(None, "--instances", help="Cityscapes *_gtFine_instanceIds.png (16-bit)."),
@@ -38,8 +38,25 @@ def build(
     params: Optional[Path] = typer.Option(
         None, "--params", help="Parameters JSON {section: {field: value}} over the defaults (docs/parameters.md)."
     ),
+    views: Optional[Path] = typer.Option(
+        None,
+        "--views",
+        help="Several views, one world: a views manifest JSON, "
+        "or with --layout nuscenes an mmdetection3d info JSON.",
+    ),
+    layout: Optional[ViewsLayout] = typer.Option(
+        None, "--layout", help="What --views names (default: manifest)."
+    ),
+    sample: Optional[str] = typer.Option(
+        None, "--sample", help="With --layout nuscenes: the sample's token (default: the first)."
+    ),
+    jobs: Optional[int] = typer.Option(
+        None,
+        "--jobs",
+        help="With --views: worker processes for the views (default: one per view, up to the CPUs).",
+    ),
 ) -> None:
-    """Build a layered USD world from one street image."""
+    """Build a layered USD world from one street image, or from several views of one rig (--views)."""
     from usdworld.cli.output import quiet
     from usdworld.cli.summary import print_build_summary
     from usdworld.io.parameters_file import read_parameters
@@ -47,6 +64,35 @@ def build(
     from usdworld.pipeline import BuildRequest
     from usdworld.pipeline import build as run_build
 
+    from usdworld.cli import views_build
+
+    per_view = {
+        "image": image,
+        "labels": labels,
+        "instances": instances,
+        "polygons": polygons,
+        "detections": detections,
+        "camera": camera,
+        "ground_plane": ground_plane,
+        "ground_points": ground_points,
+        "depth_map": depth_map,
+    }
+    views_build.check_options(views, per_view, any(v is not None for v in (layout, sample, jobs)))
+    if views is not None:
+        shared = {
+            "depth": depth.value,
+            "depth_weights": depth_weights,
+            "library": library,
+            "max_range_m": max_range,
+            "traffic": traffic.value,
+            "params": read_parameters(params) if params is not None else DEFAULT_PARAMETERS,
+        }
+        layout_name = (layout or ViewsLayout.manifest).value
+        with _log_held_until_success():
+            result = views_build.run(views, layout_name, sample, jobs, output, shared)
+        if not quiet():
+            print_build_summary(result.report, str(result.world))
+        return
     request = BuildRequest(
         image=image,
         output=output,

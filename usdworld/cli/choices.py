@@ -35,3 +35,10 @@ class ExportFormat(str, enum.Enum):
     usdc = "usdc"
     usda_flat = "usda-flat"
     glb = "glb"
+
+
+class ViewsLayout(str, enum.Enum):
+    """``build --layout``: what ``--views`` names (:data:`usdworld.views.build.LAYOUTS`)."""
+
+    manifest = "manifest"
+    nuscenes = "nuscenes"

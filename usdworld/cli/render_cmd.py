@@ -26,7 +26,10 @@ def render(
     output: Path = typer.Option(..., "--output", "-o", help="Folder for the images (created if missing)."),
     size: str | None = typer.Option(None, "--size", help="WIDTHxHEIGHT; default the source image's size."),
     camera: str | None = typer.Option(
-        None, "--camera", help="Camera prim path; default /World/SourceCamera."
+        None,
+        "--camera",
+        help="Camera prim path, or a view's name in a multi-view world (/World/Cameras/NAME); "
+        "default /World/SourceCamera.",
     ),
     photo: Path | None = typer.Option(
         None, "--photo", help="The source photo (default: found next to the world)."
@@ -52,17 +55,21 @@ def render(
     log = logging.getLogger("usdworld.render")
     if output.exists() and not output.is_dir():
         raise OutputError(f"{output}: exists and is not a folder; choose another -o")
+    from usdworld.authoring.rig import rig_view
+
     stage = open_world(world)
+    camera, view_photo = rig_view(stage, camera)
     width, height = parse_size(size) if size else world_image_size(stage)
     pose = view_camera(stage, width, height, camera)
     photo_path = photo
     if photo_path is None:
         root = Path(stage.GetRootLayer().realPath)
-        photo_path = find_beside_world(root, world_source_image(stage), [demo_dir()])
+        photo_name = view_photo or world_source_image(stage)
+        photo_path = find_beside_world(root, photo_name, [demo_dir()])
         if photo_path is None:
             log.info(
                 "source photo %r not found next to the world; pass --photo for the comparison images",
-                world_source_image(stage) or "(none recorded)",
+                photo_name or "(none recorded)",
             )
     photo_rgb = read_photo(photo_path) if photo_path is not None else None
     t0 = time.perf_counter()

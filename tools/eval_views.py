@@ -1,0 +1,127 @@
+"""Evaluate ``usdworld build --layout nuscenes --views INFO`` against the sample's boxes in BEV (issue 19).
+
+The world is built from all the sample's cameras (each camera's 2D boxes as its
+detections, its exact intrinsics and pose), then its objects, read from the composed
+``world.usda`` (edits applied), are compared in bird's-eye view with the sample's LiDAR
+boxes in the ego frame (:mod:`usdworld.evaluation.views`): of the boxes any camera sees,
+how many are placed exactly once, more than once or not at all, the median and p90 BEV
+error, the duplicate pairs (two objects of one class within 2 m), per class.
+
+The same numbers for the views' objects *before* fusion (every view's placements in the
+ego frame, one object per observation, from ``report.json``) say what the association
+changed, and the per-observation BEV error says what bounds the result: the single-view
+depth error, which fusion can only average where two views overlap.
+
+Usage::
+
+    python tools/eval_views.py [INFO] [--sample TOKEN] [--out DIR] [--jobs N] [--json]
+
+``INFO`` defaults to ``$USDWORLD_DATA/nuscenes/demo/*.pkl.DERIVED.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+import numpy as np
+
+from usdworld.evaluation.views import evaluate_bev, read_bev_boxes
+from usdworld.resources import evaluation_data_dir
+
+
+def _default_info() -> Path:
+    found = sorted((evaluation_data_dir() / "nuscenes" / "demo").glob("*.pkl.DERIVED.json"))
+    if not found:
+        sys.exit("no nuScenes info JSON found under $USDWORLD_DATA/nuscenes/demo; pass INFO")
+    return found[0]
+
+
+def _world_objects(world: Path) -> list[tuple[str, str, np.ndarray]]:
+    from pxr import Usd
+
+    from usdworld.evaluation.world_objects import world_objects
+
+    stage = Usd.Stage.Open(str(world / "world.usda"))
+    return [(o.name, o.class_name, o.bottom_centre_world[:2].copy()) for o in world_objects(stage)]
+
+
+def _unfused(report: dict) -> list[tuple[str, str, np.ndarray]]:
+    out = []
+    for name, entry in report["views"]["objects"].items():
+        cls = name.rsplit("_", 1)[0]
+        for ob in entry["observations"]:
+            out.append((f"{ob['view']}:{name}", cls, np.array(ob["position_world"][:2])))
+    return out
+
+
+def _table(title: str, result: dict) -> str:
+    lines = [f"{title}", f"{'class':22s} seen  once  more  missed  extra  median_m  p90_m"]
+    for cls, r in [*result["per_class"].items(), ("ALL", result["overall"])]:
+        med = "-" if r["median_bev_error_m"] is None else f"{r['median_bev_error_m']:.2f}"
+        p90 = "-" if r["p90_bev_error_m"] is None else f"{r['p90_bev_error_m']:.2f}"
+        lines.append(
+            f"{cls:22s} {r['seen']:4d}  {r['placed_once']:4d}  {r['placed_more']:4d}  {r['missed']:6d}  "
+            f"{r['unmatched_objects']:5d}  {med:>8s}  {p90:>5s}"
+        )
+    for label, lo, hi in (("within 30 m", 0.0, 30.0), ("beyond 30 m", 30.0, float("inf"))):
+        sel = [r for r in result["boxes"] if lo <= r["range_m"] < hi]
+        errors = [r["error_m"] for r in sel if r["error_m"] is not None]
+        med = f"{np.median(errors):.2f} m" if errors else "-"
+        lines.append(
+            f"{label}: {len(sel)} boxes, {sum(r['count'] == 1 for r in sel)} placed once, median BEV error {med}"
+        )
+    o = result["overall"]
+    share = o["placed_once"] / o["seen"] if o["seen"] else float("nan")
+    lines.append(
+        f"placed exactly once {o['placed_once']}/{o['seen']} = {100 * share:.1f} %; duplicate pairs (one class, "
+        f"< 2 m) {result['duplicate_pairs']} (ground truth has {result['gt_pairs_within']} such pairs)"
+    )
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Build and evaluate; print the tables (and one JSON line with ``--json``)."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("info", nargs="?", type=Path, default=None)
+    parser.add_argument("--sample", default=None, help="sample token (default: the first)")
+    parser.add_argument(
+        "--out", type=Path, default=None, help="world folder to write (default: a temporary one)"
+    )
+    parser.add_argument("--jobs", type=int, default=None, help="worker processes for the views")
+    parser.add_argument("--json", action="store_true", help="print the results as one JSON line at the end")
+    args = parser.parse_args(argv)
+
+    from usdworld.views.build import ViewsRequest, build_views
+    from usdworld.views.nuscenes import read_nuscenes_views
+
+    info = args.info or _default_info()
+    with tempfile.TemporaryDirectory() as tmp:
+        out = args.out or Path(tmp) / "world"
+        start = time.perf_counter()
+        result = build_views(ViewsRequest(read_nuscenes_views(info, args.sample), out, jobs=args.jobs))
+        seconds = time.perf_counter() - start
+        fused = _world_objects(out)
+    boxes = read_bev_boxes(info, args.sample)
+    after = evaluate_bev(fused, boxes)
+    before = evaluate_bev(_unfused(result.report), boxes)
+    print(
+        f"{info.name}: {len(result.report['views']['cameras'])} views built in {seconds:.1f} s; "
+        f"fusion {result.report['views']['fusion']}"
+    )
+    print(_table("before fusion (every view's objects)", before))
+    print(_table("world (fused)", after))
+    if args.json:
+        print(json.dumps({"seconds": seconds, "fused": after, "before_fusion": before}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,62 @@
+"""Tuned numbers of the multi-view fusion (:mod:`usdworld.views.fusion`).
+
+A section of its own, not a field of :class:`~usdworld.parameters.Parameters`, so that the
+single-image build's ``report.json`` (which records every section) stays as it was; a
+multi-view build records these values under ``views -> parameters``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from usdworld.parameters.base import param
+
+
+@dataclass(frozen=True)
+class ViewsParams:
+    """Thresholds of association and fusion across views; each field documents its unit, meaning and origin."""
+
+    lateral_sigma_rel: float = param(
+        0.02,
+        "fraction",
+        "Standard deviation of a placed object's position across its viewing ray, as a fraction of its "
+        "range from the camera: the box centre's column fixes the bearing to a few pixels, and the "
+        "footprint centre lies behind the visible face by part of the object's width.",
+        "geometry: about 25 px of a 1266 px focal length (nuScenes), half a car's width at 50 m",
+    )
+    lateral_sigma_min_m: float = param(
+        0.25,
+        "m",
+        "Floor of the across-ray standard deviation: a footprint centre is not better known than a "
+        "quarter metre across the ray however near the object is.",
+        "geometry: about half a pedestrian's footprint",
+    )
+    fallback_depth_rel_sigma: float = param(
+        0.15,
+        "fraction",
+        "Along-ray standard deviation, as a fraction of the depth, of an object none of whose depth "
+        "cues carries a spread.",
+        "convention: above the 6 % median relative depth error measured on nuScenes CAM_FRONT, as a cue-less object is less sure",
+    )
+    cut_sigma_share: float = param(
+        0.5,
+        "fraction",
+        "An object cut by its image's border has a footprint centre known only to within part of its "
+        "size: this share of its larger footprint extent is added to both standard deviations.",
+        "geometry: the hidden part of a cut box moves its centre by up to half the object's length",
+    )
+    association_gate_chi2: float = param(
+        9.21,
+        "1",
+        "Two objects of one class seen by different views are one object when the squared Mahalanobis "
+        "distance of their ground positions (their covariances summed) is at most this.",
+        "published: the chi-square 99 % quantile with 2 degrees of freedom",
+    )
+    triangulated_ratio: float = param(
+        0.5,
+        "fraction",
+        "A fused object counts as triangulated (its rays cross, rather than its depths averaging) when "
+        "the largest variance of the fused position is below this fraction of the variance that "
+        "inverse-variance fusion of its depths alone would leave.",
+        "convention: the rays halve the along-ray variance",
+    )

@@ -1,0 +1,294 @@
+"""``build --views``: several views of one rig to one world folder (pipeline level: wiring only).
+
+Each view runs the single-image stages (:func:`usdworld.pipeline.build_model`) with its
+exact intrinsics and the camera its pose gives (height, pitch, roll above the ground; no
+estimation), in a local process pool when there are several. Their placements are moved
+into the rig's world (:mod:`usdworld.views.rig`), associated and fused
+(:mod:`usdworld.views.fusion`) and stand on one ground (:mod:`usdworld.views.ground`); the
+world is written as a single image's is, then the rig's cameras and the multi-view
+provenance are added (:mod:`usdworld.authoring.rig`).
+
+The world's scene-level provenance (camera height, homography ...) and ``SourceCamera``
+are the first view's, so single-view tools keep working; ``/World/Cameras/<name>`` holds
+every view's camera at its pose.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import os
+import shutil
+import tempfile
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from usdworld.authoring import asset_library
+from usdworld.errors import InputError, OutputError
+from usdworld.io.camera_files import read_camera
+from usdworld.io.images import read_image
+from usdworld.io.types import CameraSpec, InputFile
+from usdworld.layout.model import WorldModel
+from usdworld.output_dir import prepare_output, swap_in
+from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
+from usdworld.parameters.base import plain, section_rows
+from usdworld.parameters.views import ViewsParams
+from usdworld.pipeline import BuildRequest, BuildResult, build_model
+from usdworld.report import make_report
+from usdworld.views.fusion import FusedObject, fuse, observations
+from usdworld.views.ground import rig_surfaces
+from usdworld.views.rig import ground_pose, world_from_ground
+from usdworld.views.types import ViewSet, ViewSpec
+
+log = logging.getLogger(__name__)
+
+#: What ``build --views`` may name: a views manifest, or an mmdetection3d nuScenes info file.
+LAYOUTS = ("manifest", "nuscenes")
+
+
+def read_view_set(path: Path, layout: str, sample: str | None) -> ViewSet:
+    """The views ``build --views PATH --layout LAYOUT [--sample TOKEN]`` names.
+
+    Raises:
+        InputError: an unknown layout, ``--sample`` with a manifest, or a bad file.
+    """
+    from usdworld.views.manifest import read_views_manifest
+    from usdworld.views.nuscenes import read_nuscenes_views
+
+    if layout not in LAYOUTS:
+        raise InputError(f"--layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
+    if layout == "manifest":
+        if sample is not None:
+            raise InputError("--sample picks a sample of a nuScenes info file; use it with --layout nuscenes")
+        return read_views_manifest(path)
+    return read_nuscenes_views(path, sample)
+
+
+@dataclass(frozen=True)
+class ViewsRequest:
+    """Everything :func:`build_views` needs; picklable, so each view can build in a worker process.
+
+    Attributes:
+        views: the rig's views (:func:`~usdworld.views.manifest.read_views_manifest`,
+            :func:`~usdworld.views.nuscenes.read_nuscenes_views`).
+        output: the world folder to create or replace.
+        depth: depth backend of every view (as ``build --depth``).
+        depth_weights: weights of a network backend.
+        library: a user asset library layered over the built-in one.
+        max_range_m: farthest ground distance meshed; replaces ``params.scene.max_range_m``.
+        params: the single-image stages' tuned numbers.
+        views_params: the fusion's tuned numbers.
+        traffic: the side traffic keeps to.
+        jobs: worker processes for the views; None for one per view up to the CPU count, 1 for none.
+    """
+
+    views: ViewSet
+    output: Path
+    depth: str = "ground"
+    depth_weights: Path | None = None
+    library: Path | None = None
+    max_range_m: float | None = None
+    params: Parameters = DEFAULT_PARAMETERS
+    views_params: ViewsParams = field(default_factory=ViewsParams)
+    traffic: str = "right"
+    jobs: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.jobs is not None and self.jobs < 1:
+            raise InputError(f"--jobs must be >= 1, got {self.jobs}")
+        self.view_request(self.views.views[0], self.views.source, None)  # checks the shared options once
+
+    @property
+    def parameters(self) -> Parameters:
+        """The single-image parameters used: ``params``, with ``max_range_m`` in place when given."""
+        if self.max_range_m is None:
+            return self.params
+        return self.params.replace(scene={"max_range_m": float(self.max_range_m)})
+
+    def view_request(self, view: ViewSpec, source: InputFile, spec: CameraSpec | None) -> BuildRequest:
+        """The single-image request of one view (its camera given as ``spec``)."""
+        return BuildRequest(
+            image=view.image,
+            output=self.output,
+            labels=view.labels,
+            instances=view.instances,
+            polygons=view.polygons,
+            detections=view.detections,
+            depth=self.depth,
+            depth_weights=self.depth_weights,
+            library=self.library,
+            max_range_m=self.max_range_m,
+            params=self.params,
+            traffic=self.traffic,
+            camera_spec=spec,
+            detection_items=view.detection_items,
+        )
+
+
+@dataclass(frozen=True)
+class RigModel:
+    """The fused world and what each view contributed.
+
+    Attributes:
+        model: the world (placements and ground in the rig's world frame; camera and
+            scene provenance of the first view).
+        objects: the fused objects with their observations, in the order of ``model.placements``.
+        views: the views.
+        view_models: each view's own world, in its ground frame.
+        world_from_ground: each view's (4, 4) float64 ground frame in the world.
+    """
+
+    model: WorldModel
+    objects: tuple[FusedObject, ...]
+    views: ViewSet
+    view_models: tuple[WorldModel, ...] = field(repr=False)
+    world_from_ground: tuple[np.ndarray, ...] = field(repr=False)
+
+
+def view_camera_spec(view: ViewSpec, source: InputFile) -> CameraSpec:
+    """The camera of one view: its intrinsics (``K`` or its camera file's) with the height,
+    pitch and roll its pose gives, and yaw 0 (its ground frame's X is its heading).
+
+    Raises:
+        InputError: a camera file that gives no intrinsics, or one that does not fit the photo.
+    """
+    height_m, pitch, roll = ground_pose(view.world_from_cam)
+    if view.camera is None:  # ViewSpec holds K or a camera file
+        file = InputFile("camera", f"{source.name}#{view.name}", source.sha256)
+        return CameraSpec(view.K, height_m, pitch, roll, 0.0, "views", file)
+    read = read_camera(view.camera, read_image(view.image))
+    if read.K is None:
+        raise InputError(
+            f"{read.file.name}: gives no intrinsics; view {view.name} needs K or a camera file with them"
+        )
+    return CameraSpec(read.K, height_m, pitch, roll, 0.0, read.source, read.file, read.extra_files)
+
+
+def view_model(request: ViewsRequest, index: int) -> WorldModel:
+    """One view's own world, in its ground frame (a worker process's task)."""
+    view = request.views.views[index]
+    spec = view_camera_spec(view, request.views.source)
+    return build_model(
+        request.view_request(view, request.views.source, spec), asset_library.library_dirs(request.library)
+    )
+
+
+def _view_models(request: ViewsRequest) -> list[WorldModel]:
+    n = len(request.views.views)
+    jobs = min(n, request.jobs or os.cpu_count() or 1)
+    if jobs <= 1:
+        return [view_model(request, i) for i in range(n)]
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        return list(pool.map(view_model, [request] * n, range(n)))
+
+
+def build_rig_model(request: ViewsRequest) -> RigModel:
+    """Build every view, move its objects into the world, fuse them and make one ground (no output written)."""
+    view_models = _view_models(request)
+    views = request.views.views
+    poses = [
+        world_from_ground(v.world_from_cam, m.camera.camera.world_from_cam())
+        for v, m in zip(views, view_models)
+    ]
+    obs = []
+    for i, (v, m, pose) in enumerate(zip(views, view_models, poses)):
+        obs.extend(observations(i, v.name, m.image_name, m.placements, pose, request.views_params))
+    objects = fuse(obs, request.views_params)
+    params = request.parameters
+    surfaces = rig_surfaces(
+        [(m.surfaces, pose) for m, pose in zip(view_models, poses)],
+        params.placement.curb_height_m,
+        params.scene.max_range_m,
+    )
+    inputs = [request.views.source]
+    for m in view_models:
+        inputs.extend(f for f in m.inputs if f not in inputs)
+    warnings = [f"{v.name}: {w}" for v, m in zip(views, view_models) for w in m.warnings]
+    model = dataclasses.replace(
+        view_models[0],
+        placements=tuple(o.placement for o in objects),
+        surfaces=tuple(surfaces),
+        inputs=tuple(inputs),
+        warnings=tuple(warnings),
+    )
+    return RigModel(model, tuple(objects), request.views, tuple(view_models), tuple(poses))
+
+
+def rig_report(rig: RigModel, request: ViewsRequest) -> dict[str, Any]:
+    """``report.json`` of a rig: the single-image report of the fused world plus ``views``."""
+    report = make_report(rig.model, request.parameters)
+    methods = [o.method for o in rig.objects]
+    report["views"] = {
+        "frame": rig.views.frame,
+        "source": rig.views.source.name,
+        "cameras": [
+            {
+                "name": v.name,
+                "image": m.image_name,
+                "timestamp": v.timestamp,
+                "world_from_cam": [[float(x) for x in row] for row in v.world_from_cam],
+                "objects_placed": len(m.placements),
+            }
+            for v, m in zip(rig.views.views, rig.view_models)
+        ],
+        "objects": {
+            o.placement.name: {
+                "method": o.method,
+                "sigma_m": [float(np.sqrt(max(e, 0.0))) for e in np.linalg.eigvalsh(o.covariance)],
+                "observations": [
+                    {
+                        "view": ob.view_name,
+                        "image_bbox": [float(b) for b in ob.placement.obj.box_px],
+                        "position_world": [float(c) for c in ob.placement.position_world],
+                        "depth_m": float(ob.placement.depth_m),
+                        "depth_method": ob.placement.depth_method,
+                        "sigma_range_m": ob.sigma_range_m,
+                        "sigma_lateral_m": ob.sigma_lateral_m,
+                    }
+                    for ob in o.observations
+                ],
+            }
+            for o in rig.objects
+        },
+        "fusion": {m: methods.count(m) for m in ("single", "fused", "triangulated")},
+        "parameters": {row["name"]: plain(row["value"]) for row in section_rows(request.views_params)},
+    }
+    return report
+
+
+def build_views(request: ViewsRequest) -> BuildResult:
+    """Build one world folder from the views of a rig (written and swapped in as :func:`usdworld.pipeline.build` does).
+
+    Raises:
+        UsdWorldError: any bad input or an unwritable output.
+    """
+    from usdworld.authoring.rig import write_rig  # lazy: pxr
+    from usdworld.authoring.world import ROOT_LAYER, write_world
+
+    out = Path(request.output)
+    keep_edits = prepare_output(out)
+    rig = build_rig_model(request)
+    libraries = asset_library.library_dirs(request.library)
+    classes = sorted({p.obj.class_name for p in rig.model.placements})
+    asset_files = {c: asset_library.asset_path(c, libraries) for c in classes}
+    report = rig_report(rig, request)
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    except OSError as exc:
+        raise OutputError(f"{out.parent}: cannot write there ({exc.strerror}); choose another -o") from exc
+    try:
+        write_world(rig.model, tmp, asset_files, keep_edits)
+        write_rig(tmp, rig.views, rig.view_models, rig.world_from_ground, rig.objects)
+        (tmp / "report.json").write_text(json.dumps(report, indent=2, sort_keys=True) + "\n")
+        swap_in(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    for warning in rig.model.warnings:
+        log.warning(warning)
+    return BuildResult(out / ROOT_LAYER, rig.model, report, keep_edits is not None)

@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+import usdworld
 from usdworld.authoring.asset_library import library_dirs
 from usdworld.io.camera_files import read_camera
 from usdworld.io.images import read_image
@@ -46,12 +47,15 @@ from usdworld.io.labels import read_segmentation
 from usdworld.pipeline import BuildRequest, build, build_model
 from usdworld.synth import make_street_scene, write_cityscapes_frame
 
-REPO = Path(__file__).resolve().parents[1]
+#: The checkout whose usdworld this process imported: the command runs the same one.
+REPO = Path(usdworld.__file__).resolve().parents[1]
 
 #: The stages of a build, as (name, [(module file suffix, function name), ...]) for the profile.
 STAGES = (
     ("decoding the inputs (image, labels, camera)", [("io/images.py", "read_image"), ("io/labels.py", "read_segmentation"), ("io/camera_files.py", "read_camera")]),
-    ("street vanishing point (LSD and RANSAC)", [("geometry/vanishing.py", "detect_segments"), ("geometry/vanishing.py", "find_vanishing_point")]),
+    # LSD runs in a thread while the labels are decoded: the profile sees the wait for it.
+    ("street vanishing point: waiting for LSD's segments", [("concurrent/futures/_base.py", "result")]),
+    ("street vanishing point: RANSAC", [("geometry/vanishing.py", "find_vanishing_point")]),
     ("perception (objects from the labels)", [("perception/objects.py", "objects_from_segmentation")]),
     ("camera estimate", [("pipeline.py", "_camera")]),
     ("placement", [("layout/placement.py", "place_objects")]),

@@ -18,6 +18,7 @@ import json
 import logging
 import shutil
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -297,9 +298,13 @@ def read_scene_head(
         params: the parameters used.
     """
     image = read_image(request.image)
-    seg = _read_segmentation(request, image)
-    spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
-    segments = detect_segments(image.rgb, params.camera)
+    # The photo's line segments (OpenCV's LSD, which releases the GIL) are found while the
+    # labels and the camera are read: on two cores the decoding costs no time of its own.
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="usdworld-lsd") as pool:
+        segments_found = pool.submit(detect_segments, image.rgb, params.camera)
+        seg = _read_segmentation(request, image)
+        spec = read_camera(request.camera, image, request.ground_plane) if request.camera is not None else None
+        segments = segments_found.result()
     vanishing = find_vanishing_point(segments, image.width, image.height, params.camera)
     view = street_view(spec, image.width, image.height, vanishing, params.placement.curb_height_m, params.camera)
     objects = _objects(request, image, seg, view, table, params)

@@ -8,6 +8,8 @@ import json
 import re
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from test_edit_support import fresh_world
 
 from usdworld.cli.choices import DepthBackendName, ExportFormat, Traffic
@@ -99,8 +101,6 @@ def test_quiet_edits_print_nothing_and_info_gives_degrees(capsys, tmp_path_facto
 
 
 def test_build_table_is_sorted_by_class_then_name() -> None:
-    from rich.console import Console
-
     from usdworld.cli.summary import print_build_summary
 
     def obj(name: str, cls: str) -> dict:
@@ -116,6 +116,30 @@ def test_build_table_is_sorted_by_class_then_name() -> None:
         "dlt": {"source": "camera", "rms_px": 0.0},
     }
     text = io.StringIO()
-    print_build_summary(report, "w/world.usda", Console(file=text, width=160))
+    print_build_summary(report, "w/world.usda", text)
     names = re.findall(r"\b(\w+_\d{4})\b", text.getvalue())
     assert names == ["car_0001", "car_0002", "person_0001", "tree_0001"]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.sampled_from(["3", "objects", "placed", "from", "x.png", "b" * 30, "c" * 130]), min_size=1, max_size=6),
+    st.lists(st.tuples(*[st.sampled_from(["", "a", "car_0001", "residential", "-12.50", "behind_car_0005"])] * 9), max_size=4),
+)
+def test_build_table_looks_as_richs_table_does(words: list[str], rows: list[tuple[str, ...]]) -> None:
+    # The summary's table is drawn without rich (its import and layout cost ~0.1 s a build); it
+    # must print what rich's default table prints to a file, title wrapping included.
+    from rich.console import Console
+    from rich.table import Table
+
+    from usdworld.cli.summary import COLUMNS, format_table
+
+    title = " ".join(words)
+    table = Table(title=title)
+    for column in COLUMNS:
+        table.add_column(column, justify="right" if column.endswith(("m", "scale", "deg")) else "left")
+    for row in rows:
+        table.add_row(*row)
+    text = io.StringIO()
+    Console(file=text, width=160).print(table)
+    assert format_table(title, COLUMNS, rows) == text.getvalue()

@@ -14,7 +14,7 @@ import pytest
 from pxr import Usd, UsdGeom
 
 from usdworld.cli.main import main
-from usdworld.errors import InputError
+from usdworld.errors import InputError, OutputError
 from usdworld.pipeline import BuildRequest, build
 from usdworld.render import RenderScene
 from usdworld.render.flythrough import (
@@ -26,7 +26,7 @@ from usdworld.render.flythrough import (
     render_flythrough,
     video_intrinsics,
 )
-from usdworld.render.video import Mp4Writer, moov_before_mdat, read_video_frames
+from usdworld.render.video import QUEUE_FRAMES, Mp4Writer, moov_before_mdat, read_video_frames
 from usdworld.synth import make_street_scene, write_cityscapes_frame
 
 
@@ -104,6 +104,29 @@ def test_mp4_writer_rejects_odd_sizes_and_wrong_frames(tmp_path: Path) -> None:
     with pytest.raises(Exception, match="frame must be"), Mp4Writer(tmp_path / "b.mp4", 32, 20) as video:
         video.write(np.zeros((10, 10, 3), np.uint8))
     assert not (tmp_path / "b.mp4").exists() and not list(tmp_path.glob(".*"))  # partial file removed
+
+
+def test_mp4_writer_keeps_the_frames_in_order_and_the_caller_may_reuse_its_array(tmp_path: Path) -> None:
+    # More frames than the queue holds, written from one array the caller overwrites each time.
+    levels = [(37 * i) % 256 for i in range(QUEUE_FRAMES * 3)]
+    frame = np.zeros((32, 48, 3), np.uint8)
+    with Mp4Writer(tmp_path / "g.mp4", 48, 32, fps=10) as video:
+        for level in levels:
+            frame[:] = level
+            video.write(frame)
+    _, frames = read_video_frames(tmp_path / "g.mp4")
+    assert len(frames) == len(levels)
+    assert np.allclose([f.mean() for f in frames], levels, atol=3)
+
+
+def test_mp4_writer_reports_a_dead_ffmpeg_and_leaves_no_file(tmp_path: Path) -> None:
+    video = Mp4Writer(tmp_path / "d.mp4", 64, 32)
+    video._gen.gi_frame.f_locals["p"].kill()  # imageio-ffmpeg's generator holds its ffmpeg process as p
+    with pytest.raises(OutputError, match="ffmpeg stopped"):
+        for _ in range(1000):  # the writer thread finds the broken pipe; a later write or close says so
+            video.write(np.zeros((32, 64, 3), np.uint8))
+        video.close()
+    assert not (tmp_path / "d.mp4").exists() and not list(tmp_path.glob(".*"))
 
 
 # -- rendering a world ---------------------------------------------------------------------

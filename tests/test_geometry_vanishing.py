@@ -6,7 +6,13 @@ import cv2
 import numpy as np
 import pytest
 
-from usdworld.geometry.vanishing import find_vanishing_point, horizon_measurement, street_vanishing_point
+from usdworld.geometry.vanishing import (
+    _support,
+    _support_scores,
+    find_vanishing_point,
+    horizon_measurement,
+    street_vanishing_point,
+)
 
 W, H = 1240, 375
 VP = np.array([655.0, 168.0])
@@ -58,3 +64,13 @@ def test_horizon_measurement_includes_road_slope():
     v, sigma = horizon_measurement(vp, 720.0)
     assert v == pytest.approx(VP[1], abs=0.5)
     assert sigma >= 720.0 * np.tan(np.radians(1.0))
+
+
+def test_support_scores_are_the_pointwise_sums_bit_for_bit():
+    # The RANSAC keeps the first best score: a last-bit difference could change the point.
+    rng = np.random.default_rng(5)
+    seg = rng.random((700, 4)) * [2048, 1024, 2048, 1024]
+    length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+    points = rng.random((150, 2)) * [4096, 1024] - [1024, 0]
+    expected = [length[_support(seg, p) < 2.0].sum() for p in points]
+    assert _support_scores(seg, length, points, 2.0, block=64).tolist() == expected

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -11,7 +12,13 @@ from usdworld.io.label_table import label_lookups
 from usdworld.io.types import Detection, Detections, InputFile, Segmentation
 from usdworld.perception.crowns import crown_ranges
 from usdworld.perception.facades import StreetView, fill_through_occluders
-from usdworld.perception.objects import ImageObject, objects_from_detections, objects_from_segmentation
+from usdworld.perception.objects import (
+    ImageObject,
+    _components,
+    _instance_groups,
+    objects_from_detections,
+    objects_from_segmentation,
+)
 
 ROAD, SIDEWALK, BUILDING, PERSON, CAR = 7, 8, 11, 24, 26
 FILE = InputFile("labels", "x.png", "0" * 64)
@@ -451,3 +458,36 @@ def test_bottom_occluders_blocks_give_the_loops_cover_and_first_occluder(boxes, 
     expected = _occluders_pairwise(items, 1e-300)
     assert [int(k) for k in occluder] == [k for _, k in expected]
     assert [bool(c > 0) for c in covered] == [flag for flag, _ in expected]
+
+
+def _groups_reference(instance_ids: np.ndarray) -> list[tuple[int, list[int]]]:
+    """Id by id, pixel by pixel: the boxes _instance_groups should give."""
+    out = []
+    for iid in sorted(int(v) for v in np.unique(instance_ids) if v >= 1000):
+        ys, xs = np.nonzero(instance_ids == iid)
+        out.append((iid, [int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1]))
+    return out
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(1, 8), st.integers(1, 12), st.sampled_from([1, 1 << 21]), st.data())
+def test_instance_groups_match_a_pixel_by_pixel_reading(h: int, w: int, scale: int, data):
+    # ``scale`` takes the ids past the counted range, to the sorted path.
+    ids = st.sampled_from([0, 7, 999, 1000, 1001, 26000, 26003])
+    instance_ids = np.array(data.draw(st.lists(ids, min_size=h * w, max_size=h * w)), dtype=np.int64)
+    instance_ids = np.where(instance_ids >= 1000, instance_ids * scale, instance_ids).reshape(h, w)
+    got = [(iid, box.tolist()) for iid, box in _instance_groups(instance_ids)]
+    assert got == _groups_reference(instance_ids)
+    assert all(box.dtype == np.int64 for _, box in _instance_groups(instance_ids))
+
+
+def test_components_are_opencvs_whatever_their_count():
+    # A checkerboard of isolated pixels has more components than 16-bit labels can number.
+    rng = np.random.default_rng(0)
+    for mask in (rng.random((60, 90)) < 0.4, (np.indices((600, 600)).sum(axis=0) % 2 == 0) & (np.arange(600) % 2 == 0)):
+        n, comp, stats = _components(mask)
+        n_ref, comp_ref, stats_ref, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+        assert n == n_ref
+        np.testing.assert_array_equal(comp, comp_ref)
+        np.testing.assert_array_equal(stats, stats_ref)
+    assert n > np.iinfo(np.uint16).max

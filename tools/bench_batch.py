@@ -12,7 +12,9 @@ shutdown) and steady (first to last finished frame), speed-up over one worker, p
 per worker and its growth over the batch (the highest RSS after the second half of a worker's
 frames minus that after the first half; flat memory: near 0), and the projected
 time for the 5,000 Cityscapes fine frames (2,975 train + 500 val + 1,525 test) on this
-machine and on 32 workers. With ``--repeat N`` the executors take turns (round robin), so a
+machine and on 32 workers. Frames per minute per core are given two ways: the steady rate divided by
+the cores the executor used (``min(workers, cores)``), and 60 s over the median CPU seconds a
+frame took (what a core free of other programs would do). With ``--repeat N`` the executors take turns (round robin), so a
 slow spell of a shared machine does not fall on one executor only; each row is the fastest
 run end to end, with the 1-minute load average at its start (which counts this benchmark's
 own processes) and the CPU that other programs used during it, in cores (from /proc/stat).
@@ -174,14 +176,17 @@ def main(argv: list[str] | None = None) -> int:
     )
     print(
         "| executor | frames/min end to end | frames/min steady | speed-up over 1 worker (steady) "
+        "| frames/min per core (steady / cores used) | frames/min per core (60 s / CPU s per frame) "
         "| median s/frame | median CPU s/frame | start-up s | peak RSS/worker MiB | RSS growth 2nd half vs 1st half MiB | load avg | other programs, cores | failed |"
     )
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         base = one.get(r["name"].split(",")[0])
         speedup = r["fpm_steady"] / base["fpm_steady"] if base else float("nan")
         print(
-            f"| {r['name']} | {r['fpm']:.1f} | {r['fpm_steady']:.1f} | {speedup:.2f}x | {r['frame_s']:.3f} | {r['cpu_s']:.3f} | "
+            f"| {r['name']} | {r['fpm']:.1f} | {r['fpm_steady']:.1f} | {speedup:.2f}x "
+            f"| {r['fpm_steady'] / min(r['workers_seen'], os.cpu_count() or 1):.1f} | {60.0 / r['cpu_s']:.1f} "
+            f"| {r['frame_s']:.3f} | {r['cpu_s']:.3f} | "
             f"{r['start_s']:.2f} | {r['peak_rss_mb']:.0f} | {r['rss_growth_mb']:+.1f} | {r['load']:.2f} "
             f"| {r['other_cores']:.2f} | {r['failed']} |"
         )

@@ -79,21 +79,26 @@ def fill_through_occluders(mask: np.ndarray, occluders: np.ndarray) -> np.ndarra
         [[1, 1, 1, 1, 0, 0]]
     """
     mask = np.asarray(mask, dtype=bool)
-    occ = np.asarray(occluders, dtype=bool) & ~mask
     h, w = mask.shape
     # Rows laid end to end, each padded by a pixel that is neither facade nor occluder,
     # so that a run of occluders never continues into the next row.
-    occ_flat = np.pad(occ, ((0, 0), (1, 1))).ravel()
-    wall_flat = np.pad(mask, ((0, 0), (1, 1))).ravel()
-    step = np.diff(occ_flat.view(np.int8))
-    starts = np.flatnonzero(step == 1) + 1  # first pixel of each run of occluders
-    ends = np.flatnonzero(step == -1) + 1  # first pixel after it
+    occ = np.zeros((h, w + 2), dtype=bool)
+    np.logical_and(occluders, ~mask, out=occ[:, 1:-1])
+    wall = np.zeros((h, w + 2), dtype=bool)
+    wall[:, 1:-1] = mask
+    occ_flat, wall_flat = occ.ravel(), wall.ravel()
+    edges = np.flatnonzero(occ_flat[1:] != occ_flat[:-1]) + 1
+    rising = occ_flat[edges]
+    starts = edges[rising]  # first pixel of each run of occluders
+    ends = edges[~rising]  # first pixel after it
     enclosed = wall_flat[starts - 1] & wall_flat[ends]
-    marks = np.zeros(occ_flat.size + 1, dtype=np.int8)
-    marks[starts[enclosed]] = 1
-    marks[ends[enclosed]] = -1
-    filled = np.cumsum(marks[:-1], dtype=np.int8).astype(bool)
-    return mask | filled.reshape(h, w + 2)[:, 1:-1]
+    starts, ends = starts[enclosed], ends[enclosed]
+    if len(starts):
+        # The enclosed runs' pixels, run after run: each run's start plus 0, 1, ... its length - 1.
+        lengths = ends - starts
+        offsets = np.repeat(starts - (np.cumsum(lengths) - lengths), lengths)
+        wall_flat[offsets + np.arange(len(offsets))] = True
+    return np.ascontiguousarray(wall[:, 1:-1])
 
 
 def _roofline_cuts(tops: np.ndarray, heights: np.ndarray, params: PerceptionParams) -> list[int]:

@@ -256,25 +256,76 @@ def _ground_below(
     return out
 
 
+#: Largest instance id counted with ``np.bincount`` (a table of this many entries); larger ids are sorted.
+_MAX_COUNTED_ID = 1 << 20
+
+
 def _instance_groups(instance_ids: np.ndarray) -> list[tuple[int, np.ndarray]]:
-    """Instance ids >= 1000 and their boxes ``(xmin, ymin, xmax, ymax)``, sorted by id."""
-    ys, xs = np.nonzero(instance_ids >= 1000)
-    if len(ys) == 0:
+    """Instance ids >= 1000 and their boxes ``(xmin, ymin, xmax, ymax)``, sorted by id.
+
+    One pass over the image finds the instance pixels; each pixel then updates its
+    instance's box in place (``ufunc.at``), so no pixel is sorted.
+
+    Args:
+        instance_ids: (H, W) integer instance map.
+
+    Returns:
+        ``(id, box)`` pairs, ``box`` (4,) int64 with xmax/ymax exclusive.
+    """
+    h, w = instance_ids.shape
+    things = np.ascontiguousarray(instance_ids) >= 1000
+    where = np.flatnonzero(things)
+    if len(where) == 0:
         return []
-    vals = instance_ids[ys, xs]
-    order = np.argsort(vals, kind="stable")
-    vals, ys, xs = vals[order], ys[order], xs[order]
-    starts = np.concatenate([[0], np.nonzero(np.diff(vals))[0] + 1])
-    boxes = np.stack(
-        [
-            np.minimum.reduceat(xs, starts),
-            np.minimum.reduceat(ys, starts),
-            np.maximum.reduceat(xs, starts) + 1,
-            np.maximum.reduceat(ys, starts) + 1,
-        ],
-        axis=1,
-    )
-    return [(int(v), b) for v, b in zip(vals[starts], boxes)]
+    vals = instance_ids.ravel()[where]
+    if int(vals.max()) < _MAX_COUNTED_ID:
+        ids = np.flatnonzero(np.bincount(vals))
+        index = np.zeros(int(ids[-1]) + 1, dtype=np.intp)
+        index[ids] = np.arange(len(ids))
+        group = index[vals]
+    else:
+        ids, group = np.unique(vals, return_inverse=True)
+    ys = np.repeat(np.arange(h), np.count_nonzero(things, axis=1))  # flat indices are in row order
+    xs = where - ys * w
+    boxes = np.empty((len(ids), 4), dtype=np.int64)
+    boxes[:, :2] = (w, h)
+    boxes[:, 2:] = 0
+    np.minimum.at(boxes[:, 0], group, xs)
+    np.minimum.at(boxes[:, 1], group, ys)
+    np.maximum.at(boxes[:, 2], group, xs + 1)
+    np.maximum.at(boxes[:, 3], group, ys + 1)
+    return [(int(v), b) for v, b in zip(ids, boxes)]
+
+
+def _lookup(table: np.ndarray, label_ids: np.ndarray) -> np.ndarray:
+    """``table[label_ids]`` for a (256,) bool table and uint8 labels, as one OpenCV table lookup.
+
+    Args:
+        table: (256,) bool, a value per label id.
+        label_ids: (h, w) uint8 label ids.
+
+    Returns:
+        (h, w) bool.
+    """
+    return cv2.LUT(np.ascontiguousarray(label_ids), table.astype(np.uint8)).view(bool)
+
+
+def _components(mask: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+    """8-connected components of a mask, labelled 16-bit when they fit (faster in OpenCV).
+
+    Args:
+        mask: (h, w) bool.
+
+    Returns:
+        The count (background included), the (h, w) label image and the (n, 5) int32 stats
+        ``x, y, w, h, area`` of :func:`cv2.connectedComponentsWithStats`.
+    """
+    image = mask.view(np.uint8) if mask.flags.c_contiguous else np.ascontiguousarray(mask, dtype=np.uint8)
+    # Every component holds the start of a row run, so the runs bound the label count.
+    runs = np.count_nonzero(image[:, 0]) + np.count_nonzero(image[:, 1:] > image[:, :-1])
+    ltype = cv2.CV_16U if runs < np.iinfo(np.uint16).max else cv2.CV_32S
+    n, comp, stats, _ = cv2.connectedComponentsWithStats(image, connectivity=8, ltype=ltype)
+    return n, comp, stats
 
 
 def _facade_sides(
@@ -349,7 +400,6 @@ def objects_from_segmentation(
     pending: list[tuple[str, str, int, np.ndarray, np.ndarray, bool]] = []
 
     inst = np.asarray(seg.instance_ids) if seg.instance_ids is not None else None
-    thing_ids = [i for i in range(256) if lookups.is_thing[i] and lookups.placed[i]]
     if inst is not None:
         for iid, box in _instance_groups(inst):
             label_id = iid // 1000
@@ -360,59 +410,49 @@ def objects_from_segmentation(
             if crop.sum() < params.min_thing_area_px:
                 continue
             pending.append((str(lookups.placed[label_id]), str(lookups.names[label_id]), iid, box, crop, True))
-        is_thing_id = np.zeros(256, dtype=bool)
-        is_thing_id[thing_ids] = True
-        group_mask = is_thing_id[labels] & (inst < 1000)
-    else:
-        group_mask = None
 
-    placed_ids = [i for i in range(256) if lookups.placed[i]]
     by_class: dict[str, list[int]] = {}
-    for i in placed_ids:
-        if inst is not None and lookups.is_thing[i]:
-            continue
-        by_class.setdefault(str(lookups.placed[i]), []).append(i)
-    # One pass over the image: each pixel's stuff class as a small integer (0 = none).
+    for i in range(256):
+        if lookups.placed[i] and not (inst is not None and lookups.is_thing[i]):
+            by_class.setdefault(str(lookups.placed[i]), []).append(i)
+    if inst is not None:
+        # With instances, the things are the instances: a class that things are placed as
+        # makes no stuff regions from other labels' pixels either.
+        for i in range(256):
+            if lookups.is_thing[i] and lookups.placed[i]:
+                by_class.pop(str(lookups.placed[i]), None)
+    # One pass over the image: each pixel's stuff class as a small integer (0 = none); each
+    # class's mask is then cut to the rows and columns it occupies.
     class_names = sorted(by_class)
     class_of_id = np.zeros(256, dtype=np.uint8)
     for k, class_name in enumerate(class_names, start=1):
         class_of_id[by_class[class_name]] = k
-    class_map = class_of_id[labels]
-    if group_mask is not None:
-        thing_classes = {str(lookups.placed[i]) for i in thing_ids}
-        for k, class_name in enumerate(class_names, start=1):
-            if class_name in thing_classes:
-                class_map[(class_map == k) & ~group_mask] = 0
-    present = np.bincount(class_map.ravel(), minlength=len(class_names) + 1)
+    class_map = cv2.LUT(np.ascontiguousarray(labels, dtype=np.uint8), class_of_id)
     for k, class_name in enumerate(class_names, start=1):
         min_area = max(params.min_stuff_area_px, int(params.min_area_fraction(class_name) * H * W))
-        if present[k] < min_area:
-            continue
         class_mask = class_map == k
-        # Label components only inside the rows and columns the class occupies.
-        rows_any = np.nonzero(class_mask.any(axis=1))[0]
-        cols_any = np.nonzero(class_mask.any(axis=0))[0]
-        oy, ox = int(rows_any[0]), int(cols_any[0])
-        own = class_mask[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
+        if np.count_nonzero(class_mask) < min_area:
+            continue
+        ox, oy, ow, oh = cv2.boundingRect(class_mask.view(np.uint8))
+        own = class_mask[oy : oy + oh, ox : ox + ow]
         window = own
         if classes.has(class_name, "facade") or classes.has(class_name, "crown"):
             # A facade or a crown split by a pole or a tree in front of it is one object:
             # its pieces are joined through what stands in front before components are
             # labelled (and cut again by roofline, frontage or crown tops below).
-            window_labels = labels[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
+            window_labels = labels[oy : oy + oh, ox : ox + ow]
             stands_in_front = lookups.placed != ""
             if classes.has(class_name, "crown"):
                 # Facades stand behind street trees: two crowns with a wall between them are two.
                 stands_in_front &= ~np.isin(lookups.placed, sorted(classes.with_role("facade")))
-            in_front = stands_in_front[window_labels]
-            window = fill_through_occluders(own, in_front)
+            window = fill_through_occluders(own, _lookup(stands_in_front, window_labels))
         elif classes.has(class_name, "post"):
             # A post split by a sign, a crown or a car in front of it is one post: its
             # pieces are joined down each column through what stands in front.
-            window_labels = labels[oy : rows_any[-1] + 1, ox : cols_any[-1] + 1]
-            in_front = (lookups.placed != "")[window_labels]
+            window_labels = labels[oy : oy + oh, ox : ox + ow]
+            in_front = _lookup(lookups.placed != "", window_labels)
             window = fill_through_occluders(own.T, in_front.T).T
-        n, comp, stats, _ = cv2.connectedComponentsWithStats(window.astype(np.uint8), connectivity=8)
+        n, comp, stats = _components(window)
         for k_comp in range(1, n):
             x, y, w, h, _ = (int(v) for v in stats[k_comp])
             region = comp[y : y + h, x : x + w] == k_comp
@@ -446,7 +486,7 @@ def objects_from_segmentation(
 
     for idx, (_, _, _, box, crop, _) in enumerate(pending, start=1):
         x0, y0, x1, y1 = (int(b) for b in box)
-        owner[y0:y1, x0:x1][crop] = idx
+        np.copyto(owner[y0:y1, x0:x1], idx, where=crop)
     for idx, (class_name, source, iid, box, crop, thing) in enumerate(pending, start=1):
         x0, y0, x1, y1 = (int(b) for b in box)
         contact = _contact_from_mask(

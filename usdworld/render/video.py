@@ -6,6 +6,10 @@ dimensions, which :class:`Mp4Writer` checks instead of letting ffmpeg rescale. T
 written under a temporary name in the same folder and renamed at the end, so an existing
 video is never left half-written.
 
+Frames go through a bounded queue to a thread that pipes them into ffmpeg's stdin (raw RGB),
+so the caller renders the next frames while ffmpeg encodes: :meth:`Mp4Writer.write` returns
+as soon as the frame is queued, and waits only when :data:`QUEUE_FRAMES` frames are pending.
+
 Example:
     >>> with Mp4Writer("fly.mp4", 960, 480, fps=30) as video:     # doctest: +SKIP
     ...     for frame in frames:                                   # (480, 960, 3) uint8 RGB
@@ -16,7 +20,9 @@ from __future__ import annotations
 
 import logging
 import os
+import queue
 import tempfile
+import threading
 from collections.abc import Generator
 from pathlib import Path
 from typing import Any, Self
@@ -30,6 +36,8 @@ log = logging.getLogger(__name__)
 #: Constant rate factor of libx264 (lower: better quality, larger file).
 DEFAULT_CRF = 20
 DEFAULT_PRESET = "veryfast"
+#: Frames queued for the encoder at most (memory: this many frames, e.g. 2.4 MB each at 1280x640).
+QUEUE_FRAMES = 8
 
 
 def _ffmpeg() -> Any:
@@ -113,12 +121,38 @@ class Mp4Writer:
             raise OutputError(
                 f"{self.path}: ffmpeg (libx264) could not start: {' '.join(str(exc).split())}"
             ) from None
+        self._queue: queue.Queue[np.ndarray | None] = queue.Queue(maxsize=QUEUE_FRAMES)
+        self._failure: str | None = None
+        self._thread = threading.Thread(target=self._feed, name="mp4-writer", daemon=True)
+        self._thread.start()
+
+    def _feed(self) -> None:
+        """The writer thread: queued frames into ffmpeg until the end mark (None)."""
+        while (frame := self._queue.get()) is not None:
+            if self._failure is not None:
+                continue  # ffmpeg is gone: drain the queue so that write() never blocks
+            try:
+                self._gen.send(frame)  # type: ignore[union-attr]
+            except Exception as exc:  # noqa: BLE001  (ffmpeg died: disk full, killed ...)
+                self._failure = " ".join(str(exc).split())
+
+    def _stop_thread(self) -> None:
+        self._queue.put(None)
+        self._thread.join()
+
+    def _raise_failure(self) -> None:
+        failure = self._failure
+        self.abort()
+        raise OutputError(f"{self.path}: ffmpeg stopped while writing: {failure}")
 
     def write(self, frame_rgb: np.ndarray) -> None:
-        """Append one frame.
+        """Queue one frame for encoding (a copy: the caller may reuse its array).
 
         Args:
             frame_rgb: (height, width, 3) uint8 RGB.
+
+        Raises:
+            OutputError: ffmpeg stopped (the partial file is deleted).
         """
         if self._gen is None:
             raise UsdWorldError("this Mp4Writer is closed")
@@ -127,18 +161,21 @@ class Mp4Writer:
             raise UsdWorldError(
                 f"video frame must be ({self.height}, {self.width}, 3) uint8, got {frame.shape} {frame.dtype}"
             )
-        try:
-            self._gen.send(np.ascontiguousarray(frame))
-        except Exception as exc:  # noqa: BLE001  (ffmpeg died: disk full, killed ...)
-            self.abort()
-            raise OutputError(
-                f"{self.path}: ffmpeg stopped while writing: {' '.join(str(exc).split())}"
-            ) from None
+        if self._failure is not None:
+            self._raise_failure()
+        self._queue.put(np.array(frame, order="C", copy=True))
         self.frames_written += 1
 
     def close(self) -> Path:
-        """Finish the file and move it into place; returns its path."""
+        """Encode what is queued, finish the file and move it into place; returns its path.
+
+        Raises:
+            OutputError: ffmpeg stopped (the partial file is deleted).
+        """
         if self._gen is not None:
+            self._stop_thread()
+            if self._failure is not None:
+                self._raise_failure()
             gen, self._gen = self._gen, None
             gen.close()
             os.chmod(self._tmp, 0o644)
@@ -148,6 +185,8 @@ class Mp4Writer:
     def abort(self) -> None:
         """Stop ffmpeg and delete the partial file."""
         if self._gen is not None:
+            self._failure = self._failure or "aborted"  # the thread drops what is still queued
+            self._stop_thread()
             gen, self._gen = self._gen, None
             try:
                 gen.close()

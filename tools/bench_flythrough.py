@@ -1,0 +1,153 @@
+"""Benchmark ``usdworld flythrough``: the whole command against rendering and encoding alone.
+
+Builds a world from a synthetic 2048x1024 Cityscapes-format frame (``usdworld.synth``, seed 3),
+then measures, interleaved over ``--repeat`` rounds (median of each):
+
+* the whole command ``usdworld -q flythrough W -o OUT.mp4 --frames N --size WxH`` (a fresh
+  process: imports, scene extraction, GL context, rendering, encoding), wall and CPU seconds;
+* in this process, after a warm-up: :func:`~usdworld.render.flythrough.render_flythrough`
+  (frames queued to ffmpeg while the next ones render), rendering the same N frames alone, and
+  encoding N rendered frames alone (:class:`~usdworld.render.video.Mp4Writer`).
+
+Rendering plus encoding alone is what the fly-through cost when they ran one after the other;
+the larger of the two is the floor that overlapping them can reach. Prints the load average,
+the machine and a markdown table for BENCHMARKS.md.
+
+Usage::
+
+    python tools/bench_flythrough.py [--frames 120] [--size 1280x640] [--repeat 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import platform
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from usdworld.authoring.inspect import open_world  # noqa: E402
+from usdworld.pipeline import BuildRequest, build  # noqa: E402
+from usdworld.render import flythrough as fly  # noqa: E402
+from usdworld.render.outputs import view_camera, world_image_size  # noqa: E402
+from usdworld.render.renderer import Renderer  # noqa: E402
+from usdworld.render.scene import RenderScene  # noqa: E402
+from usdworld.render.video import Mp4Writer  # noqa: E402
+from usdworld.synth import make_street_scene, write_cityscapes_frame  # noqa: E402
+
+
+def _children_cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _command(world: Path, out: Path, frames: int, width: int, height: int) -> tuple[float, float]:
+    """Wall and CPU seconds (the process and its ffmpeg) of the whole command."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    args = [sys.executable, "-m", "usdworld", "-q", "flythrough", str(world), "-o", str(out)]
+    args += ["--frames", str(frames), "--size", f"{width}x{height}"]
+    cpu0, t0 = _children_cpu_s(), time.perf_counter()
+    subprocess.run(args, check=True, env=env, stdout=subprocess.DEVNULL)
+    return time.perf_counter() - t0, _children_cpu_s() - cpu0
+
+
+def _frames_alone(world: Path, frames: int, width: int, height: int) -> tuple[float, list[np.ndarray]]:
+    """Seconds to render the fly-through's frames with no encoding, and the frames."""
+    stage = open_world(world)
+    size = world_image_size(stage)
+    source = view_camera(stage, *size)
+    K = fly.video_intrinsics(source.K, size, (width, height))
+    fly.add_source_vehicle(stage, fly.car_asset_for(world))
+    scene = RenderScene.from_stage(stage)
+    poses = fly.flythrough_poses(source.world_from_cam, frames, fly.clear_path(fly.FlythroughPath(), scene, source.world_from_cam))
+    with Renderer(width, height) as renderer:
+        renderer.render_rgb(scene, K, poses[0])  # context and upload, as the fly-through's first frame
+        t0 = time.perf_counter()
+        images = [renderer.render_rgb(scene, K, pose) for pose in poses]
+        return time.perf_counter() - t0, images
+
+
+def _encode_alone(images: list[np.ndarray], out: Path) -> float:
+    height, width = images[0].shape[:2]
+    t0 = time.perf_counter()
+    with Mp4Writer(out, width, height) as video:
+        for image in images:
+            video.write(image)
+    return time.perf_counter() - t0
+
+
+def _in_process(world: Path, out: Path, frames: int, width: int, height: int) -> float:
+    t0 = time.perf_counter()
+    fly.render_flythrough(open_world(world), out, n_frames=frames, width=width, height=height)
+    return time.perf_counter() - t0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=120)
+    parser.add_argument("--size", default="1280x640")
+    parser.add_argument("--repeat", type=int, default=3)
+    args = parser.parse_args(argv)
+    width, height = (int(v) for v in args.size.lower().split("x"))
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        scene = make_street_scene(np.random.default_rng(3), 2048, 1024)
+        files = write_cityscapes_frame(scene, tmp / "in", "bench_000000_000001")
+        world = build(
+            BuildRequest(
+                image=files["image"],
+                labels=files["labels"],
+                instances=files["instances"],
+                camera=files["camera"],
+                output=tmp / "world",
+            )
+        ).world
+        _in_process(world, tmp / "warm.mp4", 2, width, height)  # warm-up: imports, shaders
+        runs: dict[str, list[float]] = {k: [] for k in ("cmd", "cmd_cpu", "inproc", "render", "encode")}
+        loads = []
+        for _ in range(args.repeat):
+            loads.append(os.getloadavg()[0])
+            wall, cpu = _command(world, tmp / "cmd.mp4", args.frames, width, height)
+            runs["cmd"].append(wall)
+            runs["cmd_cpu"].append(cpu)
+            runs["inproc"].append(_in_process(world, tmp / "inproc.mp4", args.frames, width, height))
+            t_render, images = _frames_alone(world, args.frames, width, height)
+            runs["render"].append(t_render)
+            runs["encode"].append(_encode_alone(images, tmp / "encode.mp4"))
+            del images
+    med = {k: statistics.median(v) for k, v in runs.items()}
+    serial = med["render"] + med["encode"]
+    floor = max(med["render"], med["encode"])
+    print(
+        f"{datetime.date.today()}, {platform.machine()}, {os.cpu_count()} cores, python {platform.python_version()}; "
+        f"1-minute load average at the start of each round: {', '.join(f'{v:.2f}' for v in loads)}"
+    )
+    print(f"| {args.frames} frames at {width}x{height}, median of {args.repeat} | seconds | per frame | / (render + encode) |")
+    print("|---|---|---|---|")
+    rows = [
+        ("`usdworld flythrough`, whole command (wall)", med["cmd"]),
+        ("the same, CPU (process and ffmpeg)", med["cmd_cpu"]),
+        ("`render_flythrough` in process (rendering and encoding overlapped)", med["inproc"]),
+        ("rendering alone (no encoding)", med["render"]),
+        ("encoding alone (rendered frames into ffmpeg)", med["encode"]),
+        ("rendering + encoding one after the other", serial),
+        ("floor of the overlap: max(rendering, encoding)", floor),
+    ]
+    for name, seconds in rows:
+        print(f"| {name} | {seconds:.2f} | {1000 * seconds / args.frames:.0f} ms | {seconds / serial:.2f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

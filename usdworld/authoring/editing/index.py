@@ -112,7 +112,9 @@ def read_index(
         if t is None or s3 is None or not labels:
             return None
         class_name = str(labels[0])
-        variant = next((v for v in (s.variantSelections.get(VARIANT_SET) for s in specs) if v is not None), None)
+        variant = next(
+            (v for v in (s.variantSelections.get(VARIANT_SET) for s in specs) if v is not None), None
+        )
         if variant is None:
             try:
                 variant = asset_library.asset_info(class_name, libraries).default_variant
@@ -134,4 +136,6 @@ def read_index(
     if placed_rows:
         rows = np.array(placed_rows, dtype=np.float64)
         placed = np.array([(rows[:, :2] - rows[:, 2:]).min(axis=0), (rows[:, :2] + rows[:, 2:]).max(axis=0)])
-    return ObjectIndex(tuple(names), np.array(centers, dtype=np.float64).reshape(-1, 2), np.array(reach), placed)
+    return ObjectIndex(
+        tuple(names), np.array(centers, dtype=np.float64).reshape(-1, 2), np.array(reach), placed
+    )

@@ -25,7 +25,11 @@ Measured per size (medians over ``--runs`` interleaved runs; the floors in the s
 
 Usage::
 
-    python tools/bench_scale.py [--sizes 1000,10000,100000] [--runs 3] [--keep DIR]
+    python tools/bench_scale.py [--sizes 1000,10000,100000] [--runs 3] [--keep DIR] [--reference CHECKOUT]
+
+With ``--reference``, a second table compares, one run each, authoring, the whole edit
+command and reading the (unculled) render scene at 1,000 objects with another checkout
+(e.g. the code before this benchmark's changes), and whether both write the same bytes.
 """
 
 from __future__ import annotations
@@ -100,6 +104,29 @@ print(json.dumps({"edit_open": t1 - t0, "edit_move": t2 - t1}))
 """
 
 
+_AUTHOR_SNIPPET = r"""
+import json, pickle, sys, time
+from usdworld.authoring import asset_library
+from usdworld.authoring.world import write_world
+model = pickle.load(open(sys.argv[1], "rb"))
+libraries = asset_library.library_dirs(None)
+assets = {c: asset_library.asset_path(c, libraries) for c in sorted({p.obj.class_name for p in model.placements})}
+t0 = time.perf_counter()
+write_world(model, __import__("pathlib").Path(sys.argv[2]), assets, None)
+print(json.dumps({"author": time.perf_counter() - t0}))
+"""
+
+_SCENE_SNIPPET = r"""
+import json, sys, time
+from pxr import Usd
+from usdworld.render import RenderScene
+stage = Usd.Stage.Open(sys.argv[1])
+t0 = time.perf_counter()
+scene = RenderScene.from_stage(stage)
+print(json.dumps({"scene": time.perf_counter() - t0, "triangles": scene.n_triangles}))
+"""
+
+
 def base_model(tmp: Path, seed: int, width: int, height: int):  # -> WorldModel
     """The model ``usdworld build`` makes of a synthetic frame."""
     from usdworld.authoring.asset_library import library_dirs
@@ -168,22 +195,25 @@ def tiled_model(model, n_objects: int):  # (WorldModel, int) -> WorldModel
     return dataclasses.replace(model, placements=tuple(placements), surfaces=tuple(surfaces))
 
 
-def _env() -> dict[str, str]:
-    repo = str(Path(__file__).resolve().parents[1])
-    return {**os.environ, "PYTHONPATH": repo + os.pathsep + os.environ.get("PYTHONPATH", "")}
+_HERE = Path(__file__).resolve().parents[1]
 
 
-def _wall(cmd: list[str]) -> tuple[float, str]:
+def _env(repo: Path = _HERE) -> dict[str, str]:
+    return {**os.environ, "PYTHONPATH": str(repo) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+
+
+def _wall(cmd: list[str], repo: Path = _HERE) -> tuple[float, str]:
     t0 = time.perf_counter()
-    done = subprocess.run(cmd, capture_output=True, text=True, env=_env(), check=False)
+    # run in the checkout: ``python -c`` and ``-m`` put the working folder first on sys.path
+    done = subprocess.run(cmd, capture_output=True, text=True, env=_env(repo), cwd=repo, check=False)
     wall = time.perf_counter() - t0
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed ({done.returncode}): {done.stderr.strip()[-2000:]}")
     return wall, done.stdout
 
 
-def _snippet(code: str, *args: object) -> dict:
-    _, out = _wall([sys.executable, "-c", code, *map(str, args)])
+def _snippet(code: str, *args: object, repo: Path = _HERE) -> dict:
+    _, out = _wall([sys.executable, "-c", code, *map(str, args)], repo)
     return json.loads(out.strip().splitlines()[-1])
 
 
@@ -224,6 +254,31 @@ def measure(model, n: int, folder: Path, runs: int, render: bool) -> dict:
     return out
 
 
+def against(model, n: int, folder: Path, reference: Path, scene: bool) -> dict:
+    """Author, the whole edit command and (when ``scene``) reading the unculled render scene,
+    each in fresh processes with ``reference`` and then with this checkout."""
+    import pickle
+
+    pkl = folder / f"model_{n}.pkl"
+    pkl.write_bytes(pickle.dumps(model))
+    mover = next(p.name for p in model.placements if p.obj.class_name == "car")
+    repos = {"ref": reference, "new": _HERE}
+    out: dict = {}
+    for tag, repo in repos.items():
+        out[f"author_{tag}"] = _snippet(_AUTHOR_SNIPPET, pkl, folder / f"ab_{tag}_{n}", repo=repo)["author"]
+    diff = subprocess.run(["diff", "-rq", folder / f"ab_ref_{n}", folder / f"ab_new_{n}"], check=False)
+    out["same_bytes"] = diff.returncode == 0
+    for tag, repo in repos.items():
+        world = folder / f"ab_{tag}_{n}"
+        if scene:
+            out[f"scene_{tag}"] = _snippet(_SCENE_SNIPPET, world / "world.usda", repo=repo)["scene"]
+        move = ["edit", str(world), "move", mover, "--by", "0.5,0", "--force"]
+        out[f"edit_{tag}"], _ = _wall([sys.executable, "-m", "usdworld", *move], repo)
+        shutil.rmtree(world)
+    pkl.unlink()
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="1000,10000,100000")
@@ -231,6 +286,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-render-above", type=int, default=10**9, help="skip the render above this size")
     parser.add_argument("--seed", type=int, default=3)
     parser.add_argument("--keep", type=Path, help="keep the worlds in this folder")
+    parser.add_argument(
+        "--reference",
+        type=Path,
+        help="also author, edit and read the scene with this checkout (before/after)",
+    )
     args = parser.parse_args(argv)
     sizes = [int(s) for s in args.sizes.split(",")]
     tmp = Path(tempfile.mkdtemp(prefix="bench_scale_"))
@@ -266,6 +326,21 @@ def main(argv: list[str] | None = None) -> int:
                 f"| {r['bytes_base'] / 1e6:.1f} | {os.getloadavg()[0]:.2f} |",
                 flush=True,
             )
+        if args.reference is not None:
+            print(f"\nbefore/after ({args.reference} / this checkout), load average {os.getloadavg()[0]:.2f}")
+            print(
+                "| objects | author s before / after | same bytes | read render scene s before / after "
+                "| edit move s (whole) before / after |"
+            )
+            print("|---|---|---|---|---|")
+            for n in sizes:
+                r = against(tiled_model(model, n), n, folder, args.reference, n <= 1000)
+                scene = f"{r['scene_ref']:.2f} / {r['scene_new']:.2f}" if "scene_ref" in r else "not measured"
+                print(
+                    f"| {n:,d} | {r['author_ref']:.2f} / {r['author_new']:.2f} | {r['same_bytes']} | {scene} "
+                    f"| {r['edit_ref']:.2f} / {r['edit_new']:.2f} |",
+                    flush=True,
+                )
     finally:
         if args.keep is None:
             shutil.rmtree(tmp, ignore_errors=True)

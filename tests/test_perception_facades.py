@@ -266,7 +266,11 @@ def test_stretched_buildings_are_authored_with_their_footprint(tmp_path):
     stage = Usd.Stage.CreateNew(str(tmp_path / "w.usda"))
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
-    define_objects(stage, placements, {"building": str(asset_path("building", library_dirs(None)))}, "x.png")
+    UsdGeom.Xform.Define(stage, "/World")
+    UsdGeom.Scope.Define(stage, "/World/Objects")
+    define_objects(
+        stage.GetRootLayer(), placements, {"building": str(asset_path("building", library_dirs(None)))}, "x.png"
+    )
     authored = {o.name: o for o in world_objects(stage)}
     for p in placements:
         prim = stage.GetPrimAtPath(f"/World/Objects/{p.name}")

@@ -49,7 +49,7 @@ from usdworld.authoring.editing.journal import HistoryEntry, entries, read_journ
 from usdworld.authoring.editing.operations import EditResult
 from usdworld.authoring.editing.orphans import OrphanEdit, orphan_edits
 from usdworld.authoring.editing.restyle import COLOR_KEY, parse_color
-from usdworld.authoring.editing.state import ObjectState, WorldState
+from usdworld.authoring.editing.state import EDIT_MASK, ObjectState, WorldState
 from usdworld.authoring.editing.transaction import EditsTransaction, atomic_write_text
 from usdworld.authoring.stages import open_stage
 from usdworld.errors import AuthoringError, EditRefused, InputError, RefusalReason
@@ -107,7 +107,7 @@ class WorldEditor:
         self.surface_rules = rules.load_surface_rules(surface_rules)
         self.replacement_rules = rules.load_replacement_rules(replacement_rules)
         self.classes = classes if classes is not None else load_class_table()
-        self._stage = open_stage(root, "USD world")
+        self._stage = open_stage(root, "USD world", mask=EDIT_MASK)
         sublayers = list(self._stage.GetRootLayer().subLayerPaths)
         if len(sublayers) < 2:
             raise AuthoringError(
@@ -121,7 +121,7 @@ class WorldEditor:
             layer.Reload()  # a layer another stage of this process holds may be stale on disk
         self.assets_dir = self.base_paths[-1].parent.parent / ASSETS_DIR
         libraries = (self.assets_dir, *asset_library.library_dirs(Path(library) if library else None))
-        self._state = WorldState(self._stage, layers[0], self.classes, libraries)
+        self._state = WorldState(self._stage, tuple(layers), self.classes, libraries)
         tx = EditsTransaction(layers[0], (self.root, *self.base_paths), self._state.forget)
         self._ed = ops.Editing(
             self._stage,
@@ -134,7 +134,7 @@ class WorldEditor:
             self.assets_dir,
             clock,
         )
-        if not self._stage.GetPrimAtPath(OBJECTS_PATH):
+        if not any(layer.GetPrimAtPath(OBJECTS_PATH) for layer in layers):
             raise AuthoringError(f"{root}: no {OBJECTS_PATH} scope; not a usdworld world")
 
     def close(self) -> None:
@@ -157,7 +157,8 @@ class WorldEditor:
 
     @property
     def stage(self) -> Usd.Stage:
-        """The composed stage (read it; write only through the editor's operations)."""
+        """The composed stage, every prim of it (read it; write only through the editor's operations)."""
+        self._state.unmask()
         return self._stage
 
     # --- reading --------------------------------------------------------------------
@@ -186,6 +187,7 @@ class WorldEditor:
 
     def check(self) -> list[OrphanEdit]:
         """Edits whose target prim does not exist in the composed world (e.g. after a rebuild)."""
+        self._state.unmask()
         with self._ed.tx.locked():
             return orphan_edits(self._stage, self._ed.tx.layer)
 

@@ -69,6 +69,28 @@ def apply_with_values(prim: Usd.Prim, api: str, values: dict[str, Any]) -> None:
         prim.CreateAttribute(name, ATTRIBUTE_TYPES[name], custom=False).Set(value)
 
 
+def author_values(spec: Sdf.PrimSpec, api: str, values: dict[str, Any]) -> None:
+    """:func:`apply_with_values` on a prim spec: the same opinions, written through Sdf.
+
+    Prepends ``api`` to the spec's ``apiSchemas`` and writes each attribute as a non-custom
+    spec with its default value (cast to the attribute's type, as ``Usd.Attribute.Set`` does).
+
+    Args:
+        spec: the prim spec to write into.
+        api: ``UsdWorldProvenanceAPI`` or ``UsdWorldSceneAPI``.
+        values: attribute name -> Python/Gf value.
+    """
+    prepend_api_schema(spec, api)
+    for name, value in values.items():
+        Sdf.AttributeSpec(spec, name, ATTRIBUTE_TYPES[name], Sdf.VariabilityVarying, declaresCustom=False).default = value
+
+
+def prepend_api_schema(spec: Sdf.PrimSpec, api: str) -> None:
+    """Add ``api`` at the end of the spec's prepended ``apiSchemas`` (``Usd.Prim.AddAppliedSchema`` on a new spec)."""
+    schemas = spec.GetInfo("apiSchemas") if spec.HasInfo("apiSchemas") else Sdf.TokenListOp()
+    spec.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=[*schemas.prependedItems, api]))
+
+
 def read_values(prim: Usd.Prim) -> dict[str, Any]:
     """Every authored ``usdworld:`` attribute of a prim, by name."""
     out = {}

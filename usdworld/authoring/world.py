@@ -27,7 +27,13 @@ from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, UsdUtils, V
 import usdworld
 from usdworld.authoring.asset_cards import card_path
 from usdworld.authoring.camera import define_camera
-from usdworld.authoring.provenance import PROVENANCE_API, SCENE_API, apply_with_values
+from usdworld.authoring.provenance import (
+    PROVENANCE_API,
+    SCENE_API,
+    apply_with_values,
+    author_values,
+    prepend_api_schema,
+)
 from usdworld.errors import AuthoringError
 from usdworld.world_files import (  # re-exported: the names of what this module writes
     ASSETS_DIR,
@@ -49,6 +55,13 @@ if TYPE_CHECKING:  # annotations only: the editor imports this module, and layou
 
 #: Colours of the ground surfaces (linear RGB) and their semantic class.
 SURFACE_LOOKS = {"road": (0.09, 0.09, 0.1), "sidewalk": (0.45, 0.43, 0.4), "terrain": (0.16, 0.2, 0.1)}
+
+
+#: The ops every object's transform is made of, in order.
+_XFORM_OP_ORDER = ["xformOp:translate", "xformOp:rotateZ", "xformOp:scale"]
+#: The semantic labels API instance and attribute of the ``class`` taxonomy.
+_LABELS_API = "SemanticsLabelsAPI:class"
+_LABELS_ATTR = "semantics:labels:class"
 
 
 def _set_stage_metadata(stage: Usd.Stage) -> None:
@@ -111,23 +124,22 @@ def _nan_if_none(value: float | None) -> float:
 
 
 def define_objects(
-    stage: Usd.Stage, placements: Sequence[Placement], asset_refs: dict[str, str], image_name: str
-) -> list[UsdGeom.Xform]:
-    """Author the placed objects: each a reference to its class asset, with its model
-    variant, transform, class label and provenance.
+    layer: Sdf.Layer, placements: Sequence[Placement], asset_refs: dict[str, str], image_name: str
+) -> None:
+    """Author the placed objects under ``/World/Objects``: each a reference to its class asset,
+    with its model variant, transform, class label and provenance.
 
-    The assets are referenced after every object's own opinions are written, all in one
-    change block, so the stage composes them once rather than after every object (the
-    layer's text is the same either way).
+    Written straight into the layer through Sdf, in one change block: no stage composes
+    the objects while they are written (a stage open on the layer recomposes once, at the
+    end). The layer's text is what the Usd schema calls write (``Xform``, ``translate`` /
+    ``rotateZ`` / ``scale`` ops, ``SemanticsLabelsAPI:class``, ``UsdWorldProvenanceAPI``);
+    parents missing from the layer are created as ``over``.
 
     Args:
-        stage: the base stage (its root layer is the edit target).
+        layer: the base layer.
         placements: where and how the objects are placed.
         asset_refs: class name -> relative path of the class asset from the base layer.
         image_name: source image file name.
-
-    Returns:
-        The objects' Xforms, in the order of ``placements``.
 
     Raises:
         AuthoringError: an object name that is no valid prim name, or a class without an asset.
@@ -137,30 +149,38 @@ def define_objects(
             raise AuthoringError(f"invalid object name '{placement.name}'")
         if placement.obj.class_name not in asset_refs:
             raise AuthoringError(f"{placement.name}: no asset for class '{placement.obj.class_name}'")
-    xforms = [_define_object_opinions(stage, p, image_name) for p in placements]
-    layer = stage.GetRootLayer()
+    objects = Sdf.Path(OBJECTS_PATH)
     with Sdf.ChangeBlock():
-        for placement, xform in zip(placements, xforms):
-            spec = layer.GetPrimAtPath(xform.GetPath())
+        Sdf.CreatePrimInLayer(layer, objects)
+        for placement in placements:
+            spec = Sdf.CreatePrimInLayer(layer, objects.AppendChild(placement.name))
+            spec.specifier = Sdf.SpecifierDef
+            spec.typeName = "Xform"
+            _define_object_opinions(spec, placement, image_name)
             spec.referenceList.Prepend(Sdf.Reference(asset_refs[placement.obj.class_name]))
             spec.variantSelections["model"] = placement.variant
-    return xforms
 
 
-def _define_object_opinions(stage: Usd.Stage, placement: Placement, image_name: str) -> UsdGeom.Xform:
-    """One object's own opinions: its Xform, transform ops, class label and provenance."""
-    xform = UsdGeom.Xform.Define(stage, f"{OBJECTS_PATH}/{placement.name}")
-    prim = xform.GetPrim()
+def _attribute(spec: Sdf.PrimSpec, name: str, type_name: Sdf.ValueTypeName, value: object, *, uniform: bool = False) -> None:
+    variability = Sdf.VariabilityUniform if uniform else Sdf.VariabilityVarying
+    Sdf.AttributeSpec(spec, name, type_name, variability, declaresCustom=False).default = value
+
+
+def _define_object_opinions(spec: Sdf.PrimSpec, placement: Placement, image_name: str) -> None:
+    """One object's own opinions: transform ops, class label and provenance."""
     p = placement.position_world
-    xform.AddTranslateOp().Set(Gf.Vec3d(float(p[0]), float(p[1]), float(p[2])))
-    xform.AddRotateZOp().Set(float(round(math.degrees(placement.yaw), 6)))
     s = float(placement.scale) * np.asarray(placement.stretch, dtype=np.float64)
-    xform.AddScaleOp().Set(Gf.Vec3f(*(float(v) for v in s)))
-    _label(prim, placement.obj.class_name)
+    names = Sdf.ValueTypeNames
+    _attribute(spec, "xformOp:translate", names.Double3, Gf.Vec3d(float(p[0]), float(p[1]), float(p[2])))
+    _attribute(spec, "xformOp:rotateZ", names.Float, float(round(math.degrees(placement.yaw), 6)))
+    _attribute(spec, "xformOp:scale", names.Float3, Gf.Vec3f(*(float(v) for v in s)))
+    _attribute(spec, "xformOpOrder", names.TokenArray, _XFORM_OP_ORDER, uniform=True)
+    prepend_api_schema(spec, _LABELS_API)
+    _attribute(spec, _LABELS_ATTR, names.TokenArray, [placement.obj.class_name])
     obj = placement.obj
     cues = placement.cues
-    apply_with_values(
-        prim,
+    author_values(
+        spec,
         PROVENANCE_API,
         {
             "usdworld:sourceImage": image_name,
@@ -183,7 +203,6 @@ def _define_object_opinions(stage: Usd.Stage, placement: Placement, image_name: 
             "usdworld:confidence": float(placement.confidence),
         },
     )
-    return xform
 
 
 def _scene_values(model: WorldModel) -> dict:
@@ -223,7 +242,8 @@ def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) 
         path: file to write.
         asset_refs: class name -> asset path relative to the base layer.
     """
-    stage = Usd.Stage.CreateNew(str(path))
+    layer = Sdf.Layer.CreateNew(str(path))
+    stage = Usd.Stage.Open(layer)
     _set_stage_metadata(stage)
     world = UsdGeom.Xform.Define(stage, WORLD_PATH)
     stage.SetDefaultPrim(world.GetPrim())
@@ -231,12 +251,13 @@ def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) 
     apply_with_values(world.GetPrim(), SCENE_API, _scene_values(model))
     objects = UsdGeom.Scope.Define(stage, OBJECTS_PATH)
     Usd.ModelAPI(objects.GetPrim()).SetKind(Kind.Tokens.group)
-    define_objects(stage, model.placements, asset_refs, model.image_name)
     if model.surfaces:
         ground = UsdGeom.Xform.Define(stage, GROUND_PATH)
         ground.GetPrim().GetReferences().AddReference(f"./{Path(GROUND_LAYER).name}")
     define_camera(stage, CAMERA_PATH, model.camera.camera)
-    stage.GetRootLayer().Save()
+    del stage  # the objects go straight into the layer; no stage composes them
+    define_objects(layer, model.placements, asset_refs, model.image_name)
+    layer.Save()
 
 
 def write_ground_layer(model: WorldModel, path: Path) -> None:
@@ -257,8 +278,10 @@ def write_root_layer(path: Path) -> None:
     layer.subLayerPaths.append(f"./{EDITS_LAYER}")
     layer.subLayerPaths.append(f"./{BASE_LAYER}")
     layer.defaultPrim = WORLD_PATH.strip("/")
-    stage = Usd.Stage.Open(layer)
-    _set_stage_metadata(stage)
+    # The metadata UsdGeom.SetStageUpAxis / SetStageMetersPerUnit author, set on the layer:
+    # a stage opened here would compose the whole world just to write two fields.
+    layer.pseudoRoot.SetInfo(UsdGeom.Tokens.upAxis, UsdGeom.Tokens.z)
+    layer.pseudoRoot.SetInfo(UsdGeom.Tokens.metersPerUnit, 1.0)
     layer.Save()
 
 

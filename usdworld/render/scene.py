@@ -28,10 +28,17 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom
 
 from usdworld.render.classes import label_id_for_class, thing_label_ids
-from usdworld.render.usd_mesh import MeshTriangles, mesh_triangles
-
-_LABEL_ATTR = "semantics:labels:class"
-_PRUNED_PURPOSES = (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
+from usdworld.render.instancing import (
+    Prototype,
+    ViewCull,
+    box_corners,
+    local_layer_ids,
+    own_label,
+    prototype_key,
+    pruned,
+    read_prototype,
+)
+from usdworld.render.usd_mesh import MeshTriangles, mesh_triangles, place_mesh
 
 
 @dataclass(frozen=True)
@@ -70,7 +77,10 @@ class RenderScene:
         class_ids: (V,) int32 Cityscapes label id per corner.
         instance_ids: (V,) int32 Cityscapes instance id per corner.
         object_ids: (V,) int32 1-based index into ``objects`` (0: no object).
-        objects: the top-level objects, in stage order.
+        objects: the top-level objects, in stage order (culled ones too).
+        culled_bounds_world: (2, 3) float64 ``[min, max]`` of the boxes of the objects
+            culled when the scene was read, or None (they still cast the scene's extent:
+            the far plane and the shadow box are the same as without culling, up to boxes).
     """
 
     positions_world: np.ndarray
@@ -80,6 +90,7 @@ class RenderScene:
     instance_ids: np.ndarray
     object_ids: np.ndarray
     objects: tuple[RenderObject, ...]
+    culled_bounds_world: np.ndarray | None = None
     _bounds: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -100,6 +111,10 @@ class RenderScene:
             raise ValueError(f"RenderScene: {n} corners is not a whole number of triangles")
         p = self.positions_world
         bounds = np.stack([p.min(axis=0), p.max(axis=0)]).astype(np.float64) if n else np.zeros((2, 3))
+        if self.culled_bounds_world is not None:
+            # float32 like the positions, so an exact box gives the same bounds as its triangles
+            c = np.asarray(self.culled_bounds_world, dtype=np.float32).astype(np.float64).reshape(2, 3)
+            bounds = np.stack([np.minimum(bounds[0], c[0]), np.maximum(bounds[1], c[1])]) if n else c.copy()
         bounds.setflags(write=False)
         object.__setattr__(self, "_bounds", bounds)
 
@@ -116,15 +131,22 @@ class RenderScene:
         return {o.path: o for o in self.objects}
 
     @classmethod
-    def from_stage(cls, stage: Usd.Stage, objects_path: str | None = None) -> RenderScene:
+    def from_stage(
+        cls, stage: Usd.Stage, objects_path: str | None = None, cull: ViewCull | None = None
+    ) -> RenderScene:
         """Collect every renderable mesh of the composed stage.
+
+        Objects referencing the same asset meshes share one read of them
+        (:mod:`usdworld.render.instancing`); the triangles are the same either way.
 
         Args:
             stage: an open stage; its current composition is read (edits, variants, active).
             objects_path: the scope whose children are the objects; default
                 ``<defaultPrim>/Objects`` when it exists, else ``/World/Objects``.
+            cull: leave out the triangles of the objects this view cannot see, nor their
+                shadows (they keep their ids and place in ``objects``); None keeps all.
         """
-        return _extract(stage, objects_path)
+        return _extract(stage, objects_path, cull)
 
 
 def world_from_stage(stage: Usd.Stage) -> np.ndarray:
@@ -149,24 +171,18 @@ def _default_objects_path(stage: Usd.Stage) -> str:
     return "/World/Objects"
 
 
-def _own_label(prim: Usd.Prim) -> str | None:
-    attr = prim.GetAttribute(_LABEL_ATTR)
-    if not attr:
-        return None
-    value = attr.Get()
-    return str(value[0]) if value is not None and len(value) else None
-
-
-def _extract(stage: Usd.Stage, objects_path: str | None) -> RenderScene:
+def _extract(stage: Usd.Stage, objects_path: str | None, cull: ViewCull | None) -> RenderScene:
     objects_sdf = Sdf.Path(objects_path or _default_objects_path(stage))
     world_T = world_from_stage(stage)
     xf_cache = UsdGeom.XformCache(Usd.TimeCode.Default())
-    things = thing_label_ids()
+    ids = _Ids(thing_label_ids())
     labels: dict[Sdf.Path, str | None] = {}
     objects: dict[Sdf.Path, RenderObject] = {}
-    per_class_count: dict[int, int] = {}
-    part_instances: dict[tuple[Sdf.Path, int], int] = {}
     parts: list[tuple[MeshTriangles, int, int, int]] = []
+    culled: list[np.ndarray] = []
+    local_layers = list(stage.GetLayerStack(includeSessionLayers=True))
+    local_ids = local_layer_ids(stage)
+    prototypes: dict[tuple, Prototype | None] = {}
 
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
     it = iter(Usd.PrimRange(stage.GetPseudoRoot(), predicate))
@@ -174,25 +190,25 @@ def _extract(stage: Usd.Stage, objects_path: str | None) -> RenderScene:
         path = prim.GetPath()
         if prim.IsPseudoRoot():
             continue
-        imageable = UsdGeom.Imageable(prim)
-        if imageable and (
-            imageable.GetVisibilityAttr().Get() == UsdGeom.Tokens.invisible
-            or imageable.GetPurposeAttr().Get() in _PRUNED_PURPOSES
-        ):
+        if pruned(prim):
             it.PruneChildren()
             continue
-        own = _own_label(prim)
+        own = own_label(prim)
         labels[path] = own if own is not None else labels.get(path.GetParentPath())
         if path.GetParentPath() == objects_sdf:
             label = labels[path] or ""
             label_id = label_id_for_class(label)
-            if label_id in things:
-                k = per_class_count.get(label_id, 0)
-                per_class_count[label_id] = k + 1
-                instance_id = label_id * 1000 + k
-            else:
-                instance_id = label_id
+            instance_id = ids.next(label_id) if label_id in ids.things else label_id
             objects[path] = RenderObject(str(path), label, label_id, instance_id, len(objects) + 1)
+            key = prototype_key(prim, local_ids, local_layers)
+            if key is not None:
+                if key not in prototypes:
+                    prototypes[key] = read_prototype(prim, predicate)
+                proto = prototypes[key]
+                if proto is not None:
+                    it.PruneChildren()
+                    _place(proto, objects[path], xf_cache.GetLocalToWorldTransform(prim), world_T, ids, cull, parts, culled)
+                    continue
         if not prim.IsA(UsdGeom.Mesh):
             continue
         world_from_local = world_T @ matrix_from_gf(xf_cache.GetLocalToWorldTransform(prim))
@@ -201,25 +217,67 @@ def _extract(stage: Usd.Stage, objects_path: str | None) -> RenderScene:
             continue
         class_id = label_id_for_class(labels[path])
         owner = _owner(path, objects_sdf, objects)
-        if owner is None:
-            instance_id, object_index = class_id, 0
-        else:
-            object_index = owner.index
-            if class_id not in things:
-                instance_id = class_id
-            elif class_id == owner.label_id:
-                instance_id = owner.instance_id
-            else:
-                # A thing part labelled unlike its object (a rider on a bicycle) is an
-                # instance of its own class, one per (object, class).
-                key = (Sdf.Path(owner.path), class_id)
-                if key not in part_instances:
-                    k = per_class_count.get(class_id, 0)
-                    per_class_count[class_id] = k + 1
-                    part_instances[key] = class_id * 1000 + k
-                instance_id = part_instances[key]
+        instance_id, object_index = ids.of_part(owner, class_id)
         parts.append((tris, class_id, instance_id, object_index))
-    return _concatenate(parts, tuple(objects.values()))
+    return _concatenate(parts, tuple(objects.values()), culled)
+
+
+class _Ids:
+    """Cityscapes instance ids, counted per class in stage order."""
+
+    def __init__(self, things: frozenset[int] | set[int]) -> None:
+        self.things = things
+        self.per_class: dict[int, int] = {}
+        self.parts: dict[tuple[str, int], int] = {}
+
+    def next(self, class_id: int) -> int:
+        k = self.per_class.get(class_id, 0)
+        self.per_class[class_id] = k + 1
+        return class_id * 1000 + k
+
+    def of_part(self, owner: RenderObject | None, class_id: int) -> tuple[int, int]:
+        """(instance id, object index) of a mesh labelled ``class_id`` inside ``owner``."""
+        if owner is None:
+            return class_id, 0
+        if class_id not in self.things:
+            return class_id, owner.index
+        if class_id == owner.label_id:
+            return owner.instance_id, owner.index
+        # A thing part labelled unlike its object (a rider on a bicycle) is an
+        # instance of its own class, one per (object, class).
+        key = (owner.path, class_id)
+        if key not in self.parts:
+            self.parts[key] = self.next(class_id)
+        return self.parts[key], owner.index
+
+
+def _place(
+    proto: Prototype,
+    owner: RenderObject,
+    l2w: Gf.Matrix4d,
+    world_T: np.ndarray,
+    ids: _Ids,
+    cull: ViewCull | None,
+    parts: list[tuple[MeshTriangles, int, int, int]],
+    culled: list[np.ndarray],
+) -> None:
+    """One instance of a prototype: its triangles, or only its ids and box when culled."""
+    classes = [label_id_for_class(p.label if p.label is not None else owner.class_name) for p in proto.parts]
+    if cull is not None and proto.parts:
+        world_from_object = world_T @ matrix_from_gf(l2w)
+        corners = box_corners(proto.box_local) @ world_from_object[:3, :3].T + world_from_object[:3, 3]
+        if cull.outside(corners):
+            for class_id in classes:
+                ids.of_part(owner, class_id)  # the ids of later objects stay as without culling
+            culled.append(corners)
+            return
+    for part, class_id in zip(proto.parts, classes):
+        m = l2w
+        for local in part.chain:
+            m = local * m
+        tris = place_mesh(part.mesh, world_T @ matrix_from_gf(m))
+        instance_id, object_index = ids.of_part(owner, class_id)
+        parts.append((tris, class_id, instance_id, object_index))
 
 
 def _owner(
@@ -233,12 +291,16 @@ def _owner(
 
 
 def _concatenate(
-    parts: list[tuple[MeshTriangles, int, int, int]], objects: tuple[RenderObject, ...]
+    parts: list[tuple[MeshTriangles, int, int, int]], objects: tuple[RenderObject, ...], culled: list[np.ndarray]
 ) -> RenderScene:
+    culled_box = None
+    if culled:
+        pts = np.concatenate(culled)
+        culled_box = np.stack([pts.min(axis=0), pts.max(axis=0)])
     if not parts:
         empty3 = np.zeros((0, 3))
         empty = np.zeros(0)
-        return RenderScene(empty3, empty3, empty3, empty, empty, empty, objects)
+        return RenderScene(empty3, empty3, empty3, empty, empty, empty, objects, culled_box)
     sizes = [len(t.positions_world) for t, _, _, _ in parts]
     return RenderScene(
         positions_world=np.concatenate([t.positions_world for t, _, _, _ in parts]),
@@ -248,4 +310,5 @@ def _concatenate(
         instance_ids=np.repeat([i for _, _, i, _ in parts], sizes),
         object_ids=np.repeat([o for _, _, _, o in parts], sizes),
         objects=objects,
+        culled_bounds_world=culled_box,
     )

@@ -15,7 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 from pxr import Usd, UsdGeom, UsdShade
 
-from usdworld.authoring.mesh_reader import MeshTopology, expand_primvar, read_normals, read_primvar, read_topology
+from usdworld.authoring.mesh_reader import (
+    MeshTopology,
+    expand_primvar,
+    read_normals,
+    read_primvar,
+    read_topology,
+)
 
 #: Linear RGB of meshes with neither a material nor a displayColor.
 DEFAULT_COLOR = (0.5, 0.5, 0.5)
@@ -80,6 +86,62 @@ def _face_colors(mesh: UsdGeom.Mesh, topology: MeshTopology) -> np.ndarray:
     return np.clip(colors, 0.0, 1.0)
 
 
+@dataclass(frozen=True)
+class LocalMesh:
+    """What :func:`place_mesh` needs of one mesh, read once in its own frame (shared by the
+    objects that reference the same asset mesh).
+
+    Attributes:
+        topology: its points and triangulation.
+        normals_local: (T*3, 3) float64 authored normals per corner, or None (flat normals).
+        colors: (T*3, 3) float64 linear RGB per corner, in [0, 1].
+    """
+
+    topology: MeshTopology
+    normals_local: np.ndarray | None
+    colors: np.ndarray
+
+
+def read_local_mesh(mesh: UsdGeom.Mesh) -> LocalMesh | None:
+    """The mesh's topology, normals and colours at the default time, or None when it has no renderable face."""
+    topology = read_topology(mesh)
+    if topology is None:
+        return None
+    normals: np.ndarray | None = None
+    authored = read_normals(mesh)
+    if authored is not None:
+        local_n = expand_primvar(authored[0], authored[1], topology)
+        if local_n is not None:
+            normals = local_n.reshape(-1, 3)
+    return LocalMesh(topology, normals, _face_colors(mesh, topology))
+
+
+def place_mesh(local: LocalMesh, world_from_local: np.ndarray) -> MeshTriangles:
+    """The triangles of a mesh read by :func:`read_local_mesh`, moved into the world frame.
+
+    Args:
+        local: the mesh.
+        world_from_local: (4, 4) float64 column-vector transform, local -> world.
+    """
+    topology = local.topology
+    linear = world_from_local[:3, :3]
+    positions = topology.points[topology.triangles.reshape(-1)] @ linear.T + world_from_local[:3, 3]
+    normals: np.ndarray | None = None
+    if local.normals_local is not None:
+        normals = local.normals_local @ np.linalg.inv(linear)  # inverse transpose for column vectors
+    else:
+        tri = positions.reshape(-1, 3, 3)
+        face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        if topology.left_handed:
+            face_n = -face_n
+        normals = np.repeat(face_n, 3, axis=0)
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = np.divide(
+        normals, length, out=np.tile([0.0, 0.0, 1.0], (len(normals), 1)), where=length > 1e-12
+    )
+    return MeshTriangles(positions, normals, local.colors)
+
+
 def mesh_triangles(mesh: UsdGeom.Mesh, world_from_local: np.ndarray) -> MeshTriangles | None:
     """Triangles of ``mesh`` moved into the world frame.
 
@@ -90,25 +152,5 @@ def mesh_triangles(mesh: UsdGeom.Mesh, world_from_local: np.ndarray) -> MeshTria
     Returns:
         The triangles, or None when the mesh has no renderable face.
     """
-    topology = read_topology(mesh)
-    if topology is None:
-        return None
-    linear = world_from_local[:3, :3]
-    positions = topology.points[topology.triangles.reshape(-1)] @ linear.T + world_from_local[:3, 3]
-    tri = positions.reshape(-1, 3, 3)
-    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    if topology.left_handed:
-        face_n = -face_n
-    normals: np.ndarray | None = None
-    authored = read_normals(mesh)
-    if authored is not None:
-        local_n = expand_primvar(authored[0], authored[1], topology)
-        if local_n is not None:
-            normals = local_n.reshape(-1, 3) @ np.linalg.inv(linear)  # inverse transpose for column vectors
-    if normals is None:
-        normals = np.repeat(face_n, 3, axis=0)
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    normals = np.divide(
-        normals, length, out=np.tile([0.0, 0.0, 1.0], (len(normals), 1)), where=length > 1e-12
-    )
-    return MeshTriangles(positions, normals, _face_colors(mesh, topology))
+    local = read_local_mesh(mesh)
+    return None if local is None else place_mesh(local, world_from_local)

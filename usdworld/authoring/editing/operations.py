@@ -219,8 +219,9 @@ def move(
         )
     _finite("move", key, tuple(given), f"move: {key} must be finite, got {tuple(given)}")
     with ed.tx.locked():
-        obj, states = ed.state.find(name, op="move")
+        obj = ed.state.one(name, op="move")
         xy = np.array(given if key == "to" else np.add(obj.position_world[:2], given), dtype=np.float64)
+        states = ed.state.near(obj, xy)
         surface, z = ed.state.where(xy)
         cand = rules.Candidate(obj.class_name, xy, np.array(obj.footprint_lw), math.radians(obj.yaw_deg))
         others = footprints(states).without(obj.name)
@@ -245,7 +246,8 @@ def rotate(ed: Editing, name: str, yaw_deg: float, *, force: bool = False) -> Ed
     """Set an object's yaw (rotation about Z) to ``yaw_deg`` degrees."""
     _finite("rotate", "yaw_deg", yaw_deg, f"rotate: yaw_deg must be finite, got {yaw_deg}")
     with ed.tx.locked():
-        obj, states = ed.state.find(name, op="rotate")
+        obj = ed.state.one(name, op="rotate")
+        states = ed.state.near(obj, np.array(obj.position_world[:2]))
         yaw = wrap_deg(yaw_deg)
         cand = rules.Candidate(
             obj.class_name, np.array(obj.position_world[:2]), np.array(obj.footprint_lw), math.radians(yaw)
@@ -456,6 +458,7 @@ def reset(ed: Editing, name: str, *, force: bool = False) -> EditResult:
     """Drop every edit of one object (an added object disappears)."""
     path = object_path(name)
     layer = ed.tx.layer
+    ed.state.unmask()  # the object may be anywhere, or gone
     with ed.tx.locked():
         if not layer.GetPrimAtPath(path):
             raise EditRefused(

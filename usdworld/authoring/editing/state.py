@@ -5,6 +5,13 @@ the objects a change touched, so after an edit only those are read again. The si
 from the world's assets (the class table's prior sizes for a class without one); the
 footprint the rules use is the trunk's or post's for the classes with the ``trunk`` role
 (people stand under crowns, lamp arms and sign plates, as the build lets them).
+
+The stage may come masked to the ground (:data:`EDIT_MASK`): then a move or a rotation
+composes only the object it edits and the objects its footprint could touch, found in an
+:class:`~usdworld.authoring.editing.index.ObjectIndex` read from the layers, and the
+ground's extent takes the placed objects' bounds from that index too. Anything that needs
+every object (:meth:`WorldState.all`, :meth:`WorldState.find`) widens the mask to the
+whole world first, and the reader works as on an unmasked stage from then on.
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
 from usdworld.authoring import asset_library
+from usdworld.authoring.editing.index import ObjectIndex, read_index
 from usdworld.authoring.editing.restyle import COLOR_KEY
 from usdworld.errors import EditRefused, InputError, RefusalReason
 from usdworld.io.class_table import ClassTable
@@ -27,6 +35,8 @@ from usdworld.world_files import GROUND_PATH, OBJECTS_PATH
 
 #: Surface meshes of a world and the surface name each stands for.
 GROUND_MESHES = {"road": f"{GROUND_PATH}/Road", "sidewalk": f"{GROUND_PATH}/Sidewalk"}
+#: What an editor composes when it opens a world: the ground; objects are added as edits need them.
+EDIT_MASK = (GROUND_PATH,)
 
 
 @dataclass(frozen=True)
@@ -120,16 +130,21 @@ class WorldState:
     """Objects and ground of a composed world, cached and re-read only where the stage changed.
 
     Args:
-        stage: the composed world.
-        edits: its edits layer (an object with a spec there is ``edited`` or ``added``).
+        stage: the composed world (whole, or masked to :data:`EDIT_MASK`).
+        layers: its sublayers, strongest first; the first is its edits layer (an object
+            with a spec there is ``edited`` or ``added``).
         classes: the class table (prior sizes, the ``trunk`` role).
         libraries: asset folders, the world's own first.
     """
 
     def __init__(
-        self, stage: Usd.Stage, edits: Sdf.Layer, classes: ClassTable, libraries: tuple[Path, ...]
+        self, stage: Usd.Stage, layers: tuple[Sdf.Layer, ...], classes: ClassTable, libraries: tuple[Path, ...]
     ) -> None:
-        self.stage, self.edits, self.classes, self.libraries = stage, edits, classes, libraries
+        self.stage, self.classes, self.libraries = stage, classes, libraries
+        self.layers, self.edits = layers, layers[0]
+        self._partial = stage.GetPopulationMask() != Usd.StagePopulationMask.All()
+        self._index: ObjectIndex | None = None
+        self._index_read = False
         self._sizes: dict[tuple[str, str], tuple[float, float]] = {}
         self._trunk_sizes: dict[tuple[str, str], tuple[float, float]] = {}
         self._ground: rules.Ground | None = None
@@ -153,6 +168,30 @@ class WorldState:
         """Drop every cache (the base layers were reloaded)."""
         self._ground, self._states = None, None
         self._sizes, self._trunk_sizes = {}, {}
+        self._index, self._index_read = None, False
+
+    def unmask(self) -> None:
+        """Compose the whole world from now on (what needs every object calls this first)."""
+        if self._partial:
+            self._partial = False
+            self._index, self._index_read = None, False
+            self.stage.SetPopulationMask(Usd.StagePopulationMask.All())
+
+    def _object_index(self) -> ObjectIndex | None:
+        """The index of the objects, read from the layers (None when they do not give one)."""
+        if not self._index_read:
+            self._index = read_index(self.layers, self.size, self.footprint_size, self.libraries)
+            self._index_read = True
+        return self._index
+
+    def _compose(self, paths: list[Sdf.Path]) -> None:
+        """Add objects to the stage's mask (the ground and the index, unchanged by it, keep their caches)."""
+        mask = self.stage.GetPopulationMask()
+        missing = [p for p in paths if not mask.IncludesSubtree(p)]
+        if missing:
+            kept = self._ground, self._index, self._index_read  # a mask change resyncs the whole stage
+            self.stage.SetPopulationMask(mask.GetUnion(Usd.StagePopulationMask(missing)))
+            self._ground, self._index, self._index_read = kept
 
     def size(self, class_name: str, variant: str) -> tuple[float, float]:
         """Unscaled (length, width) of a class's variant, metres: its asset's, else the class prior's, else 1 x 1."""
@@ -240,6 +279,8 @@ class WorldState:
                 prim = path.GetPrimPath()
                 if prim.HasPrefix(ground) or (resync and ground.HasPrefix(prim)):
                     self._ground = None
+                if prim.HasPrefix(objects) or (resync and objects.HasPrefix(prim)):
+                    self._index_read = False
                 if self._states is None:
                     continue
                 if prim.HasPrefix(objects) and prim != objects:
@@ -251,6 +292,7 @@ class WorldState:
 
     def all(self) -> list[ObjectState]:
         """Every defined object (deleted ones too), in stage order."""
+        self.unmask()
         if self._states is not None and self._stale:
             for path in self._stale:
                 prim = self.stage.GetPrimAtPath(path)
@@ -273,15 +315,9 @@ class WorldState:
             EditRefused: ``unknown_object`` (no such object) or ``deleted_object``
                 (``active`` and the object is deleted).
         """
+        self.unmask()
         path = object_path(name)
-        prim = self.stage.GetPrimAtPath(path)
-        if not prim or not prim.IsDefined():
-            raise EditRefused(
-                RefusalReason.UNKNOWN_OBJECT,
-                f"no object '{path.name}' in this world",
-                op=op,
-                subject=path.name,
-            )
+        self._require(path, op)
         states = self.all()
         state = next(s for s in states if s.path == str(path))
         if active and not state.active:
@@ -292,6 +328,60 @@ class WorldState:
                 subject=state.name,
             )
         return state, states
+
+    def _require(self, path: Sdf.Path, op: str) -> Usd.Prim:
+        prim = self.stage.GetPrimAtPath(path)
+        if not prim or not prim.IsDefined():
+            raise EditRefused(
+                RefusalReason.UNKNOWN_OBJECT,
+                f"no object '{path.name}' in this world",
+                op=op,
+                subject=path.name,
+            )
+        return prim
+
+    def one(self, name: str, *, op: str) -> ObjectState:
+        """One active object (by name or path), composing only it on a masked stage.
+
+        Raises:
+            EditRefused: ``unknown_object`` or ``deleted_object``, as :meth:`find`.
+        """
+        if not self._partial or self._object_index() is None:
+            return self.find(name, op=op)[0]
+        path = object_path(name)
+        self._compose([path])
+        state = self._read(self._require(path, op))
+        if not state.active:
+            raise EditRefused(
+                RefusalReason.DELETED_OBJECT,
+                f"{state.name} is deleted; a reset of {state.name} or an undo brings it back",
+                op=op,
+                subject=state.name,
+            )
+        return state
+
+    def near(self, obj: ObjectState, center: np.ndarray) -> list[ObjectState]:
+        """``obj`` and every object its rule footprint could touch when centred on ``center``
+        ((2,) float64, metres), in stage order: every object on an unmasked stage."""
+        index = self._object_index() if self._partial else None
+        if index is None:
+            return self.all()
+        reach = 0.5 * math.hypot(*obj.footprint_lw)
+        objects = Sdf.Path(OBJECTS_PATH)
+        self._compose([objects.AppendChild(n) for n in index.near(center, reach)])
+        scope = self.stage.GetPrimAtPath(objects)
+        return [self._read(p) for p in scope.GetAllChildren() if p.IsDefined()]
+
+    def _placed_bounds(self) -> np.ndarray | None:
+        """(2, 2) float64 bounds of the rule footprints of the active objects the build placed, or None."""
+        index = self._object_index() if self._partial else None
+        if index is not None:
+            return index.placed_bounds
+        built = footprints([st for st in self.all() if st.status != "added"])
+        if not len(built):
+            return None
+        h = 0.5 * built.size_lw.max(axis=1, keepdims=True)
+        return np.array([(built.centers - h).min(axis=0), (built.centers + h).max(axis=0)])
 
     def ground(self) -> rules.Ground:
         """Top faces of the ground meshes and the ground extent (cached until a rebuild)."""
@@ -313,13 +403,10 @@ class WorldState:
                 tris[name] = rules.top_faces(pts, _fan(counts, idx))
             # The objects the build placed stand on the scene's ground too (buildings behind
             # the sidewalks, beyond the ground meshes); without meshes they make the extent.
-            built = footprints([st for st in self.all() if st.status != "added"])
-            fallback = placed = None
-            if len(built):
-                h = 0.5 * built.size_lw.max(axis=1, keepdims=True)
-                placed = np.array([(built.centers - h).min(axis=0), (built.centers + h).max(axis=0)])
-                if not tris:
-                    fallback = placed + np.array([[-1.0], [1.0]]) * rules.NO_MESH_MARGIN_M
+            placed = self._placed_bounds()
+            fallback = None
+            if placed is not None and not tris:
+                fallback = placed + np.array([[-1.0], [1.0]]) * rules.NO_MESH_MARGIN_M
             self._ground = rules.make_ground(tris, fallback, placed)
         return self._ground
 

@@ -1,0 +1,351 @@
+"""Benchmark one large world: author, open, render and edit at 1,000 / 10,000 / 100,000 objects.
+
+The world is what ``usdworld build`` writes, made bigger: a synthetic 2048x1024 street
+frame (``usdworld.synth``, seed 3) is turned into a :class:`~usdworld.layout.model.WorldModel`
+by the build's own ``build_model``; its placements and ground meshes are then tiled as
+blocks, up to 2 km along the street (X) and in parallel rows beside it (Y), centred on
+the source camera, until the model holds the number of objects asked for. The world
+folder is written with the build's own :func:`~usdworld.authoring.world.write_world`.
+
+Measured per size (medians over ``--runs`` interleaved runs; the floors in the same run):
+
+* **author**: ``write_world`` in process (the whole folder: assets, ground, base, edits, root);
+* **open**: ``Usd.Stage.Open`` of ``world.usda`` in a fresh process (time inside the
+  process), and of it the parse of ``layers/base.usda`` alone (``Sdf.Layer.FindOrOpen``, a
+  floor for anything that opens the world);
+* **render**: in a fresh process, opening the stage, reading the render scene (culled to
+  the view and its shadows, :class:`~usdworld.render.instancing.ViewCull`) and drawing all
+  passes (colour, ids, depth) from ``/World/SourceCamera`` at the photo's size, and each
+  part of it (the GL context's creation is left out);
+* **edit**: the whole ``usdworld edit W move NAME --by 0.5,0 --force`` command (wall), and
+  in a fresh process the editor's parts: opening the world (``WorldEditor``: parsing the
+  layers, composing the ground) and the move (reading the object index, composing the
+  object and its possible neighbours, the rules, the atomic save);
+* floors: a process that imports ``pxr.Usd``; a bare ``usdworld --help``.
+
+Usage::
+
+    python tools/bench_scale.py [--sizes 1000,10000,100000] [--runs 3] [--keep DIR] [--reference CHECKOUT]
+
+With ``--reference``, a second table compares, one run each, authoring, the whole edit
+command and reading the (unculled) render scene at 1,000 objects with another checkout
+(e.g. the code before this benchmark's changes), and whether both write the same bytes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import os
+import platform
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+#: Street length the blocks are laid along (X), metres.
+STREET_LENGTH_M = 2000.0
+#: Gap between two blocks, metres.
+BLOCK_GAP_M = 4.0
+
+_RENDER_SNIPPET = r"""
+import json, sys, time
+t0 = time.perf_counter()
+from pxr import Usd
+from usdworld.render import Lighting, Renderer, RenderScene
+from usdworld.render.instancing import ViewCull
+from usdworld.render.outputs import view_camera, world_image_size
+t1 = time.perf_counter()
+stage = Usd.Stage.Open(sys.argv[1])
+t2 = time.perf_counter()
+w, h = world_image_size(stage)
+pose = view_camera(stage, w, h)
+cull = ViewCull(pose.K, pose.world_from_cam, w, h, Lighting().sun_direction_world)
+scene = RenderScene.from_stage(stage, cull=cull)
+t3 = time.perf_counter()
+with Renderer(w, h) as r:
+    t4 = time.perf_counter()
+    r.render(scene, pose.K, pose.world_from_cam)
+    t5 = time.perf_counter()
+print(json.dumps({"import": t1 - t0, "open": t2 - t1, "scene": t3 - t2, "context": t4 - t3, "draw": t5 - t4,
+                  "render": (t3 - t1) + (t5 - t4), "triangles": scene.n_triangles, "objects": len(scene.objects)}))
+"""
+
+_OPEN_SNIPPET = r"""
+import json, sys, time
+from pathlib import Path
+from pxr import Sdf, Usd
+root = Path(sys.argv[1])
+t0 = time.perf_counter()
+Sdf.Layer.FindOrOpen(str(root.parent / "layers" / "base.usda"))
+t1 = time.perf_counter()
+stage = Usd.Stage.Open(str(root))
+t2 = time.perf_counter()
+print(json.dumps({"open": t2 - t0, "parse_base": t1 - t0}))
+"""
+
+
+_EDIT_SNIPPET = r"""
+import json, sys, time
+from usdworld.authoring.edits import WorldEditor
+t0 = time.perf_counter()
+editor = WorldEditor(sys.argv[1])
+t1 = time.perf_counter()
+editor.move(sys.argv[2], by=(0.5, 0.0), force=True)
+t2 = time.perf_counter()
+print(json.dumps({"edit_open": t1 - t0, "edit_move": t2 - t1}))
+"""
+
+
+_AUTHOR_SNIPPET = r"""
+import json, pickle, sys, time
+from usdworld.authoring import asset_library
+from usdworld.authoring.world import write_world
+model = pickle.load(open(sys.argv[1], "rb"))
+libraries = asset_library.library_dirs(None)
+assets = {c: asset_library.asset_path(c, libraries) for c in sorted({p.obj.class_name for p in model.placements})}
+t0 = time.perf_counter()
+write_world(model, __import__("pathlib").Path(sys.argv[2]), assets, None)
+print(json.dumps({"author": time.perf_counter() - t0}))
+"""
+
+_SCENE_SNIPPET = r"""
+import json, sys, time
+from pxr import Usd
+from usdworld.render import RenderScene
+stage = Usd.Stage.Open(sys.argv[1])
+t0 = time.perf_counter()
+scene = RenderScene.from_stage(stage)
+print(json.dumps({"scene": time.perf_counter() - t0, "triangles": scene.n_triangles}))
+"""
+
+
+def base_model(tmp: Path, seed: int, width: int, height: int):  # -> WorldModel
+    """The model ``usdworld build`` makes of a synthetic frame."""
+    from usdworld.authoring.asset_library import library_dirs
+    from usdworld.pipeline import BuildRequest, build_model
+    from usdworld.synth import make_street_scene, write_cityscapes_frame
+
+    scene = make_street_scene(np.random.default_rng(seed), width, height)
+    files = write_cityscapes_frame(scene, tmp / "in", "scale_000000_000001")
+    request = BuildRequest(
+        image=files["image"],
+        labels=files["labels"],
+        instances=files["instances"],
+        camera=files["camera"],
+        output=tmp / "unused",
+    )
+    return build_model(request, library_dirs(None))
+
+
+def tiled_model(model, n_objects: int):  # (WorldModel, int) -> WorldModel
+    """``model`` with its objects and ground tiled into blocks until it holds ``n_objects`` objects.
+
+    Blocks follow each other along X up to :data:`STREET_LENGTH_M`, then start a new row
+    beside the street (Y); the block holding the photo's own objects stays in place, so the
+    source camera sees its street as in the photo, with the rest of the blocks around it.
+    """
+    from usdworld.layout.surfaces import SurfaceMesh
+
+    ps = model.placements
+    centres = np.array([p.position_world[:2] for p in ps])
+    half = np.array([0.5 * float(np.max(p.size_m[:2])) for p in ps])[:, None]
+    lo = np.min(centres - half, axis=0)
+    hi = np.max(centres + half, axis=0)
+    step = hi - lo + BLOCK_GAP_M
+    blocks = math.ceil(n_objects / len(ps))
+    nx = max(1, min(blocks, int(STREET_LENGTH_M // step[0])))
+    ny = math.ceil(blocks / nx)
+    offsets = [
+        np.array([(i - nx // 2) * step[0], (j - ny // 2) * step[1], 0.0])
+        for j in range(ny)
+        for i in range(nx)
+    ][:blocks]
+    counts: dict[str, int] = {}
+    placements = []
+    for off in offsets:
+        for p in ps:
+            if len(placements) == n_objects:
+                break
+            k = counts.get(p.obj.class_name, 0) + 1
+            counts[p.obj.class_name] = k
+            placements.append(
+                dataclasses.replace(
+                    p, name=f"{p.obj.class_name}_{k:04d}", position_world=p.position_world + off
+                )
+            )
+    surfaces = []
+    for s in model.surfaces:
+        n = len(s.points_world)
+        surfaces.append(
+            SurfaceMesh(
+                s.name,
+                np.concatenate([s.points_world + off for off in offsets]),
+                np.concatenate([s.faces + k * n for k in range(len(offsets))]),
+                s.area_m2 * len(offsets),
+            )
+        )
+    return dataclasses.replace(model, placements=tuple(placements), surfaces=tuple(surfaces))
+
+
+_HERE = Path(__file__).resolve().parents[1]
+
+
+def _env(repo: Path = _HERE) -> dict[str, str]:
+    return {**os.environ, "PYTHONPATH": str(repo) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+
+
+def _wall(cmd: list[str], repo: Path = _HERE) -> tuple[float, str]:
+    t0 = time.perf_counter()
+    # run in the checkout: ``python -c`` and ``-m`` put the working folder first on sys.path
+    done = subprocess.run(cmd, capture_output=True, text=True, env=_env(repo), cwd=repo, check=False)
+    wall = time.perf_counter() - t0
+    if done.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed ({done.returncode}): {done.stderr.strip()[-2000:]}")
+    return wall, done.stdout
+
+
+def _snippet(code: str, *args: object, repo: Path = _HERE) -> dict:
+    _, out = _wall([sys.executable, "-c", code, *map(str, args)], repo)
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def _median(rows: list[dict], key: str) -> float:
+    return statistics.median(r[key] for r in rows)
+
+
+def measure(model, n: int, folder: Path, runs: int, render: bool) -> dict:
+    """All figures for one size (see the module docstring)."""
+    from usdworld.authoring import asset_library
+    from usdworld.authoring.world import write_world
+
+    libraries = asset_library.library_dirs(None)
+    classes = sorted({p.obj.class_name for p in model.placements})
+    assets = {c: asset_library.asset_path(c, libraries) for c in classes}
+    mover = next(p.name for p in model.placements if p.obj.class_name == "car")
+    rows: list[dict] = []
+    for run in range(runs):
+        world = folder / f"world_{n}_{run}"
+        t0 = time.perf_counter()
+        write_world(model, world, assets, None)
+        row = {"author": time.perf_counter() - t0}
+        row["floor_import"], _ = _wall([sys.executable, "-c", "import pxr.Usd"])
+        row.update(_snippet(_OPEN_SNIPPET, world / "world.usda"))
+        row["floor_help"], _ = _wall([sys.executable, "-m", "usdworld", "--help"])
+        if render:
+            row.update({f"render_{k}": v for k, v in _snippet(_RENDER_SNIPPET, world / "world.usda").items()})
+        row.update(_snippet(_EDIT_SNIPPET, world / "world.usda", mover))
+        row["edit"], _ = _wall(
+            [sys.executable, "-m", "usdworld", "edit", str(world), "move", mover, "--by", "0.5,0", "--force"]
+        )
+        rows.append(row)
+        if run:
+            shutil.rmtree(world)
+    out = {key: _median(rows, key) for key in rows[0]}
+    out["objects"] = n
+    out["bytes_base"] = (folder / f"world_{n}_0" / "layers" / "base.usda").stat().st_size
+    return out
+
+
+def against(model, n: int, folder: Path, reference: Path, scene: bool) -> dict:
+    """Author, the whole edit command and (when ``scene``) reading the unculled render scene,
+    each in fresh processes with ``reference`` and then with this checkout."""
+    import pickle
+
+    pkl = folder / f"model_{n}.pkl"
+    pkl.write_bytes(pickle.dumps(model))
+    mover = next(p.name for p in model.placements if p.obj.class_name == "car")
+    repos = {"ref": reference, "new": _HERE}
+    out: dict = {}
+    for tag, repo in repos.items():
+        out[f"author_{tag}"] = _snippet(_AUTHOR_SNIPPET, pkl, folder / f"ab_{tag}_{n}", repo=repo)["author"]
+    diff = subprocess.run(["diff", "-rq", folder / f"ab_ref_{n}", folder / f"ab_new_{n}"], check=False)
+    out["same_bytes"] = diff.returncode == 0
+    for tag, repo in repos.items():
+        world = folder / f"ab_{tag}_{n}"
+        if scene:
+            out[f"scene_{tag}"] = _snippet(_SCENE_SNIPPET, world / "world.usda", repo=repo)["scene"]
+        move = ["edit", str(world), "move", mover, "--by", "0.5,0", "--force"]
+        out[f"edit_{tag}"], _ = _wall([sys.executable, "-m", "usdworld", *move], repo)
+        shutil.rmtree(world)
+    pkl.unlink()
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", default="1000,10000,100000")
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--no-render-above", type=int, default=10**9, help="skip the render above this size")
+    parser.add_argument("--seed", type=int, default=3)
+    parser.add_argument("--keep", type=Path, help="keep the worlds in this folder")
+    parser.add_argument(
+        "--reference",
+        type=Path,
+        help="also author, edit and read the scene with this checkout (before/after)",
+    )
+    args = parser.parse_args(argv)
+    sizes = [int(s) for s in args.sizes.split(",")]
+    tmp = Path(tempfile.mkdtemp(prefix="bench_scale_"))
+    folder = args.keep or tmp
+    try:
+        model = base_model(tmp, args.seed, 2048, 1024)
+        print(
+            f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.node()}, "
+            f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at start; "
+            f"base frame: {len(model.placements)} objects"
+        )
+        print(
+            "| objects | author s | open s (parse base.usda) | render s (open + scene + draw) | draw s | triangles drawn "
+            "| edit move s (whole) | edit parts s (open + move) | floor: import pxr s | floor: usdworld --help s | edit own cost s "
+            "| base.usda MB | load |"
+        )
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        for n in sizes:
+            r = measure(
+                tiled_model(model, n), n, folder, args.runs if n < 100_000 else 1, n <= args.no_render_above
+            )
+            render = (
+                f"{r['render_render']:.3f} ({r['render_open']:.3f} + {r['render_scene']:.3f} + "
+                f"{r['render_draw']:.3f})"
+                if "render_render" in r
+                else "not measured"
+            )
+            draw = f"{r['render_draw']:.3f}" if "render_draw" in r else "-"
+            tris = f"{r['render_triangles']:,.0f}" if "render_triangles" in r else "-"
+            print(
+                f"| {n:,d} | {r['author']:.2f} | {r['open']:.3f} ({r['parse_base']:.3f}) | {render} | {draw} | {tris} | {r['edit']:.2f} "
+                f"| {r['edit_open']:.2f} + {r['edit_move']:.2f} | {r['floor_import']:.2f} | {r['floor_help']:.2f} | {r['edit'] - r['floor_help']:.2f} "
+                f"| {r['bytes_base'] / 1e6:.1f} | {os.getloadavg()[0]:.2f} |",
+                flush=True,
+            )
+        if args.reference is not None:
+            print(f"\nbefore/after ({args.reference} / this checkout), load average {os.getloadavg()[0]:.2f}")
+            print(
+                "| objects | author s before / after | same bytes | read render scene s before / after "
+                "| edit move s (whole) before / after |"
+            )
+            print("|---|---|---|---|---|")
+            for n in sizes:
+                r = against(tiled_model(model, n), n, folder, args.reference, n <= 1000)
+                scene = f"{r['scene_ref']:.2f} / {r['scene_new']:.2f}" if "scene_ref" in r else "not measured"
+                print(
+                    f"| {n:,d} | {r['author_ref']:.2f} / {r['author_new']:.2f} | {r['same_bytes']} | {scene} "
+                    f"| {r['edit_ref']:.2f} / {r['edit_new']:.2f} |",
+                    flush=True,
+                )
+    finally:
+        if args.keep is None:
+            shutil.rmtree(tmp, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

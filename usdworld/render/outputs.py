@@ -310,6 +310,27 @@ def _encoders(
     return {role: makers[role] for role in OUTPUT_FILES if role in wanted and role in makers}
 
 
+def encode_render_outputs(
+    result: RenderResult,
+    photo_rgb: np.ndarray | None = None,
+    outputs: Iterable[str] = OUTPUT_GROUPS["all"],
+) -> dict[str, bytes]:
+    """The bytes of every file asked for, made and encoded in a thread pool (one file per task).
+
+    Args:
+        result: all passes of one view.
+        photo_rgb: (H', W', 3) uint8 source photo, or None: the comparisons are then left out.
+        outputs: :data:`OUTPUT_FILES` keys (:func:`parse_outputs`); default every file.
+
+    Returns:
+        The files' bytes by role, in :data:`OUTPUT_FILES` order.
+    """
+    makers = _encoders(result, photo_rgb, outputs)
+    with ThreadPoolExecutor(max_workers=max(1, min(len(makers), os.cpu_count() or 1))) as pool:
+        futures = {role: pool.submit(make) for role, make in makers.items()}
+        return {role: future.result() for role, future in futures.items()}  # re-raises a task's error
+
+
 def write_render_outputs(
     out_dir: str | Path,
     result: RenderResult,
@@ -317,8 +338,6 @@ def write_render_outputs(
     outputs: Iterable[str] = OUTPUT_GROUPS["all"],
 ) -> dict[str, Path]:
     """Write the files asked for (see the module docstring) into ``out_dir``.
-
-    The images are made, encoded and written in a thread pool, one file per task.
 
     Args:
         out_dir: folder to write into (created when missing).
@@ -333,13 +352,8 @@ def write_render_outputs(
         OutputError: the folder cannot be created or written.
     """
     out = ensure_output_dir(out_dir)
-    makers = _encoders(result, photo_rgb, outputs)
-    paths = {role: out / OUTPUT_FILES[role] for role in makers}
-
-    def make(role: str) -> None:
-        write_bytes_atomic(paths[role], makers[role]())
-
-    with ThreadPoolExecutor(max_workers=max(1, min(len(makers), os.cpu_count() or 1))) as pool:
-        for done in [pool.submit(make, role) for role in makers]:
-            done.result()  # re-raises a task's error
+    paths = {}
+    for role, data in encode_render_outputs(result, photo_rgb, outputs).items():
+        paths[role] = out / OUTPUT_FILES[role]
+        write_bytes_atomic(paths[role], data)
     return paths

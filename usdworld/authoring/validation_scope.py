@@ -70,8 +70,8 @@ class _Siblings:
         for zf in self._zips.values():
             zf.close()
 
-    def of(self, layer: Sdf.Layer) -> tuple[str, dict[str, Any]] | None:
-        """(the layer's file name, name -> loader of the bytes of every file in its folder)."""
+    def of(self, layer: Sdf.Layer) -> tuple[str, str, dict[str, Any]] | None:
+        """(its folder, the layer's file name, name -> loader of the bytes of every file in the folder)."""
         identifier = layer.identifier
         if Ar.IsPackageRelativePath(identifier):
             package, inner = Ar.SplitPackageRelativePathOuter(identifier)
@@ -86,11 +86,15 @@ class _Siblings:
                 for n in zf.namelist()
                 if PurePosixPath(n).parent == folder
             }
-            return PurePosixPath(inner).name, members
+            return f"{package}[{folder}]", PurePosixPath(inner).name, members
         if not layer.realPath:
             return None
         path = Path(layer.realPath)
-        return path.name, {p.name: p.read_bytes for p in path.parent.iterdir() if p.is_file()}
+        return (
+            str(path.parent),
+            path.name,
+            {p.name: p.read_bytes for p in path.parent.iterdir() if p.is_file()},
+        )
 
 
 def trusted_layers(stage: Usd.Stage, cards_dir: Path, needed: frozenset[str]) -> dict[str, str]:
@@ -117,15 +121,13 @@ def trusted_layers(stage: Usd.Stage, cards_dir: Path, needed: frozenset[str]) ->
             found = siblings.of(layer)
             if found is None:
                 continue
-            name, folder = found
+            where, name, files = found
             stem = name.split(".", 1)[0]
-            key = (layer.identifier[: len(layer.identifier) - len(name) - 1], stem)
+            key = (where, stem)
             if key not in groups:
-                names = member_names(stem, folder)
-                if f"{stem}.usda" not in names:
-                    continue
-                digest = files_digest((n, folder[n]()) for n in names)
-                groups[key] = names if digest in digests else []
+                names = member_names(stem, files)
+                vouched = f"{stem}.usda" in names and files_digest((n, files[n]()) for n in names) in digests
+                groups[key] = names if vouched else []
             if name in groups[key]:
                 trusted[layer.identifier] = f"{stem}.usda"
     finally:

@@ -13,6 +13,7 @@ from test_edit_support import fresh_world, template
 from usdworld.authoring import asset_library
 from usdworld.authoring.asset_cards import asset_digest, card_path, read_card
 from usdworld.authoring.asset_measures import asset_card_text, measure_mesh, variant_measures
+from usdworld.authoring.validate import validate_asset, validation_record
 from usdworld.resources import asset_library_dir
 
 BUILT_IN = asset_library_dir()
@@ -73,7 +74,8 @@ def test_a_stale_or_broken_card_falls_back_to_measuring(tmp_path: Path) -> None:
 
 def test_card_text_is_reproducible(tmp_path: Path) -> None:
     usda = _copy_class("tree", tmp_path / "lib")
-    assert asset_card_text(usda) == card_path(usda).read_text()
+    record = validation_record(validate_asset(usda))
+    assert asset_card_text(usda, record) == card_path(usda).read_text()
 
 
 def test_a_built_world_carries_the_cards_of_its_assets(tmp_path_factory) -> None:

@@ -20,20 +20,16 @@ from usdworld.render.outputs import (
     colorize_depth,
     colorize_labels,
     overlay,
+    png_bytes,
     side_by_side,
 )
 from usdworld.synth import make_street_scene, write_cityscapes_frame
 
 W, H = 256, 128
-ALL_FILES = {
-    "render.png",
-    "class.png",
-    "labelIds.png",
-    "instance.png",
-    "instanceIds.png",
-    "depth.npy",
-    "depth.png",
-}
+#: What ``usdworld render`` writes by default (``--write data``).
+DATA_FILES = {"render.png", "labelIds.png", "instanceIds.png", "depth.npy"}
+#: ``--write all`` without a photo.
+ALL_FILES = DATA_FILES | {"class.png", "instance.png", "depth.png"}
 
 
 def _run(capsys, *args: str) -> tuple[int, str, str]:
@@ -70,7 +66,15 @@ def test_quiet_render_prints_no_file_list(world, tmp_path, capsys) -> None:
 def test_render_writes_every_file(world, tmp_path, capsys) -> None:
     out = tmp_path / "out"
     code, stdout, err = _run(
-        capsys, "render", str(world["world"]), "-o", str(out), "--photo", str(world["image"])
+        capsys,
+        "render",
+        str(world["world"]),
+        "-o",
+        str(out),
+        "--photo",
+        str(world["image"]),
+        "--write",
+        "all",
     )
     assert code == 0, err
     assert {p.name for p in out.iterdir()} == ALL_FILES | {"side_by_side.png", "overlay.png"}
@@ -96,17 +100,73 @@ def test_render_finds_the_photo_next_to_the_world_and_takes_size_and_camera(worl
     shutil.copytree(world["world"].parent, copy)
     out = tmp_path / "plain"
     code, _, err = _run(
-        capsys, "render", str(copy), "-o", str(out), "--size", "128x64", "--camera", "/World/SourceCamera"
+        capsys,
+        "render",
+        str(copy),
+        "-o",
+        str(out),
+        "--size",
+        "128x64",
+        "--camera",
+        "/World/SourceCamera",
+        "--write",
+        "all",
     )
     assert code == 0, err
     assert {p.name for p in out.iterdir()} == ALL_FILES  # no photo beside this copy
+    code, _, err = _run(capsys, "render", str(copy), "-o", str(tmp_path / "cmp"), "--write", "side_by_side")
+    assert code == 2 and err.strip() == (
+        f"error: --write side_by_side: the source photo '{Path(world['image']).name}' is not next to the world; "
+        "pass it with --photo"
+    ), err
     assert np.load(out / "depth.npy").shape == (64, 128)
     shutil.copy(
         world["image"], tmp_path / Path(world["image"]).name
     )  # now the photo sits beside the world folder
-    code, _, err = _run(capsys, "render", str(copy / "world.usda"), "-o", str(tmp_path / "withphoto"))
+    code, _, err = _run(
+        capsys,
+        "render",
+        str(copy / "world.usda"),
+        "-o",
+        str(tmp_path / "withphoto"),
+        "--write",
+        "comparisons",
+    )
     assert code == 0, err
-    assert (tmp_path / "withphoto" / "side_by_side.png").is_file()
+    assert {p.name for p in (tmp_path / "withphoto").iterdir()} == {"side_by_side.png", "overlay.png"}
+
+
+def test_render_writes_the_data_only_by_default(world, tmp_path, capsys) -> None:
+    """Without --write: the passes as data, no views, no comparisons (even with --photo)."""
+    out = tmp_path / "out"
+    code, stdout, err = _run(
+        capsys, "render", str(world["world"]), "-o", str(out), "--photo", str(world["image"])
+    )
+    assert code == 0, err
+    assert {p.name for p in out.iterdir()} == DATA_FILES
+    assert [Path(line).name for line in stdout.splitlines()[:-1]] == [
+        "render.png",
+        "labelIds.png",
+        "instanceIds.png",
+        "depth.npy",
+    ]
+    code, _, err = _run(
+        capsys, "render", str(world["world"]), "-o", str(tmp_path / "two"), "--write", "depth,class"
+    )
+    assert code == 0, err
+    assert {p.name for p in (tmp_path / "two").iterdir()} == {"depth.npy", "class.png"}
+
+
+def test_png_settings_are_lossless() -> None:
+    """The fast PNG settings change the bytes, never the pixels (colour, 8-bit and 16-bit grey)."""
+    rng = np.random.default_rng(3)
+    rgb = rng.integers(0, 256, (37, 53, 3), dtype=np.uint8)
+    rgb[:, :20] = (10, 20, 30)  # flat runs, as renders have, and noise
+    ids = rng.integers(0, 65536, (37, 53), dtype=np.uint16)
+    for image in (rgb, ids, ids.astype(np.uint8)):
+        decoded = cv2.imdecode(np.frombuffer(png_bytes(image), np.uint8), cv2.IMREAD_UNCHANGED)
+        expected = image[:, :, ::-1] if image.ndim == 3 else image  # OpenCV decodes to BGR
+        assert decoded.dtype == image.dtype and np.array_equal(decoded, expected)
 
 
 @pytest.mark.parametrize(
@@ -123,6 +183,14 @@ def test_render_finds_the_photo_next_to_the_world_and_takes_size_and_camera(worl
             ["--photo", "/nonexistent/p.png"],
             "error: /nonexistent/p.png: no such photo; pass --photo with the source image",
         ),
+        (
+            ["--write", "data,shadows"],
+            (
+                "error: --write 'data,shadows': unknown output 'shadows'; choose from data, views, comparisons, "
+                "all, render, labelIds, instanceIds, depth, class, instance, depth_png, side_by_side, overlay"
+            ),
+        ),
+        (["--write", ","], "error: --write ',': names no output; e.g. --write data or --write all"),
     ],
 )
 def test_render_bad_input_is_one_line_exit_2(world, tmp_path, capsys, args, expected) -> None:

@@ -17,6 +17,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
 from test_export_fixtures import build_street_world
 
 from usdworld.authoring import asset_library as al
+from usdworld.authoring.asset_cards import read_card
 from usdworld.authoring.user_assets import (
     LIBRARY_ENV,
     SourcePart,
@@ -26,7 +27,7 @@ from usdworld.authoring.user_assets import (
     list_assets,
     user_library,
 )
-from usdworld.authoring.validate import errors_only, validate_file
+from usdworld.authoring.validate import errors_only, validate_file, validator_ids
 from usdworld.cli.main import main as cli
 from usdworld.errors import InputError
 from usdworld.export import export_world
@@ -161,6 +162,9 @@ def test_user_asset_has_the_built_in_structure(tmp_path: Path, library: Path) ->
         assert material.ComputeSurfaceSource()[0].GetIdAttr().Get() == "UsdPreviewSurface"
         assert UsdSemantics.LabelsAPI(mesh.GetPrim(), "class").GetLabelsAttr().Get() == ["car"]
     assert errors_only(validate_file(added.path)) == []
+    # the card records the clean validation, so exports need not validate the asset again
+    card = read_card(added.path)
+    assert card is not None and card["validation"] == {vid: 0 for vid in validator_ids().values()}
 
 
 def test_obj_in_centimetres_with_unit_scale(tmp_path: Path, library: Path) -> None:

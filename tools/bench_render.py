@@ -15,13 +15,26 @@ milliseconds. "all passes" is one :meth:`Renderer.render` with the shadow map re
 The fly-through is then timed once: ``--flythrough-frames`` frames at ``--flythrough-size``
 of the same world with the red source vehicle, as ``usdworld flythrough`` renders them
 (a shadow map per frame, lit colour, H.264 encoding into a temporary MP4); 0 frames skips it.
+
+``--command-repeats N`` (instead of the above) times the whole ``usdworld render`` command (issue 21's
+target: 1.0 s at 2048x1024) on two worlds: the demo world (``usdworld demo``, rendered at
+2048x1024) and a synthetic 2048x1024 world (seed 3, built from its Cityscapes-format frame),
+each with the default outputs (``--write data``) and with ``--write all``. The runs of all
+variants are interleaved, N rounds, median wall and CPU time (user + system of the child)
+reported, with the load average. A breakdown of one render in a fresh process follows:
+imports, stage open, scene extraction, GL context, the passes, encoding (parallel, this
+module's PNG settings) and writing, and, as the reference in the same process, encoding the
+same files one after another at zlib level 6 (what the command did before).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
+import resource
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -90,7 +103,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sizes", default="1024x512,2048x1024")
     parser.add_argument("--flythrough-frames", type=int, default=120)
     parser.add_argument("--flythrough-size", default="960x480")
+    parser.add_argument("--command-repeats", type=int, default=0, help="rounds of the whole-command timing")
     args = parser.parse_args(argv)
+    if args.command_repeats:  # the whole command instead of the passes
+        _bench_command(args.command_repeats)
+        return 0
     if args.repeats < 5:
         parser.error("--repeats must be >= 5")
 
@@ -150,6 +167,129 @@ def _bench_flythrough(scene: object, frames: int, size: tuple[int, int]) -> None
         f"**{result.total_s:.1f} s** in all, of which rendering {result.render_s:.1f} s "
         f"({1000.0 * result.render_s / frames:.0f} ms per frame); {decoded} frames decode."
     )
+
+
+#: One render of a world in a fresh process, timed step by step (argv: world, size, output folder).
+BREAKDOWN = r"""
+import sys, time
+t0 = time.perf_counter()
+from pathlib import Path
+import cv2
+from usdworld.authoring.inspect import open_world
+from usdworld.render import Renderer, RenderScene
+from usdworld.render import outputs as o
+t1 = time.perf_counter()
+stage = open_world(Path(sys.argv[1]))
+w, h = (int(v) for v in sys.argv[2].split("x"))
+pose = o.view_camera(stage, w, h)
+t2 = time.perf_counter()
+scene = RenderScene.from_stage(stage)
+t3 = time.perf_counter()
+with Renderer(w, h) as r:
+    t4 = time.perf_counter()
+    result = r.render(scene, pose.K, pose.world_from_cam)
+    t5 = time.perf_counter()
+row = [t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4]
+
+
+def reference(outputs):  # zlib level 6, OpenCV's other defaults, one file after another (as before)
+    o.PNG_PARAMS, fast = (cv2.IMWRITE_PNG_COMPRESSION, 6), o.PNG_PARAMS
+    try:
+        for make in o._encoders(result, None, outputs).values():
+            make()
+    finally:
+        o.PNG_PARAMS = fast
+
+
+for outputs in (o.DATA, o.OUTPUT_GROUPS["all"]):
+    encode, write, ref = [], [], []
+    for _ in range(3):  # interleaved; the best of three of each
+        t6 = time.perf_counter()
+        files = o.encode_render_outputs(result, None, outputs)
+        t7 = time.perf_counter()
+        out = o.ensure_output_dir(sys.argv[3])
+        for role, data in files.items():
+            o.write_bytes_atomic(out / o.OUTPUT_FILES[role], data)
+        t8 = time.perf_counter()
+        reference(outputs)
+        encode.append(t7 - t6), write.append(t8 - t7), ref.append(time.perf_counter() - t8)
+    row += [min(encode), min(write), min(ref)]
+print(" ".join(f"{1000 * v:.0f}" for v in row))
+"""
+
+
+def _cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _run_timed(argv: list[str], env: dict[str, str]) -> tuple[float, float, str]:
+    """(wall s, CPU s, stdout) of one subprocess; raises when it fails."""
+    cpu0, t0 = _cpu_s(), time.perf_counter()
+    proc = subprocess.run(argv, env=env, capture_output=True, text=True, check=False)
+    wall, cpu = time.perf_counter() - t0, _cpu_s() - cpu0
+    if proc.returncode != 0:
+        raise SystemExit(f"failed: {' '.join(argv)}\n{proc.stderr[-2000:]}")
+    return wall, cpu, proc.stdout
+
+
+def _make_worlds(tmp: Path, env: dict[str, str]) -> dict[str, Path]:
+    """The demo world and the synthetic 2048x1024 world of seed 3, built by the CLI."""
+    usdworld = [sys.executable, "-m", "usdworld", "-q"]
+    _run_timed([*usdworld, "demo", "-o", str(tmp / "demo_world")], env)
+    _run_timed([*usdworld, "synth", "-o", str(tmp / "synth"), "--seed", "3", "--size", "2048x1024"], env)
+    stem = str(tmp / "synth" / "synth_000000_000003")
+    build = ["build", f"{stem}_leftImg8bit.png", "--labels", f"{stem}_gtFine_labelIds.png"]
+    build += ["--instances", f"{stem}_gtFine_instanceIds.png", "--camera", f"{stem}_camera.json"]
+    _run_timed([*usdworld, *build, "-o", str(tmp / "synth_world")], env)
+    return {"demo": tmp / "demo_world", "synth seed 3": tmp / "synth_world"}
+
+
+def _bench_command(repeats: int) -> None:
+    """Print the whole-command table and the breakdown (see the module docstring)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+    with tempfile.TemporaryDirectory() as scratch:
+        tmp = Path(scratch)
+        worlds = _make_worlds(tmp, env)
+        variants = [(name, write) for name in worlds for write in ("data", "all")]
+        times: dict[tuple[str, str], list[tuple[float, float]]] = {v: [] for v in variants}
+        loads = [os.getloadavg()[0]]
+        for _ in range(repeats):
+            for name, write in variants:
+                argv = [sys.executable, "-m", "usdworld", "-q", "render", str(worlds[name])]
+                argv += ["-o", str(tmp / "out"), "--size", "2048x1024", "--write", write]
+                wall, cpu, _ = _run_timed(argv, env)
+                times[(name, write)].append((wall, cpu))
+            loads.append(os.getloadavg()[0])
+        breakdown = {}
+        for name, world in worlds.items():
+            argv = [sys.executable, "-c", BREAKDOWN, str(world), "2048x1024", str(tmp / "parts")]
+            breakdown[name] = [float(v) for v in _run_timed(argv, env)[2].split()]
+    print(
+        f"`usdworld render` at 2048x1024, whole command; median of {repeats} interleaved rounds; "
+        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.node()}, {os.cpu_count()} CPUs, "
+        f"load average (1 min) {min(loads):.1f}-{max(loads):.1f}.\n"
+    )
+    print("| world | --write | files | wall s | CPU s |")
+    print("|---|---|---:|---:|---:|")
+    from usdworld.render.outputs import OUTPUT_GROUPS
+
+    for (name, write), runs in times.items():
+        wall = statistics.median(r[0] for r in runs)
+        cpu = statistics.median(r[1] for r in runs)
+        n_files = len(OUTPUT_GROUPS[write]) - (2 if write == "all" and name != "demo" else 0)
+        print(f"| {name} | {write} | {n_files} | **{wall:.2f}** | {cpu:.2f} |")
+    print(
+        "\nOne render in a fresh process, milliseconds (encoding and writing: best of 3, parallel, fast PNG settings; reference: "
+    )
+    print("the same files one after another at zlib level 6, as before):\n")
+    print(
+        "| world | imports | open + camera | scene | GL context | passes | data: encode | write | "
+        "reference encode | all (no photo): encode | write | reference encode |"
+    )
+    print("|---|" + "---:|" * 11)
+    for name, row in breakdown.items():
+        print(f"| {name} | " + " | ".join(f"{v:.0f}" for v in row) + " |")
 
 
 if __name__ == "__main__":

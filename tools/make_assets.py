@@ -25,7 +25,9 @@ Each class is written as two files:
     live in a crate layer. Copy both files together.
 ``<class>.card.json``
     The asset's card (:mod:`usdworld.authoring.asset_cards`): its variants, sizes and shape
-    measures with a digest of the two files above, so builds and edits need not measure it.
+    measures with a digest of the two files above, so builds and edits need not measure it,
+    and the errors each validator (UsdValidation, omni-asset-validator where installed, with
+    their versions) found in every variant, so exports need not validate the asset again.
 
 Geometry is modelled with manifold3d constructive solid geometry (one closed, manifold solid per
 material), shaded with faceVarying normals smoothed only across edges sharper than
@@ -53,6 +55,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, Vt
 from usdworld.authoring.asset_cards import CARD_SUFFIX, write_card
 from usdworld.authoring.asset_library import TAXONOMY, VARIANT_SET, define_asset_root
 from usdworld.authoring.asset_measures import asset_card_text
+from usdworld.authoring.validate import validate_asset, validation_record
 from usdworld.authoring.shading import crease_normals, extent
 
 REPO = Path(__file__).resolve().parents[1]
@@ -1352,7 +1355,8 @@ def generate(out_dir: Path, classes: Sequence[str] | None = None) -> list[Path]:
             variants = build_class(name, priors[name])
             files = write_asset(Path(scratch), name, variants, ASSETS[name][0][0])
             usda = Path(scratch) / f"{name}.usda"
-            files.append(write_card(usda, asset_card_text(usda)))
+            record = validation_record(validate_asset(usda))
+            files.append(write_card(usda, asset_card_text(usda, record)))
             for f in files:
                 dest = out_dir / f.name
                 os.replace(f, dest)

@@ -11,7 +11,12 @@ the classes of one street, which a one-second command cannot afford. A card,
   a card whose digest does not match the files is stale and ignored, so a card can never
   give another file version's numbers;
 * ``variants``, ``default_variant``, ``size_by_variant``: :class:`~usdworld.authoring.asset_library.AssetInfo`;
-* ``measures``: variant -> :class:`~usdworld.authoring.asset_measures.VariantMeasures` fields.
+* ``measures``: variant -> :class:`~usdworld.authoring.asset_measures.VariantMeasures` fields;
+* ``validation`` (when the writer validated the asset): validator id (name, version and
+  rules, :func:`usdworld.authoring.validate.validator_ids`) -> number of errors it found in
+  these files, every variant included. An export does not validate again an asset whose card
+  matches the exported bytes and records 0 errors for every validator it runs
+  (:mod:`usdworld.authoring.validation_scope`).
 
 Floats are written as Python's shortest round-trip repr, so a card gives exactly the numbers
 measuring the files gives: worlds are byte-identical with and without cards.
@@ -26,6 +31,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -44,22 +50,29 @@ def card_path(usda: Path) -> Path:
 
 def asset_files(usda: Path) -> list[Path]:
     """The files a card's digest covers: ``<class>.usda`` and its ``<class>.*`` siblings, by name."""
-    prefix = usda.stem + "."
-    return sorted(
-        (p for p in usda.parent.iterdir() if p.name.startswith(prefix) and not p.name.endswith(CARD_SUFFIX) and p.is_file()),
-        key=lambda p: p.name,
-    )
+    files = {p.name: p for p in usda.parent.iterdir() if p.is_file()}
+    return [files[n] for n in member_names(usda.stem, files)]
+
+
+def member_names(stem: str, names: Iterable[str]) -> list[str]:
+    """The names among ``names`` a card's digest covers for asset ``stem``: ``<stem>.*`` but cards, sorted."""
+    prefix = stem + "."
+    return sorted(n for n in names if n.startswith(prefix) and not n.endswith(CARD_SUFFIX))
+
+
+def files_digest(files: Iterable[tuple[str, bytes]]) -> str:
+    """SHA-256 (hex) over (file name, bytes) pairs, in the order given (see :func:`asset_digest`)."""
+    h = hashlib.sha256()
+    for name_text, data in files:
+        name = name_text.encode()
+        h.update(len(name).to_bytes(8, "little") + name + len(data).to_bytes(8, "little"))
+        h.update(data)
+    return h.hexdigest()
 
 
 def asset_digest(usda: Path) -> str:
     """SHA-256 (hex) over the asset's files' names and bytes (:func:`asset_files`)."""
-    h = hashlib.sha256()
-    for path in asset_files(usda):
-        name = path.name.encode()
-        data = path.read_bytes()
-        h.update(len(name).to_bytes(8, "little") + name + len(data).to_bytes(8, "little"))
-        h.update(data)
-    return h.hexdigest()
+    return files_digest((path.name, path.read_bytes()) for path in asset_files(usda))
 
 
 def read_card(usda: Path) -> dict[str, Any] | None:
@@ -86,15 +99,16 @@ def read_card(usda: Path) -> dict[str, Any] | None:
     return card
 
 
-def card_text(digest: str, info: Any, measures: dict[str, Any]) -> str:
+def card_text(digest: str, info: Any, measures: dict[str, Any], validation: dict[str, int] | None = None) -> str:
     """A card's JSON text.
 
     Args:
         digest: :func:`asset_digest` of the files measured.
         info: the asset's ``AssetInfo``.
         measures: variant ('' for an asset without variants) -> ``VariantMeasures``.
+        validation: validator id -> errors it found in the same files; None when not validated.
     """
-    card = {
+    card: dict[str, Any] = {
         "version": CARD_VERSION,
         "digest": digest,
         "variants": list(info.variants),
@@ -110,7 +124,17 @@ def card_text(digest: str, info: Any, measures: dict[str, Any]) -> str:
             for v, m in measures.items()
         },
     }
+    if validation is not None:
+        card["validation"] = dict(validation)
     return json.dumps(card, indent=1, sort_keys=True) + "\n"
+
+
+def clean_validators(card: dict[str, Any]) -> frozenset[str]:
+    """Ids of the validators a card records as having found no error in its asset."""
+    record = card.get("validation")
+    if not isinstance(record, dict):
+        return frozenset()
+    return frozenset(k for k, v in record.items() if isinstance(k, str) and v == 0 and not isinstance(v, bool))
 
 
 def write_card(usda: Path, text: str) -> Path:

@@ -128,11 +128,13 @@ def variant_measures(
     return _cached(class_name, variant, str(path), path.stat().st_mtime_ns, libraries)
 
 
-def asset_card_text(usda: Path) -> str:
+def asset_card_text(usda: Path, validation: dict[str, int] | None = None) -> str:
     """The card (:mod:`usdworld.authoring.asset_cards`) of an asset, measured from its files.
 
     Args:
         usda: the asset's root layer ``<class>.usda``; its folder is the only library searched.
+        validation: validator id -> errors found in these files
+            (:func:`usdworld.authoring.validate.validation_record`); None when not validated.
 
     Raises:
         InputError: the asset is not readable, or a variant has no mesh.
@@ -144,7 +146,7 @@ def asset_card_text(usda: Path) -> str:
     for v in info.variants or ("",):
         mesh = asset_library.load_mesh_arrays(class_name, v or None, libraries)
         measures[v] = measure_mesh(mesh.vertices, mesh.faces)
-    return card_text(asset_digest(usda), info, measures)
+    return card_text(asset_digest(usda), info, measures, validation)
 
 
 def asset_catalogue(class_names: Iterable[str], libraries: tuple[Path, ...] | None = None) -> AssetCatalogue:

@@ -856,9 +856,10 @@ def add_asset(
 ) -> AddedAsset:
     """Import a model file as a variant of a class asset in a user library.
 
-    The asset is written in a scratch folder, validated (UsdValidation and, where installed,
-    omni-asset-validator must report no error), and only then moved into the library, so a
-    refused model leaves the library as it was.
+    The asset is written in a scratch folder, validated in every variant (UsdValidation and,
+    where installed, omni-asset-validator must report no error), and only then moved into the
+    library with its card, which records the validation, so a refused model leaves the library
+    as it was and exports need not validate the asset again.
 
     Args:
         library: the user library folder (created if missing).
@@ -879,7 +880,7 @@ def add_asset(
         InputError: unknown class, bad variant name, existing variant, or the model is refused.
         ValidationFailed: the written asset fails validation (the library is unchanged).
     """
-    from usdworld.authoring.validate import errors_only, validate_file
+    from usdworld.authoring.validate import errors_only, validate_asset, validation_record
     from usdworld.errors import ValidationFailed
 
     known = available_classes()
@@ -924,16 +925,20 @@ def add_asset(
             kept = ()
         _write_variant(tmp_usda, tmp_geom, class_name, variant, model, make_default)
         _record_builtin(tmp_usda, class_name, tuple(v for v in kept if v != variant))
+        record = None
         if validate:
-            errors = errors_only(validate_file(tmp_usda))
+            issues = validate_asset(tmp_usda)
+            errors = errors_only(issues)
             if errors:
                 shown = "; ".join(f"[{e.rule}] {e.at} {e.message}" for e in errors[:5])
                 raise ValidationFailed(f"{source}: the asset written from it fails validation, not added: {shown}")
+            record = validation_record(issues)
         from usdworld.authoring.asset_cards import card_path, write_card
         from usdworld.authoring.asset_measures import asset_card_text
 
         info = asset_info(class_name, (Path(scratch),))
-        tmp_card = write_card(tmp_usda, asset_card_text(tmp_usda))  # builds and edits need not measure it
+        # builds and edits need not measure it, exports need not validate it again
+        tmp_card = write_card(tmp_usda, asset_card_text(tmp_usda, record))
         for tmp, final in ((tmp_geom, geom), (tmp_usda, usda), (tmp_card, card_path(usda))):
             os.replace(tmp, final)
     for layer_path in (usda, geom):

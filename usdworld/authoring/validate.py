@@ -2,6 +2,10 @@
 
 The omni validator runs its default rules plus the requirements UN.006 (``upAxis = Z``)
 and UN.007 (``metersPerUnit = 1``), which is what Omniverse / SimReady asks of a world.
+
+Assets are validated once, when a library is built (:func:`validate_asset`, every variant),
+and the outcome goes into their cards (:func:`validation_record`); exports then validate
+only what the world owns (:mod:`usdworld.authoring.validation_scope`).
 """
 
 from __future__ import annotations
@@ -115,10 +119,26 @@ def omni_validator_available() -> bool:
     return True
 
 
-def _usd_issues(stage: Usd.Stage) -> list[ValidationIssue]:
-    validators = UsdValidation.ValidationRegistry().GetOrLoadAllValidators()
+def validator_ids(*, omni: bool = True) -> dict[str, str]:
+    """The validators that run here, by short name (``usd``, ``omni``), as versioned ids.
+
+    An id names the validator, its version and the rules enabled, so a card's record of a
+    clean asset (:func:`validation_record`) only counts for the same validator.
+
+    Args:
+        omni: include omni-asset-validator (when it is installed).
+    """
+    ids = {"usd": "UsdValidation usd-core " + ".".join(str(n) for n in Usd.GetVersion())}
+    if omni and omni_validator_available():
+        from omni.asset_validator import __version__ as omni_version
+
+        ids["omni"] = f"omni-asset-validator {omni_version} default rules + {' + '.join(OMNI_REQUIREMENTS)}"
+    return ids
+
+
+def _usd_errors(errors: list[UsdValidation.ValidationError]) -> list[ValidationIssue]:
     issues = []
-    for err in UsdValidation.ValidationContext(validators).Validate(stage):
+    for err in errors:
         kind = err.GetType()
         if kind == UsdValidation.ValidationErrorType.None_:
             continue
@@ -130,18 +150,38 @@ def _usd_issues(stage: Usd.Stage) -> list[ValidationIssue]:
     return issues
 
 
-def _omni_issues(path: Path) -> list[ValidationIssue]:
-    from omni.asset_validator import IssueSeverity, ValidationEngine
+def usd_validators() -> list[UsdValidation.Validator]:
+    """Every validator of ``pxr.UsdValidation``."""
+    return list(UsdValidation.ValidationRegistry().GetOrLoadAllValidators())
+
+
+def _usd_issues(stage: Usd.Stage) -> list[ValidationIssue]:
+    return _usd_errors(UsdValidation.ValidationContext(usd_validators()).Validate(stage))
+
+
+def omni_engine(engine_class: type | None = None) -> object:
+    """An omni-asset-validator engine with the default rules and :data:`OMNI_REQUIREMENTS`.
+
+    Args:
+        engine_class: a ``ValidationEngine`` subclass to build (default the engine itself).
+    """
+    from omni.asset_validator import ValidationEngine
     from omni.asset_validator._requirements import RequirementsRegistry
 
-    engine = ValidationEngine()
+    engine = (engine_class or ValidationEngine)()
     registry = RequirementsRegistry()
     for code in OMNI_REQUIREMENTS:
         requirement = registry.find(code, None)
         if requirement is not None:
             engine.enable_requirement(requirement)
+    return engine
+
+
+def _omni_issues(path: Path, engine: object | None = None) -> list[ValidationIssue]:
+    from omni.asset_validator import IssueSeverity
+
     issues = []
-    for issue in engine.validate(str(path)).issues():
+    for issue in (engine or omni_engine()).validate(str(path)).issues():  # type: ignore[attr-defined]
         if issue.severity in (IssueSeverity.ERROR, IssueSeverity.FAILURE):
             severity = "error"
         elif issue.severity == IssueSeverity.WARNING:
@@ -177,6 +217,58 @@ def validate_file(path: str | Path, *, omni: bool = True) -> list[ValidationIssu
         if omni and omni_validator_available():
             issues.extend(_omni_issues(path))
     return issues
+
+
+def validate_asset(usda: str | Path, *, omni: bool = True) -> list[ValidationIssue]:
+    """Validate a library asset as its card records it: every variant, every validator.
+
+    omni-asset-validator visits every variant itself; UsdValidation sees the composed stage
+    only, so it runs once per selection of the root prim's variant sets.
+
+    Args:
+        usda: the asset's root layer.
+        omni: also run omni-asset-validator when it is installed.
+
+    Returns:
+        Every distinct issue found, in the order found.
+
+    Raises:
+        InputError: the file does not exist or does not open as a USD stage.
+    """
+    path = Path(usda)
+    if not path.is_file():
+        raise InputError(f"{path}: no such asset file")
+    issues: list[ValidationIssue] = []
+    with native_stderr_captured(str(path)):
+        stage = open_stage(path)
+        context = UsdValidation.ValidationContext(usd_validators())
+        root = stage.GetDefaultPrim() or stage.GetPseudoRoot()
+        sets = root.GetVariantSets()
+        selections: list[dict[str, str]] = [{}]
+        for set_name in sets.GetNames():
+            names = sets.GetVariantSet(set_name).GetVariantNames()
+            selections = [{**s, set_name: v} for s in selections for v in names] or selections
+        for selection in selections:
+            with Usd.EditContext(stage, stage.GetSessionLayer()):
+                for set_name, variant in selection.items():
+                    sets.GetVariantSet(set_name).SetVariantSelection(variant)
+            issues.extend(i for i in _usd_errors(context.Validate(stage)) if i not in issues)
+        if omni and omni_validator_available():
+            issues.extend(_omni_issues(path))
+    return issues
+
+
+def validation_record(issues: list[ValidationIssue], *, omni: bool = True) -> dict[str, int]:
+    """What a card keeps of a validation: validator id -> number of errors it found.
+
+    Args:
+        issues: what :func:`validate_asset` returned.
+        omni: whether omni-asset-validator was asked for (it counts only where installed).
+    """
+    return {
+        vid: sum(1 for i in issues if i.validator == short and i.severity == "error")
+        for short, vid in validator_ids(omni=omni).items()
+    }
 
 
 def errors_only(issues: list[ValidationIssue]) -> list[ValidationIssue]:

@@ -1,4 +1,4 @@
-"""``usdworld render``: every pass of one view of a world, written as images."""
+"""``usdworld render``: the passes of one view of a world, written as the image files asked for."""
 
 from __future__ import annotations
 
@@ -32,19 +32,28 @@ def render(
         "default /World/SourceCamera.",
     ),
     photo: Path | None = typer.Option(
-        None, "--photo", help="The source photo (default: found next to the world)."
+        None, "--photo", help="The source photo for the comparisons (default: found next to the world)."
+    ),
+    write: str = typer.Option(
+        "data",
+        "--write",
+        help="Comma-separated outputs: data (render.png, labelIds.png, instanceIds.png, depth.npy), "
+        "views (class.png, instance.png, depth.png), comparisons (side_by_side.png, overlay.png; need the "
+        "photo), all, or single ones: render, labelIds, instanceIds, depth, class, instance, depth_png, "
+        "side_by_side, overlay.",
     ),
 ) -> None:
-    """Render a world: colour, class, instance and depth images (+ a comparison with the photo)."""
+    """Render a world's passes as image files: the data by default, colour views and photo comparisons on request."""
     import logging
     import time
 
     from usdworld.authoring.inspect import open_world
-    from usdworld.demo import demo_dir
-    from usdworld.errors import OutputError
-    from usdworld.render import Renderer, RenderScene
+    from usdworld.errors import InputError, OutputError
+    from usdworld.render import Lighting, Renderer, RenderScene, ViewCull
     from usdworld.render.outputs import (
+        COMPARISONS,
         find_beside_world,
+        parse_outputs,
         read_photo,
         view_camera,
         world_image_size,
@@ -53,6 +62,7 @@ def render(
     )
 
     log = logging.getLogger("usdworld.render")
+    outputs = parse_outputs(write)
     if output.exists() and not output.is_dir():
         raise OutputError(f"{output}: exists and is not a folder; choose another -o")
     from usdworld.authoring.rig import rig_view
@@ -61,23 +71,39 @@ def render(
     camera, view_photo = rig_view(stage, camera)
     width, height = parse_size(size) if size else world_image_size(stage)
     pose = view_camera(stage, width, height, camera)
+    comparisons = [name for name in outputs if name in COMPARISONS]
+    if photo is not None and not photo.is_file():
+        raise InputError(f"{photo}: no such photo; pass --photo with the source image")
+    if photo is not None and not comparisons:
+        log.info("--photo is used by the comparisons only (--write comparisons or all); not read")
     photo_path = photo
-    if photo_path is None:
+    if comparisons and photo_path is None:
+        from usdworld.demo import demo_dir
+
         root = Path(stage.GetRootLayer().realPath)
         photo_name = view_photo or world_source_image(stage)
         photo_path = find_beside_world(root, photo_name, [demo_dir()])
         if photo_path is None:
+            recorded = photo_name or "(none recorded)"
+            named = {token.strip() for token in write.split(",")}
+            if named & {"comparisons", *COMPARISONS}:  # asked for by name, not as part of "all"
+                raise InputError(
+                    f"--write {','.join(comparisons)}: the source photo {recorded!r} is not next to the world; "
+                    "pass it with --photo"
+                )
             log.info(
                 "source photo %r not found next to the world; pass --photo for the comparison images",
-                photo_name or "(none recorded)",
+                recorded,
             )
-    photo_rgb = read_photo(photo_path) if photo_path is not None else None
+    photo_rgb = read_photo(photo_path) if comparisons and photo_path is not None else None
     t0 = time.perf_counter()
-    scene = RenderScene.from_stage(stage)
+    # Objects whose boxes and shadows lie outside the view are not read (same pixels).
+    cull = ViewCull(pose.K, pose.world_from_cam, width, height, Lighting().sun_direction_world)
+    scene = RenderScene.from_stage(stage, cull=cull)
     with Renderer(width, height) as renderer:
         result = renderer.render(scene, pose.K, pose.world_from_cam)
     seconds = time.perf_counter() - t0
-    paths = write_render_outputs(output, result, photo_rgb)
+    paths = write_render_outputs(output, result, photo_rgb, outputs)
     from usdworld.cli.output import quiet
 
     if quiet():

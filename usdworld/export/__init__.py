@@ -129,7 +129,11 @@ def export_world(
             if bake_edits:
                 log.debug("%s always bakes the edits into its one layer", fmt)
             files = write_flat(root, output, fmt, flatten=flatten, drop_inactive=drop_inactive)
-        check = check_usd_export(output, fmt, omni=omni) if validate else CheckReport("usd", skipped="not asked")
+        check = (
+            check_usd_export(output, fmt, omni=omni, cards_dir=root.parent / "assets")
+            if validate
+            else CheckReport("usd", skipped="not asked")
+        )
     result = ExportResult(fmt, output, tuple(files), check)
     if check.errors:
         shown = "; ".join(check.errors[:5]) + (f" (and {len(check.errors) - 5} more)" if len(check.errors) > 5 else "")

@@ -1,9 +1,11 @@
 """Checks run on every export: USD validators, the Khronos glTF validator, consumer constraints.
 
-- USD outputs: :func:`usdworld.authoring.validate.validate_file` (UsdValidation and, where
-  installed, omni-asset-validator) must report no error. A ``usda-flat`` export is text by
-  request, so omni's ``UsdAsciiPerformanceChecker`` (large arrays belong in crate files) is
-  not counted against it.
+- USD outputs: UsdValidation and, where installed, omni-asset-validator must report no
+  error. The world's own layers and prims are validated every time; an asset whose card (in
+  the world's ``assets/``) matches the exported files and records a clean validation by the
+  same validators is not validated again (:mod:`usdworld.authoring.validation_scope`). A
+  ``usda-flat`` export is text by request, so omni's ``UsdAsciiPerformanceChecker`` (large
+  arrays belong in crate files) is not counted against it.
 - Every ``.usdc`` written: crate version 0.8.0 or older (what USD 20.08 in Unity reads).
 - No payload arcs anywhere (Unity's USD package does not load payloads by default).
 - GLB: the Khronos glTF validator (npm ``gltf-validator``, run with node through
@@ -22,7 +24,7 @@ import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from usdworld.authoring.validate import ValidationIssue, errors_only, validate_file
+from usdworld.authoring.validate import ValidationIssue, errors_only, validator_ids
 from usdworld.errors import InputError, OutputError
 from usdworld.export.usd_formats import check_crate_version, objects_with_payloads, open_world
 
@@ -59,15 +61,28 @@ def _format(issue: ValidationIssue) -> str:
     return f"[{issue.validator}:{issue.rule}] {issue.at} {issue.message}".replace("  ", " ")
 
 
-def check_usd_export(path: Path, fmt: str, *, omni: bool = True) -> CheckReport:
+def check_usd_export(path: Path, fmt: str, *, omni: bool = True, cards_dir: Path | None = None) -> CheckReport:
     """Validate a USD export and check the constraints of the consumers.
 
     Args:
         path: the exported ``.usdz``/``.usdc``/``.usda``.
         fmt: the export format (``usdz``, ``usdc``, ``usda-flat``).
         omni: also run omni-asset-validator where installed.
+        cards_dir: the folder of the asset cards that may vouch for exported assets (the
+            world's ``assets/``); None validates everything.
+
+    Returns:
+        The report; ``details`` holds what was validated (``trusted_assets``,
+        ``layers_checked``, ``layers_skipped``, ``prims_checked``, ``subtrees_skipped``).
     """
-    issues = validate_file(path, omni=omni)
+    from usdworld.authoring.validation_scope import validate_scoped
+    from usdworld.io.images import native_stderr_captured
+
+    # USD also prints what the validators report straight to stderr; the issues carry it
+    with native_stderr_captured(str(path)):
+        stage = open_world(path)
+        scoped = validate_scoped(path, stage, cards_dir, validator_ids(omni=omni))
+    issues = scoped.issues
     exempt = TEXT_EXEMPT_RULES if fmt == "usda-flat" else ()
     errors = [_format(i) for i in errors_only(issues) if i.rule not in exempt]
     warnings = [_format(i) for i in issues if i.severity != "error" or i.rule in exempt]
@@ -84,10 +99,17 @@ def check_usd_export(path: Path, fmt: str, *, omni: bool = True) -> CheckReport:
             check_crate_version(crate)
         except OutputError as exc:  # a check failure, reported with the others
             errors.append(str(exc))
-    payloads = objects_with_payloads(open_world(path))
+    payloads = objects_with_payloads(stage)
     if payloads:
         errors.append(f"payload arcs on {', '.join(payloads)}: Unity's USD package does not load payloads by default")
-    return CheckReport("usd", tuple(errors), tuple(warnings))
+    details = {
+        "trusted_assets": list(scoped.trusted_assets),
+        "layers_checked": scoped.layers_checked,
+        "layers_skipped": scoped.layers_skipped,
+        "prims_checked": scoped.prims_checked,
+        "subtrees_skipped": scoped.subtrees_skipped,
+    }
+    return CheckReport("usd", tuple(errors), tuple(warnings), details=details)
 
 
 def web_dir() -> Path | None:

@@ -1,18 +1,30 @@
 """What ``usdworld render`` writes: colour, class, instance and depth images of one view.
 
-Files written into the output folder (all atomically, PNGs without timestamps):
+Files it can write into the output folder (all atomically, PNGs without timestamps), by the
+name that asks for them (:data:`OUTPUT_FILES`):
 
-* ``render.png``: the lit colour render (RGB).
-* ``class.png``: Cityscapes colours of the class ids (sky colour where nothing was hit).
-* ``labelIds.png``: 8-bit Cityscapes label ids (sky, 23, where nothing was hit), the same
-  format as ``*_gtFine_labelIds.png``.
-* ``instance.png``: one colour per object (stuff in its class colour, darkened), for viewing.
-* ``instanceIds.png``: 16-bit Cityscapes instance ids (``class*1000+k`` for things, the
-  label id for stuff, sky where nothing was hit).
-* ``depth.npy``: (H, W) float32 depth along the optical axis in metres, 0 where nothing was hit.
-* ``depth.png``: the depth colour-mapped (turbo on inverse depth; black: nothing hit).
-* with the source photo: ``side_by_side.png`` (photo | render) and ``overlay.png`` (the
-  photo with the class colours blended over it).
+Data (:data:`DATA`, the default):
+
+* ``render``: ``render.png``, the lit colour render (RGB).
+* ``labelIds``: ``labelIds.png``, 8-bit Cityscapes label ids (sky, 23, where nothing was
+  hit), the same format as ``*_gtFine_labelIds.png``.
+* ``instanceIds``: ``instanceIds.png``, 16-bit Cityscapes instance ids (``class*1000+k`` for
+  things, the label id for stuff, sky where nothing was hit).
+* ``depth``: ``depth.npy``, (H, W) float32 depth along the optical axis in metres, 0 where
+  nothing was hit.
+
+Views for people (:data:`VIEWS`):
+
+* ``class``: ``class.png``, Cityscapes colours of the class ids (sky colour where nothing was hit).
+* ``instance``: ``instance.png``, one colour per object (stuff in its class colour, darkened).
+* ``depth_png``: ``depth.png``, the depth colour-mapped (turbo on inverse depth; black: nothing hit).
+
+Comparisons with the source photo (:data:`COMPARISONS`): ``side_by_side.png`` (photo |
+render) and ``overlay.png`` (the photo with the class colours blended over it).
+
+The group names ``data``, ``views``, ``comparisons`` and ``all`` stand for their files
+(:data:`OUTPUT_GROUPS`). The images are made and PNG-encoded in parallel threads (OpenCV's
+encoder releases the GIL) with the fast settings of :data:`PNG_PARAMS`.
 """
 
 from __future__ import annotations
@@ -20,7 +32,9 @@ from __future__ import annotations
 import functools
 import io
 import logging
-from collections.abc import Sequence
+import os
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -47,6 +61,34 @@ SOURCE_CAMERA = "/World/SourceCamera"
 WORLD_PRIM = "/World"
 #: Render size used when a world records no image size.
 FALLBACK_SIZE = (1024, 512)
+#: How the PNGs are compressed: zlib level 1 with the run-length strategy after the Paeth
+#: filter. Lossless like any PNG; on a 2048x1024 colour render about 5x faster than OpenCV's
+#: default (level 6, adaptive filters) for a file about 10 % larger (BENCHMARKS.md, issue 21).
+#: OpenCV before 4.10 has no filter choice and keeps its adaptive one.
+PNG_PARAMS = (cv2.IMWRITE_PNG_COMPRESSION, 1, cv2.IMWRITE_PNG_STRATEGY, cv2.IMWRITE_PNG_STRATEGY_RLE) + (
+    (cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_PAETH) if hasattr(cv2, "IMWRITE_PNG_FILTER") else ()
+)
+
+#: Every file ``usdworld render`` can write, by the name that asks for it.
+OUTPUT_FILES = {
+    "render": "render.png",
+    "labelIds": "labelIds.png",
+    "instanceIds": "instanceIds.png",
+    "depth": "depth.npy",
+    "class": "class.png",
+    "instance": "instance.png",
+    "depth_png": "depth.png",
+    "side_by_side": "side_by_side.png",
+    "overlay": "overlay.png",
+}
+#: The passes as data (the default output).
+DATA = ("render", "labelIds", "instanceIds", "depth")
+#: The passes colourised for people.
+VIEWS = ("class", "instance", "depth_png")
+#: The comparisons with the source photo (written only when the photo is found or given).
+COMPARISONS = ("side_by_side", "overlay")
+#: Names that stand for several files.
+OUTPUT_GROUPS = {"data": DATA, "views": VIEWS, "comparisons": COMPARISONS, "all": DATA + VIEWS + COMPARISONS}
 
 
 # -- the world's view ------------------------------------------------------------------
@@ -178,7 +220,7 @@ def png_bytes(image: np.ndarray) -> bytes:
     a = np.asarray(image)
     if a.ndim == 3:
         a = a[:, :, ::-1]  # OpenCV writes BGR
-    ok, buf = cv2.imencode(".png", np.ascontiguousarray(a), [cv2.IMWRITE_PNG_COMPRESSION, 6])
+    ok, buf = cv2.imencode(".png", np.ascontiguousarray(a), list(PNG_PARAMS))
     if not ok:
         raise OutputError("PNG encoding failed")
     return buf.tobytes()
@@ -224,41 +266,94 @@ def find_beside_world(world_file: str | Path, name: str, extra_dirs: Sequence[Pa
     return None
 
 
+def parse_outputs(text: str) -> tuple[str, ...]:
+    """``"data,class"`` -> the file names (:data:`OUTPUT_FILES` keys) asked for, in a fixed order.
+
+    Raises:
+        InputError: an unknown name, or nothing asked for.
+    """
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    wanted: set[str] = set()
+    for name in names:
+        if name in OUTPUT_GROUPS:
+            wanted.update(OUTPUT_GROUPS[name])
+        elif name in OUTPUT_FILES:
+            wanted.add(name)
+        else:
+            choices = ", ".join([*OUTPUT_GROUPS, *OUTPUT_FILES])
+            raise InputError(f"--write {text!r}: unknown output '{name}'; choose from {choices}")
+    if not wanted:
+        raise InputError(f"--write {text!r}: names no output; e.g. --write data or --write all")
+    return tuple(n for n in OUTPUT_FILES if n in wanted)
+
+
+def _encoders(
+    result: RenderResult, photo_rgb: np.ndarray | None, outputs: Iterable[str]
+) -> dict[str, Callable[[], bytes]]:
+    """role -> a function making that file's bytes (independent, so they may run in parallel)."""
+    wanted = set(outputs)
+    labels = label_ids_image(result) if wanted & {"labelIds", "class", "overlay"} else None
+    instances = instance_ids_image(result) if wanted & {"instanceIds", "instance"} else None
+    class_rgb = colorize_labels(labels) if labels is not None and wanted & {"class", "overlay"} else None
+    makers: dict[str, Callable[[], bytes]] = {
+        "render": lambda: png_bytes(result.rgb),
+        "labelIds": lambda: png_bytes(labels),
+        "instanceIds": lambda: png_bytes(instances),
+        "depth": lambda: _npy_bytes(result.depth_m.astype(np.float32)),
+        "class": lambda: png_bytes(class_rgb),
+        "instance": lambda: png_bytes(colorize_instances(instances)),
+        "depth_png": lambda: png_bytes(colorize_depth(result.depth_m)),
+    }
+    if photo_rgb is not None:
+        makers["side_by_side"] = lambda: png_bytes(side_by_side(photo_rgb, result.rgb))
+        makers["overlay"] = lambda: png_bytes(overlay(photo_rgb, class_rgb))
+    return {role: makers[role] for role in OUTPUT_FILES if role in wanted and role in makers}
+
+
+def encode_render_outputs(
+    result: RenderResult,
+    photo_rgb: np.ndarray | None = None,
+    outputs: Iterable[str] = OUTPUT_GROUPS["all"],
+) -> dict[str, bytes]:
+    """The bytes of every file asked for, made and encoded in a thread pool (one file per task).
+
+    Args:
+        result: all passes of one view.
+        photo_rgb: (H', W', 3) uint8 source photo, or None: the comparisons are then left out.
+        outputs: :data:`OUTPUT_FILES` keys (:func:`parse_outputs`); default every file.
+
+    Returns:
+        The files' bytes by role, in :data:`OUTPUT_FILES` order.
+    """
+    makers = _encoders(result, photo_rgb, outputs)
+    with ThreadPoolExecutor(max_workers=max(1, min(len(makers), os.cpu_count() or 1))) as pool:
+        futures = {role: pool.submit(make) for role, make in makers.items()}
+        return {role: future.result() for role, future in futures.items()}  # re-raises a task's error
+
+
 def write_render_outputs(
-    out_dir: str | Path, result: RenderResult, photo_rgb: np.ndarray | None = None
+    out_dir: str | Path,
+    result: RenderResult,
+    photo_rgb: np.ndarray | None = None,
+    outputs: Iterable[str] = OUTPUT_GROUPS["all"],
 ) -> dict[str, Path]:
-    """Write every file of the module docstring into ``out_dir``.
+    """Write the files asked for (see the module docstring) into ``out_dir``.
 
     Args:
         out_dir: folder to write into (created when missing).
         result: all passes of one view.
-        photo_rgb: (H', W', 3) uint8 source photo, or None to skip the comparison images.
+        photo_rgb: (H', W', 3) uint8 source photo, or None: the comparisons are then left out.
+        outputs: :data:`OUTPUT_FILES` keys (:func:`parse_outputs`); default every file.
 
     Returns:
-        Paths by role: ``render``, ``class``, ``labelIds``, ``instance``, ``instanceIds``,
-        ``depth``, ``depth_png`` and, with a photo, ``side_by_side`` and ``overlay``.
+        Paths by role (:data:`OUTPUT_FILES` order) of the files written.
 
     Raises:
         OutputError: the folder cannot be created or written.
     """
     out = ensure_output_dir(out_dir)
-    labels = label_ids_image(result)
-    class_rgb = colorize_labels(labels)
-    instances = instance_ids_image(result)
-    images: dict[str, tuple[str, bytes]] = {
-        "render": ("render.png", png_bytes(result.rgb)),
-        "class": ("class.png", png_bytes(class_rgb)),
-        "labelIds": ("labelIds.png", png_bytes(labels)),
-        "instance": ("instance.png", png_bytes(colorize_instances(instances))),
-        "instanceIds": ("instanceIds.png", png_bytes(instances)),
-        "depth": ("depth.npy", _npy_bytes(result.depth_m.astype(np.float32))),
-        "depth_png": ("depth.png", png_bytes(colorize_depth(result.depth_m))),
-    }
-    if photo_rgb is not None:
-        images["side_by_side"] = ("side_by_side.png", png_bytes(side_by_side(photo_rgb, result.rgb)))
-        images["overlay"] = ("overlay.png", png_bytes(overlay(photo_rgb, class_rgb)))
     paths = {}
-    for role, (name, data) in images.items():
-        paths[role] = out / name
+    for role, data in encode_render_outputs(result, photo_rgb, outputs).items():
+        paths[role] = out / OUTPUT_FILES[role]
         write_bytes_atomic(paths[role], data)
     return paths

@@ -25,6 +25,7 @@ import numpy as np
 from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, UsdUtils, Vt
 
 import usdworld
+from usdworld.authoring.appearance import define_appearances
 from usdworld.authoring.asset_cards import card_path
 from usdworld.authoring.camera import define_camera
 from usdworld.authoring.provenance import PROVENANCE_API, SCENE_API, apply_with_values
@@ -235,6 +236,7 @@ def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) 
     if model.surfaces:
         ground = UsdGeom.Xform.Define(stage, GROUND_PATH)
         ground.GetPrim().GetReferences().AddReference(f"./{Path(GROUND_LAYER).name}")
+    define_appearances(stage, model.appearances)
     define_camera(stage, CAMERA_PATH, model.camera.camera)
     stage.GetRootLayer().Save()
 

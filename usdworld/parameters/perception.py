@@ -204,6 +204,48 @@ class PerceptionParams:
         "Fewest inliers, as a fraction of the ground pixels, for an alignment fit to be accepted.",
         "convention: chosen with the code (commit 2eabc1f)",
     )
+    # --- colours from the photo (perception/appearance.py) ---
+    colour_inner_margin: float = param(
+        0.15,
+        "fraction",
+        "An object's colour is sampled inside its box shrunk by this fraction of its width and height on "
+        "each side (box edges hold background; the middle holds paint, facade, foliage).",
+        "convention: chosen with the code (issue 18)",
+    )
+    colour_trim_dark: float = param(
+        0.1,
+        "fraction",
+        "Darkest fraction of a region's pixels (by luminance) left out of its colour: cast shadows, "
+        "tyres, window interiors.",
+        "convention: chosen with the code (issue 18)",
+    )
+    colour_trim_bright: float = param(
+        0.03,
+        "fraction",
+        "Brightest fraction of a region's pixels (by luminance) left out of its colour: specular highlights.",
+        "convention: chosen with the code (issue 18)",
+    )
+    colour_bin_lab: float = param(
+        8.0,
+        "1",
+        "Side of the CIELAB histogram bins whose densest 3x3x3 neighbourhood is the region's dominant colour.",
+        "convention: chosen with the code (issue 18)",
+    )
+    colour_radius_lab: float = param(
+        15.0,
+        "1",
+        "Pixels within this CIE76 distance of the dominant colour make up the trimmed median (a clearly "
+        "different colour, such as windows or an occluder, lies farther).",
+        "convention: chosen with the code (issue 18)",
+    )
+    colour_min_pixels: int = param(
+        20, "count", "Fewest pixels an object's colour is measured from; fewer keep the asset's colour.",
+        "convention: chosen with the code (issue 18)",
+    )
+    colour_max_samples: int = param(
+        20000, "count", "Most pixels a region's colour is measured from (a regular subsample of larger regions).",
+        "convention: chosen with the code (issue 18)",
+    )
 
     @property
     def split_aspect_by_class(self) -> dict[str, float]:

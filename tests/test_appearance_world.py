@@ -140,3 +140,28 @@ def test_glb_export_carries_each_objects_own_colour(tmp_path, world):
     colours = [np.array(m["pbrMetallicRoughness"]["baseColorFactor"][:3]) for m in doc["materials"] if m["name"].startswith("paint_")]
     for albedo in albedos:
         assert any(np.allclose(c, albedo, atol=1e-6) for c in colours), (albedo, colours)
+
+
+@pytest.mark.parametrize("with_class, variant", [("car", "suv"), ("car", "hatchback"), ("bus", None)])
+def test_replaced_objects_keep_the_photo_colour_and_leave_no_dangling_over(tmp_path, world, with_class, variant):
+    import shutil
+
+    root, _ = world
+    copy = tmp_path / "w"
+    shutil.copytree(root.parent, copy)
+    box = (250, 170, 390, 242)
+    first = Usd.Stage.Open(str(copy / "world.usda"))
+    name = _car(first, box).GetName()
+    del first
+    with WorldEditor(copy) as editor:
+        if variant is None or variant != "hatchback":
+            editor.replace(name, with_class, variant=variant)
+        else:
+            editor.replace(name, "car", variant="suv")
+            editor.replace(name, "car", variant="hatchback")
+    stage = Usd.Stage.Open(str(copy / "world.usda"))
+    car = _car(stage, box)
+    undefined = [p.GetPath() for p in Usd.PrimRange(car, Usd.PrimAllPrimsPredicate) if not p.IsDefined()]
+    assert undefined == []
+    if with_class == "car":
+        np.testing.assert_allclose(_paint_diffuse(car), np.array(car.GetAttribute("usdworld:albedo").Get()), atol=1e-6)

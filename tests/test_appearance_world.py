@@ -165,3 +165,24 @@ def test_replaced_objects_keep_the_photo_colour_and_leave_no_dangling_over(tmp_p
     assert undefined == []
     if with_class == "car":
         np.testing.assert_allclose(_paint_diffuse(car), np.array(car.GetAttribute("usdworld:albedo").Get()), atol=1e-6)
+
+
+def test_render_scene_and_the_editors_scene_carry_the_photo_colour(world):
+    """The renderer's triangles (which ``usdworld serve`` sends to the browser editor) use the override."""
+    import trimesh
+
+    from usdworld.render.scene import RenderScene
+    from usdworld.serve.scene_glb import scene_glb
+
+    root, _ = world
+    stage = Usd.Stage.Open(str(root))
+    scene = RenderScene.from_stage(stage)
+    glb = trimesh.load(trimesh.util.wrap_as_stream(scene_glb(scene)), file_type="glb", force="scene")
+    for box in PAINTS:
+        car = _car(stage, box)
+        albedo = np.array(car.GetAttribute("usdworld:albedo").Get())
+        index = next(o.index for o in scene.objects if o.path == str(car.GetPath()))
+        colours = scene.colors[scene.object_ids == index]
+        assert np.any(np.all(np.abs(colours - albedo) < 1e-6, axis=1))
+        node_colours = glb.geometry[car.GetName()].visual.vertex_colors[:, :3]
+        assert np.any(np.all(np.abs(node_colours.astype(float) - np.round(albedo * 255)) <= 1, axis=1))

@@ -108,3 +108,18 @@ def test_trimmed_colour_is_order_free_and_checks_input():
         trimmed_colour(np.zeros((0, 3)), "mask")
     with pytest.raises(ValueError):
         MeasuredColour(np.zeros(3), np.zeros(3), 5, "guess")
+
+
+def test_body_band_leaves_out_the_side_windows_of_a_near_car():
+    """A near car seen from the side: windows fill the upper part of its box, the red doors the lower."""
+    rng = np.random.default_rng(3)
+    img = np.full((120, 200, 3), 90.0)
+    img[10:110, 0:200] = (95, 105, 120)  # windows reflecting the sky: most of the box
+    img[65:100, 0:200] = (200, 30, 25)  # the doors below the belt line
+    img[100:110] = (15, 15, 15)  # tyres and the shadow under the car
+    linear = uint8_to_linear(np.clip(img + rng.normal(0, 2, img.shape), 0, 255).astype(np.uint8))
+    box = np.array([[0, 10, 200, 110]])
+    whole = object_colours(linear, box, [None], np.array([4.0]))[0]
+    band = object_colours(linear, box, [None], np.array([4.0]), rows=[(0.45, 0.9)])[0]
+    assert _error(band, np.array([200, 30, 25], np.uint8)) < 2.0
+    assert _error(whole, np.array([200, 30, 25], np.uint8)) > 20.0  # the windows win without the band

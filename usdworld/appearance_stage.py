@@ -62,7 +62,8 @@ def photo_appearances(
     masks = [None if p.obj.box_only else p.obj.mask for p in placements]
     depths = np.array([p.depth_m for p in placements], dtype=np.float64)
     out = []
-    for i, colour in sorted(object_colours(linear, boxes, masks, depths, params).items()):
+    rows = [params.colour_rows(p.obj.class_name) for p in placements]
+    for i, colour in sorted(object_colours(linear, boxes, masks, depths, params, rows).items()):
         towards_camera = camera.center_world - placements[i].position_world
         towards_camera[2] = 0.0
         if np.linalg.norm(towards_camera) < 1e-6:

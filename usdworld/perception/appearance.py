@@ -14,7 +14,8 @@ The colour of a region is a *trimmed median* in linear RGB:
 
 An object's region is its instance mask where it has one; a box-only object's is its box
 minus the boxes of the objects nearer the camera (occluders). Both are limited to the box
-shrunk by ``colour_inner_margin`` when that leaves enough pixels.
+shrunk by ``colour_inner_margin`` (and, for classes whose body colour lies in a band of their
+height, such as a car's below its windows, to that band) when that leaves enough pixels.
 """
 
 from __future__ import annotations
@@ -118,10 +119,11 @@ def _dominant_lab(lab: np.ndarray, bin_size: float) -> np.ndarray:
     return lab[near].mean(axis=0)
 
 
-def _inner_box(box_px: np.ndarray, margin: float) -> tuple[int, int, int, int]:
+def _inner_box(box_px: np.ndarray, margin: float, rows: tuple[float, float]) -> tuple[int, int, int, int]:
     x0, y0, x1, y1 = (float(v) for v in box_px)
-    dx, dy = (x1 - x0) * margin, (y1 - y0) * margin
-    return int(round(x0 + dx)), int(round(y0 + dy)), int(round(x1 - dx)), int(round(y1 - dy))
+    w, h = x1 - x0, y1 - y0
+    top, bottom = max(margin, rows[0]), min(1.0 - margin, rows[1])
+    return int(round(x0 + w * margin)), int(round(y0 + h * top)), int(round(x1 - w * margin)), int(round(y0 + h * bottom))
 
 
 def object_colours(
@@ -130,6 +132,7 @@ def object_colours(
     masks: Sequence[np.ndarray | None],
     depths_m: np.ndarray,
     params: PerceptionParams = DEFAULT_PERCEPTION,
+    rows: Sequence[tuple[float, float]] | None = None,
 ) -> dict[int, MeasuredColour]:
     """Each object's colour from its own pixels (module docstring).
 
@@ -140,6 +143,8 @@ def object_colours(
             object (its region is then the box minus the boxes of nearer objects).
         depths_m: (N,) float depth of each object; smaller is nearer.
         params: ``colour_*`` fields.
+        rows: per object the band of its box height (top, bottom fractions from the top) where
+            its body colour is (a car's below its windows); default the whole height.
 
     Returns:
         Object index -> colour, for the objects with at least ``colour_min_pixels`` pixels.
@@ -166,7 +171,7 @@ def object_colours(
                 a0, b0, a1, b1 = (int(v) for v in boxes[j])
                 region[max(b0 - y0, 0) : max(b1 - y0, 0), max(a0 - x0, 0) : max(a1 - x0, 0)] = False
             kind = "box"
-        ix0, iy0, ix1, iy1 = _inner_box(box, params.colour_inner_margin)
+        ix0, iy0, ix1, iy1 = _inner_box(box, params.colour_inner_margin, rows[i] if rows is not None else (0.0, 1.0))
         inner = np.zeros_like(region)
         inner[max(iy0 - y0, 0) : max(iy1 - y0, 0), max(ix0 - x0, 0) : max(ix1 - x0, 0)] = True
         if np.count_nonzero(region & inner) >= params.colour_min_pixels:

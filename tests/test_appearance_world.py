@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 from golden_scene import write_inputs
@@ -13,8 +14,6 @@ from usdworld.export.gltf import read_glb_json, write_glb
 from usdworld.perception.colour_space import linear_to_srgb, srgb_to_linear, uint8_to_linear
 from usdworld.pipeline import build
 from usdworld.render.lighting import Lighting, albedo_for_photo, irradiance, sun_direction
-
-import cv2
 
 OBJ = "/World/Objects"
 #: The golden scene's two car boxes (xmin ymin xmax ymax) and the paint each gets in the photo (sRGB).
@@ -38,13 +37,17 @@ def world(tmp_path_factory):
 def _car(stage: Usd.Stage, box: tuple[int, ...]) -> Usd.Prim:
     for prim in stage.GetPrimAtPath(OBJ).GetChildren():
         bbox = prim.GetAttribute("usdworld:imageBBox").Get()
-        if tuple(int(round(v)) for v in bbox) == box:
+        if tuple(round(v) for v in bbox) == box:
             return prim
     raise AssertionError(f"no object with box {box}")
 
 
 def _paint_diffuse(prim: Usd.Prim) -> np.ndarray:
-    looks = [UsdShade.Material(p) for p in Usd.PrimRange(prim) if p.GetName().startswith("paint_") and p.IsA(UsdShade.Material)]
+    looks = [
+        UsdShade.Material(p)
+        for p in Usd.PrimRange(prim)
+        if p.GetName().startswith("paint_") and p.IsA(UsdShade.Material)
+    ]
     assert looks, "the car asset has a paint material"
     shader, _, _ = looks[0].ComputeSurfaceSource()
     return np.array(shader.GetInput("diffuseColor").Get())
@@ -78,9 +81,7 @@ def test_measured_colour_is_a_base_layer_override_with_provenance(world):
         assert np.all(np.array(car.GetAttribute("usdworld:measuredColorSpread").Get()) < 0.01)
         albedo = np.array(car.GetAttribute("usdworld:albedo").Get())
         np.testing.assert_allclose(_paint_diffuse(car), albedo, atol=1e-6)
-        specs = [
-            s.path for s in _specs_below(base, car.GetPath()) if s.path.name == "inputs:diffuseColor"
-        ]
+        specs = [s.path for s in _specs_below(base, car.GetPath()) if s.path.name == "inputs:diffuseColor"]
         assert specs, "the diffuseColor opinion is in the base layer"
     assert _car(stage, (250, 170, 390, 242)).GetAttribute("usdworld:albedo").Get()[0] > 0.5  # yellow
     terrain = stage.GetPrimAtPath("/World/Ground/Terrain")
@@ -106,7 +107,9 @@ def test_restyle_wins_and_reset_brings_the_photo_colour_back(tmp_path, world):
     with WorldEditor(copy) as editor:
         editor.restyle(name, "#c03030")
     stage = Usd.Stage.Open(str(copy / "world.usda"))
-    np.testing.assert_allclose(_paint_diffuse(_car(stage, box)), srgb_to_linear(np.array([0xC0, 0x30, 0x30]) / 255), atol=1e-6)
+    np.testing.assert_allclose(
+        _paint_diffuse(_car(stage, box)), srgb_to_linear(np.array([0xC0, 0x30, 0x30]) / 255), atol=1e-6
+    )
     with WorldEditor(copy) as editor:
         editor.reset(name)
     for p in ("layers/edits.usda", "layers/base.usda", "world.usda"):
@@ -115,7 +118,9 @@ def test_restyle_wins_and_reset_brings_the_photo_colour_back(tmp_path, world):
             layer.Reload(force=True)
     stage = Usd.Stage.Open(str(copy / "world.usda"))
     car = _car(stage, box)
-    np.testing.assert_allclose(_paint_diffuse(car), np.array(car.GetAttribute("usdworld:albedo").Get()), atol=1e-6)
+    np.testing.assert_allclose(
+        _paint_diffuse(car), np.array(car.GetAttribute("usdworld:albedo").Get()), atol=1e-6
+    )
 
 
 def test_render_from_the_source_camera_reproduces_the_photo_colours(world):
@@ -137,13 +142,19 @@ def test_glb_export_carries_each_objects_own_colour(tmp_path, world):
     albedos = [np.array(_car(stage, box).GetAttribute("usdworld:albedo").Get()) for box in PAINTS]
     write_glb(root, tmp_path / "w.glb")
     doc = read_glb_json(tmp_path / "w.glb")
-    colours = [np.array(m["pbrMetallicRoughness"]["baseColorFactor"][:3]) for m in doc["materials"] if m["name"].startswith("paint_")]
+    colours = [
+        np.array(m["pbrMetallicRoughness"]["baseColorFactor"][:3])
+        for m in doc["materials"]
+        if m["name"].startswith("paint_")
+    ]
     for albedo in albedos:
         assert any(np.allclose(c, albedo, atol=1e-6) for c in colours), (albedo, colours)
 
 
 @pytest.mark.parametrize("with_class, variant", [("car", "suv"), ("car", "hatchback"), ("bus", None)])
-def test_replaced_objects_keep_the_photo_colour_and_leave_no_dangling_over(tmp_path, world, with_class, variant):
+def test_replaced_objects_keep_the_photo_colour_and_leave_no_dangling_over(
+    tmp_path, world, with_class, variant
+):
     import shutil
 
     root, _ = world
@@ -164,7 +175,9 @@ def test_replaced_objects_keep_the_photo_colour_and_leave_no_dangling_over(tmp_p
     undefined = [p.GetPath() for p in Usd.PrimRange(car, Usd.PrimAllPrimsPredicate) if not p.IsDefined()]
     assert undefined == []
     if with_class == "car":
-        np.testing.assert_allclose(_paint_diffuse(car), np.array(car.GetAttribute("usdworld:albedo").Get()), atol=1e-6)
+        np.testing.assert_allclose(
+            _paint_diffuse(car), np.array(car.GetAttribute("usdworld:albedo").Get()), atol=1e-6
+        )
 
 
 def test_render_scene_and_the_editors_scene_carry_the_photo_colour(world):

@@ -50,9 +50,9 @@ SHARMA_2005 = np.array(
     ]
 )
 
-lab_values = st.tuples(
-    st.floats(0, 100), st.floats(-128, 127), st.floats(-128, 127)
-).map(lambda t: np.array(t, dtype=np.float64))
+lab_values = st.tuples(st.floats(0, 100), st.floats(-128, 127), st.floats(-128, 127)).map(
+    lambda t: np.array(t, dtype=np.float64)
+)
 
 
 def test_ciede2000_reproduces_the_sharma_table():

@@ -51,7 +51,9 @@ def test_box_only_object_gives_its_paint_colour(paint, window):
     assert found[0].region == "box"
     assert _error(found[0], paint) < 2.0
     assert _error(found[1], np.array([20, 60, 170], np.uint8)) < 2.0
-    assert np.all(found[0].spread < 0.03)  # the sensor noise (3 of 255 in sRGB) in linear RGB, not the windows
+    assert np.all(
+        found[0].spread < 0.03
+    )  # the sensor noise (3 of 255 in sRGB) in linear RGB, not the windows
 
 
 def test_a_plain_median_of_the_box_would_miss_the_paint():

@@ -38,8 +38,16 @@ def _frames(data: Path) -> dict[str, dict[str, Path]]:
             "labels": city / f"{prefix}_gtFine_labelIds.png",
             "instances": city / f"{prefix}_gtFine_instanceIds.png",
         },
-        "nuscenes_front": {"image": nus / "image_2/nus_front.png", "detections": nus / "label_2/nus_front.txt", "camera": nus / "calib/nus_front.txt"},
-        "kitti_000008": {"image": kitti / "image_2/000008.png", "detections": kitti / "label_2/000008.txt", "camera": kitti / "calib/000008.txt"},
+        "nuscenes_front": {
+            "image": nus / "image_2/nus_front.png",
+            "detections": nus / "label_2/nus_front.txt",
+            "camera": nus / "calib/nus_front.txt",
+        },
+        "kitti_000008": {
+            "image": kitti / "image_2/000008.png",
+            "detections": kitti / "label_2/000008.txt",
+            "camera": kitti / "calib/000008.txt",
+        },
     }
 
 
@@ -61,8 +69,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args(argv)
     data = args.data if args.data is not None else evaluation_data_dir()
-    print(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.machine()}, {os.cpu_count()} cores, "
-          f"load average {os.getloadavg()[0]:.1f}")
+    print(
+        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.machine()}, {os.cpu_count()} cores, "
+        f"load average {os.getloadavg()[0]:.1f}"
+    )
     print(f"{'frame':<16} {'floor s':>8} {'with colours s':>15} {'ratio':>6}")
     with tempfile.TemporaryDirectory() as tmp:
         for name, inputs in _frames(data).items():

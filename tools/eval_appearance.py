@@ -41,11 +41,29 @@ def frames(data: Path) -> list[tuple[str, dict[str, Path]]]:
     kitti = data / "kitti" / "training"
     for image in sorted((kitti / "image_2").glob("*.png")):
         f = image.stem
-        out.append((f"kitti_{f}", {"image": image, "detections": kitti / "label_2" / f"{f}.txt", "camera": kitti / "calib" / f"{f}.txt"}))
+        out.append(
+            (
+                f"kitti_{f}",
+                {
+                    "image": image,
+                    "detections": kitti / "label_2" / f"{f}.txt",
+                    "camera": kitti / "calib" / f"{f}.txt",
+                },
+            )
+        )
     nus = data / "nuscenes" / "kitti_format"
     for image in sorted((nus / "image_2").glob("*.png")):
         f = image.stem
-        out.append((f"nuscenes_{f}", {"image": image, "detections": nus / "label_2" / f"{f}.txt", "camera": nus / "calib" / f"{f}.txt"}))
+        out.append(
+            (
+                f"nuscenes_{f}",
+                {
+                    "image": image,
+                    "detections": nus / "label_2" / f"{f}.txt",
+                    "camera": nus / "calib" / f"{f}.txt",
+                },
+            )
+        )
     for image in sorted((data / "cityscapes").glob("*_leftImg8bit.png")):
         prefix = image.name[: -len("_leftImg8bit.png")]
         out.append(
@@ -73,8 +91,7 @@ def evaluate_all(items: list[tuple[str, dict[str, Path]]], out: Path, renders: P
     """Colour errors of every world in ``out``: per frame and the KITTI medians."""
     from usdworld.authoring.inspect import open_world
     from usdworld.evaluation import evaluate_world
-    from usdworld.render.outputs import read_photo
-    from usdworld.render.outputs import view_camera, world_image_size
+    from usdworld.render.outputs import read_photo, view_camera, world_image_size
     from usdworld.render.renderer import Renderer
     from usdworld.render.scene import RenderScene
 
@@ -148,7 +165,9 @@ def main(argv: list[str] | None = None) -> int:
         summary = evaluate_all(items, out, args.renders)
     print(f"{'frame':<60} {'objects':>7} {'dE76':>6} {'dE2000':>6}")
     for name, v in summary["per_frame"].items():
-        print(f"{name:<60} {v['objects']:>7} {_fmt(v['median_delta_e76']):>6} {_fmt(v['median_delta_e2000']):>6}")
+        print(
+            f"{name:<60} {v['objects']:>7} {_fmt(v['median_delta_e76']):>6} {_fmt(v['median_delta_e2000']):>6}"
+        )
     print(
         f"KITTI, median over {summary['kitti_objects']} objects: CIE76 {_fmt(summary['kitti_median_delta_e76'])}, "
         f"CIEDE2000 {_fmt(summary['kitti_median_delta_e2000'])}; median of frame medians CIE76 "

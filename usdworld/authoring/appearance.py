@@ -53,11 +53,21 @@ def define_appearances(stage: Usd.Stage, appearances: Sequence[Appearance]) -> N
     cache: dict[tuple, dict[str, _Targets]] = {}
     plans = []
     for look in appearances:
-        path = f"{OBJECTS_PATH}/{look.target}" if look.kind == "object" else f"{GROUND_PATH}/{look.target.capitalize()}"
+        path = (
+            f"{OBJECTS_PATH}/{look.target}"
+            if look.kind == "object"
+            else f"{GROUND_PATH}/{look.target.capitalize()}"
+        )
         prim = stage.GetPrimAtPath(path)
         if not prim:
             raise AuthoringError(f"appearance of '{look.target}': no such {look.kind} in the world")
-        plans.append((look, prim, _object_targets(stage, prim, cache) if look.kind == "object" else _surface_targets(prim)))
+        plans.append(
+            (
+                look,
+                prim,
+                _object_targets(stage, prim, cache) if look.kind == "object" else _surface_targets(prim),
+            )
+        )
     with Sdf.ChangeBlock():
         for look, prim, by_variant in plans:
             albedo = Gf.Vec3f(*(float(c) for c in look.albedo))
@@ -69,9 +79,17 @@ def define_appearances(stage: Usd.Stage, appearances: Sequence[Appearance]) -> N
                         spec.variantSetNameList.prependedItems.append(VARIANT_SET)
                     root = root.AppendVariantSelection(VARIANT_SET, variant)
                 for rel in shaders:
-                    _set(layer, root.AppendPath(rel), "inputs:diffuseColor", Sdf.ValueTypeNames.Color3f, albedo)
+                    _set(
+                        layer, root.AppendPath(rel), "inputs:diffuseColor", Sdf.ValueTypeNames.Color3f, albedo
+                    )
                 for rel in meshes:
-                    _set(layer, root.AppendPath(rel), "primvars:displayColor", Sdf.ValueTypeNames.Color3fArray, Vt.Vec3fArray([albedo]))
+                    _set(
+                        layer,
+                        root.AppendPath(rel),
+                        "primvars:displayColor",
+                        Sdf.ValueTypeNames.Color3fArray,
+                        Vt.Vec3fArray([albedo]),
+                    )
     for look, prim, _ in plans:
         m = look.measured
         apply_with_values(
@@ -91,7 +109,9 @@ def define_appearances(stage: Usd.Stage, appearances: Sequence[Appearance]) -> N
 _Targets = tuple[list[Sdf.Path], list[Sdf.Path]]
 
 
-def _set(layer: Sdf.Layer, prim_path: Sdf.Path, name: str, type_name: Sdf.ValueTypeName, value: object) -> None:
+def _set(
+    layer: Sdf.Layer, prim_path: Sdf.Path, name: str, type_name: Sdf.ValueTypeName, value: object
+) -> None:
     spec = layer.GetPrimAtPath(prim_path) or Sdf.CreatePrimInLayer(layer, prim_path)
     attr = spec.attributes.get(name) or Sdf.AttributeSpec(spec, name, type_name)
     attr.default = value
@@ -106,11 +126,15 @@ def _relative(prim: Usd.Prim, materials: list[UsdShade.Material], meshes: list[U
     return shaders, [mesh.GetPath().MakeRelativePath(prim.GetPath()) for mesh in meshes]
 
 
-def _object_targets(stage: Usd.Stage, prim: Usd.Prim, cache: dict[tuple, dict[str, _Targets]]) -> dict[str, _Targets]:
+def _object_targets(
+    stage: Usd.Stage, prim: Usd.Prim, cache: dict[tuple, dict[str, _Targets]]
+) -> dict[str, _Targets]:
     """Variant name ('' for an asset without variants) -> the restyle targets in that variant."""
     refs = prim.GetMetadata("references")
     vsets = prim.GetVariantSets()
-    names = tuple(vsets.GetVariantSet(VARIANT_SET).GetVariantNames()) if vsets.HasVariantSet(VARIANT_SET) else ()
+    names = (
+        tuple(vsets.GetVariantSet(VARIANT_SET).GetVariantNames()) if vsets.HasVariantSet(VARIANT_SET) else ()
+    )
     key = (str(refs), names)
     if key not in cache:
         if not names:

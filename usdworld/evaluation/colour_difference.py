@@ -54,7 +54,9 @@ def delta_e2000(lab1: np.ndarray, lab2: np.ndarray) -> np.ndarray:
     cp_bar = 0.5 * (cp1 + cp2)
     h_sum = hp1 + hp2
     h_bar = np.where(
-        np.abs(hp1 - hp2) <= 180.0, 0.5 * h_sum, np.where(h_sum < 360.0, 0.5 * (h_sum + 360.0), 0.5 * (h_sum - 360.0))
+        np.abs(hp1 - hp2) <= 180.0,
+        0.5 * h_sum,
+        np.where(h_sum < 360.0, 0.5 * (h_sum + 360.0), 0.5 * (h_sum - 360.0)),
     )
     h_bar = np.where(both, h_bar, h_sum)
     t = (

@@ -92,8 +92,8 @@ def object_colour_errors(
             continue
         x0, y0, x1, y1 = float(box[0]) * sx, float(box[1]) * sy, float(box[2]) * sx, float(box[3]) * sy
         qx, qy = (x1 - x0) / 4.0, (y1 - y0) / 4.0
-        c0, r0 = max(int(round(x0 + qx)), 0), max(int(round(y0 + qy)), 0)
-        c1, r1 = min(int(round(x1 - qx)), w), min(int(round(y1 - qy)), h)
+        c0, r0 = max(round(x0 + qx), 0), max(round(y0 + qy), 0)
+        c1, r1 = min(round(x1 - qx), w), min(round(y1 - qy), h)
         if c1 <= c0 or r1 <= r0:
             continue
         visible = object_ids[r0:r1, c0:c1] == obj.index
@@ -127,5 +127,7 @@ def summarise_colour(rows: list[ColourError]) -> dict[str, Any]:
         }
 
     out = medians(rows)
-    out["per_class"] = {c: medians([r for r in rows if r.class_name == c]) for c in sorted({r.class_name for r in rows})}
+    out["per_class"] = {
+        c: medians([r for r in rows if r.class_name == c]) for c in sorted({r.class_name for r in rows})
+    }
     return out

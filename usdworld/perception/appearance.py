@@ -103,7 +103,7 @@ def trimmed_colour(
     chosen = kept[near]
     median = np.median(chosen, axis=0)
     spread = MAD_TO_SIGMA * np.median(np.abs(chosen - median), axis=0)
-    return MeasuredColour(np.clip(median, 0.0, 1.0), spread, int(len(chosen)), region)
+    return MeasuredColour(np.clip(median, 0.0, 1.0), spread, len(chosen), region)
 
 
 def _dominant_lab(lab: np.ndarray, bin_size: float) -> np.ndarray:
@@ -123,7 +123,7 @@ def _inner_box(box_px: np.ndarray, margin: float, rows: tuple[float, float]) -> 
     x0, y0, x1, y1 = (float(v) for v in box_px)
     w, h = x1 - x0, y1 - y0
     top, bottom = max(margin, rows[0]), min(1.0 - margin, rows[1])
-    return int(round(x0 + w * margin)), int(round(y0 + h * top)), int(round(x1 - w * margin)), int(round(y0 + h * bottom))
+    return round(x0 + w * margin), round(y0 + h * top), round(x1 - w * margin), round(y0 + h * bottom)
 
 
 def object_colours(
@@ -171,7 +171,9 @@ def object_colours(
                 a0, b0, a1, b1 = (int(v) for v in boxes[j])
                 region[max(b0 - y0, 0) : max(b1 - y0, 0), max(a0 - x0, 0) : max(a1 - x0, 0)] = False
             kind = "box"
-        ix0, iy0, ix1, iy1 = _inner_box(box, params.colour_inner_margin, rows[i] if rows is not None else (0.0, 1.0))
+        ix0, iy0, ix1, iy1 = _inner_box(
+            box, params.colour_inner_margin, rows[i] if rows is not None else (0.0, 1.0)
+        )
         inner = np.zeros_like(region)
         inner[max(iy0 - y0, 0) : max(iy1 - y0, 0), max(ix0 - x0, 0) : max(ix1 - x0, 0)] = True
         if np.count_nonzero(region & inner) >= params.colour_min_pixels:

@@ -417,4 +417,13 @@ def test_imported_obj_is_used_by_build_and_survives_export(tmp_path: Path, libra
         assert result.check.ok
     gltf = read_glb_json(tmp_path / "exports" / "w.glb")
     colours = [m["pbrMetallicRoughness"]["baseColorFactor"][:3] for m in gltf["materials"]]
-    assert any(np.allclose(c, (0.5, 0.1, 0.05), atol=2.5e-3) for c in colours)
+    # the imported material is exported with the colour the photo gave each car (base-layer override)
+    for car in cars:
+        albedo = car.GetAttribute("usdworld:albedo").Get()
+        assert any(np.allclose(c, albedo, atol=1e-6) for c in colours)
+    own = [  # the asset keeps its own colour
+        UsdShade.Shader(p).GetInput("diffuseColor").Get()
+        for p in copied.Traverse()
+        if p.IsA(UsdShade.Shader) and UsdShade.Shader(p).GetInput("diffuseColor")
+    ]
+    assert any(np.allclose(c, (0.5, 0.1, 0.05), atol=2.5e-3) for c in own)

@@ -9,6 +9,7 @@ so batch runners can call it in worker processes.
 Stages, in order: read the image, labels and camera (io); the street's vanishing point;
 image objects (perception); the asset catalogue of their classes; the camera estimate;
 dense depth; the ground homography; the road axis; placement; the ground surfaces; the
+colours of objects and surfaces measured in the photo (appearance); the
 world's layers and ``report.json``.
 """
 
@@ -26,6 +27,7 @@ import numpy as np
 
 from usdworld.authoring import asset_library
 from usdworld.authoring.asset_measures import asset_catalogue
+from usdworld.appearance_stage import photo_appearances
 from usdworld.authoring.world import ROOT_LAYER, write_world
 from usdworld.depth_stage import DepthOutcome, estimate_depth
 from usdworld.errors import InputError, OutputError
@@ -401,6 +403,15 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     surfaces = build_surfaces(
         filled, surface_ids, camera, fit.dst_from_src, params.placement.curb_height_m, max_range_m
     )
+    appearances = photo_appearances(
+        head.image,
+        head.seg,
+        placements,
+        surfaces,
+        {**surface_ids, "terrain": [label_lookups().id_of("terrain")]},
+        camera,
+        params.perception,
+    )
     return WorldModel(
         image_name=head.image.file.name,
         image_size=(head.image.width, head.image.height),
@@ -415,6 +426,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         depth_alignment=dense.alignment,
         depth_fit=dense.fit,
         warnings=_warnings(head, skipped, max_range_m, params),
+        appearances=appearances,
     )
 
 

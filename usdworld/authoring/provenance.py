@@ -8,8 +8,9 @@ from pxr import Sdf, Usd
 
 PROVENANCE_API = "UsdWorldProvenanceAPI"
 SCENE_API = "UsdWorldSceneAPI"
+APPEARANCE_API = "UsdWorldAppearanceAPI"
 
-#: Attribute name -> value type, for both API schemas (mirrors schemas/schema.usda).
+#: Attribute name -> value type, for the API schemas (mirrors schemas/schema.usda).
 ATTRIBUTE_TYPES: dict[str, Sdf.ValueTypeName] = {
     "usdworld:sourceImage": Sdf.ValueTypeNames.String,
     "usdworld:sourceClass": Sdf.ValueTypeNames.String,
@@ -50,6 +51,11 @@ ATTRIBUTE_TYPES: dict[str, Sdf.ValueTypeName] = {
     "usdworld:depthAlignmentFit": Sdf.ValueTypeNames.Float4,
     "usdworld:inputFiles": Sdf.ValueTypeNames.StringArray,
     "usdworld:inputHashes": Sdf.ValueTypeNames.StringArray,
+    "usdworld:measuredColor": Sdf.ValueTypeNames.Color3f,
+    "usdworld:measuredColorSpread": Sdf.ValueTypeNames.Color3f,
+    "usdworld:measuredColorPixels": Sdf.ValueTypeNames.Int,
+    "usdworld:measuredColorRegion": Sdf.ValueTypeNames.Token,
+    "usdworld:albedo": Sdf.ValueTypeNames.Color3f,
 }
 
 
@@ -61,7 +67,7 @@ def apply_with_values(prim: Usd.Prim, api: str, values: dict[str, Any]) -> None:
 
     Args:
         prim: the prim.
-        api: ``UsdWorldProvenanceAPI`` or ``UsdWorldSceneAPI``.
+        api: ``UsdWorldProvenanceAPI``, ``UsdWorldSceneAPI`` or ``UsdWorldAppearanceAPI``.
         values: attribute name -> Python/Gf value.
     """
     prim.AddAppliedSchema(api)

@@ -25,6 +25,7 @@ import numpy as np
 from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdSemantics, UsdShade, UsdUtils, Vt
 
 import usdworld
+from usdworld.authoring.appearance import define_appearances
 from usdworld.authoring.asset_cards import card_path
 from usdworld.authoring.camera import define_camera
 from usdworld.authoring.provenance import (
@@ -257,6 +258,10 @@ def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) 
     define_camera(stage, CAMERA_PATH, model.camera.camera)
     del stage  # the objects go straight into the layer; no stage composes them
     define_objects(layer, model.placements, asset_refs, model.image_name)
+    if model.appearances:
+        # The colour overrides land on the referenced assets' materials: only a stage
+        # composed with the objects (and their assets) finds them.
+        define_appearances(Usd.Stage.Open(layer), model.appearances)
     layer.Save()
 
 

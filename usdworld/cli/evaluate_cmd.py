@@ -1,4 +1,4 @@
-"""``usdworld evaluate``: layout IoU, photo SSIM and 3D errors of a world against its inputs."""
+"""``usdworld evaluate``: layout IoU, photo SSIM, colour error and 3D errors of a world against its inputs."""
 
 from __future__ import annotations
 
@@ -88,6 +88,12 @@ def evaluate(
         console.print(f"mIoU {_fmt(result.miou)} over {len(result.classes)} classes the world places")
     if result.ssim is not None:
         console.print(f"SSIM photo vs render: {result.ssim:.3f}")
+    if result.colour is not None:
+        c = result.colour
+        console.print(
+            f"colour error per object, photo vs render (median over {c['objects']}): "
+            f"CIE76 {_fmt(c['median_delta_e76'], 1)}, CIEDE2000 {_fmt(c['median_delta_e2000'], 1)}"
+        )
     if result.objects is not None and result.ground_truth is not None:
         o = result.objects
         table = Table(

@@ -1,4 +1,4 @@
-"""Evaluate a world against its inputs: layout IoU, photo SSIM and 3D object errors.
+"""Evaluate a world against its inputs: layout IoU, photo SSIM, per-object colour error and 3D object errors.
 
 Example:
     >>> stage = open_world("world/world.usda")                                 # doctest: +SKIP
@@ -19,6 +19,7 @@ import numpy as np
 from pxr import Usd
 
 from usdworld.errors import InputError
+from usdworld.evaluation.colour_errors import object_colour_errors, summarise_colour
 from usdworld.evaluation.ground_truth import GroundTruth
 from usdworld.evaluation.objects import match_errors, match_objects, summarise, truth_in_world
 from usdworld.evaluation.scene_check import scene_disagreements
@@ -104,6 +105,9 @@ class Evaluation:
         rendered_class_ids: (H, W) int32 rendered class map, kept for further analysis.
         scene_warnings: why the ground truth looks like another scene's (empty when nothing
             says so; see :mod:`usdworld.evaluation.scene_check`).
+        colour: median CIE76 and CIEDE2000 colour error per object, photo vs render (None
+            without a photo; see :mod:`usdworld.evaluation.colour_errors`).
+        colour_rows: one row per object compared.
     """
 
     size: tuple[int, int]
@@ -118,6 +122,8 @@ class Evaluation:
     ground_truth: dict[str, str] | None
     rendered_class_ids: np.ndarray = field(repr=False)
     scene_warnings: tuple[str, ...] = ()
+    colour: dict[str, Any] | None = None
+    colour_rows: list[dict[str, Any]] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dictionary (NaN written as null)."""
@@ -132,6 +138,9 @@ class Evaluation:
             "per_class_iou": {k: num(v) for k, v in self.per_class_iou.items()},
             "ssim": num(self.ssim),
         }
+        if self.colour is not None:
+            out["colour"] = self.colour
+            out["colour_rows"] = self.colour_rows
         if self.objects is not None:
             out["ground_truth"] = self.ground_truth
             out["median_position_error_m"] = num(self.objects["median_position_error_m"])
@@ -183,7 +192,7 @@ def evaluate_world(
     own = renderer is None
     r = renderer if renderer is not None else Renderer(width, height)
     try:
-        class_ids, _, _, _ = r.render_labels(scene, camera.K, camera.world_from_cam)
+        class_ids, _, object_ids, _ = r.render_labels(scene, camera.K, camera.world_from_cam)
         rgb = r.render_rgb(scene, camera.K, camera.world_from_cam) if photo is not None else None
     finally:
         if own:
@@ -202,6 +211,7 @@ def evaluate_world(
             union[class_name(c)] = k.union
         miou = mean_iou(per_class)
     ssim_value = None
+    colour, colour_rows = None, []
     if photo is not None and rgb is not None:
         photo_fit = (
             photo
@@ -209,6 +219,8 @@ def evaluate_world(
             else cv2.resize(photo, (width, height), interpolation=cv2.INTER_AREA)
         )
         ssim_value = ssim(photo_fit, rgb)
+        colour_rows = object_colour_errors(stage, scene, object_ids, photo_fit, rgb, (ws, hs))
+        colour = summarise_colour(colour_rows)
     summary, rows, gt_info, warnings = None, [], None, ()
     if gt is not None:
         truth = truth_in_world(gt, camera.world_from_cam)
@@ -234,4 +246,6 @@ def evaluate_world(
         ground_truth=gt_info,
         rendered_class_ids=class_ids,
         scene_warnings=warnings,
+        colour=colour,
+        colour_rows=[r.to_json() for r in colour_rows],
     )

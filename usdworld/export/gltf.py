@@ -9,7 +9,8 @@ What the file holds:
   with welded positions and the USD normals (faceVarying normals split vertices at creases);
 - one PBR material per USD material: UsdPreviewSurface ``diffuseColor`` -> ``baseColorFactor``
   (both linear), ``metallic``/``roughness`` -> the metallic-roughness factors; meshes without
-  a material use their ``displayColor``;
+  a material use their ``displayColor``; materials of one name with different looks (each
+  object's paint in the colour of its photo) are numbered ``paint_white``, ``paint_white_1`` ...;
 - node ``extras``: ``usdPath`` on every node, and where authored ``kind``, ``semanticLabels``
   (taxonomy -> labels), ``variants`` (set -> selection) and ``usdworld`` (every ``usdworld:*``
   attribute, NaN written as null). The scene's ``extras`` say where the file came from.
@@ -137,16 +138,26 @@ def _stage_root_matrix(stage: Usd.Stage) -> np.ndarray:
     return (Y_UP_FROM_Z_UP if up == UsdGeom.Tokens.z else np.eye(4)) @ scale
 
 
-def _look_material(look: Look, double_sided: bool) -> trimesh.visual.material.PBRMaterial:
+def _look_material(look: Look, name: str, double_sided: bool) -> trimesh.visual.material.PBRMaterial:
     alpha = look.opacity
     return trimesh.visual.material.PBRMaterial(
-        name=look.name or "displayColor",
+        name=name,
         baseColorFactor=[*look.color, alpha],
         metallicFactor=look.metallic,
         roughnessFactor=look.roughness,
         doubleSided=double_sided,
         alphaMode="BLEND" if alpha < 1.0 else "OPAQUE",
     )
+
+
+def _material_name(look: Look, looks: dict[str, Look]) -> str:
+    """The USD material's name, numbered when a material of that name with another look is
+    already exported (each object's paint carries the colour measured in its photo)."""
+    base = look.name or "displayColor"
+    name, k = base, 1
+    while name in looks and looks[name] != look:
+        name, k = f"{base}_{k}", k + 1
+    return name
 
 
 def build_scene(stage: Usd.Stage) -> tuple[trimesh.Scene, dict[str, dict[str, Any]], dict[str, Look]]:
@@ -200,7 +211,7 @@ def build_scene(stage: Usd.Stage) -> tuple[trimesh.Scene, dict[str, dict[str, An
             mesh = trimesh.Trimesh(
                 vertices=vertices, faces=faces, vertex_normals=normals, process=False, validate=False
             )
-            material = _look_material(look, arrays.double_sided)
+            material = _look_material(look, _material_name(look, looks), arrays.double_sided)
             looks[material.name] = look
             mesh.visual = trimesh.visual.TextureVisuals(material=material)
             scene.add_geometry(

@@ -4,11 +4,40 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from usdworld.geometry.estimate import CameraEstimate
 from usdworld.geometry.homography import HomographyFit
 from usdworld.io.types import InputFile
 from usdworld.layout.placement import Placement
 from usdworld.layout.surfaces import SurfaceMesh
+from usdworld.perception.appearance import MeasuredColour
+
+
+@dataclass(frozen=True)
+class Appearance:
+    """A colour measured in the photo and the albedo chosen to reproduce it in the render.
+
+    Attributes:
+        target: a placed object's name, or a ground surface's name (``road``, ``sidewalk``, ``terrain``).
+        kind: ``object`` or ``surface``.
+        measured: the colour in the photo (linear RGB) and its spread.
+        albedo: (3,) float64 linear diffuse colour authored on the target's material.
+    """
+
+    target: str
+    kind: str
+    measured: MeasuredColour
+    albedo: np.ndarray
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("object", "surface"):
+            raise ValueError(f"Appearance.kind: object or surface, got {self.kind!r}")
+        a = np.array(self.albedo, dtype=np.float64)
+        if a.shape != (3,) or not np.all((a >= 0.0) & (a <= 1.0)):
+            raise ValueError(f"Appearance.albedo: 3 numbers in [0, 1], got {a}")
+        a.setflags(write=False)
+        object.__setattr__(self, "albedo", a)
 
 
 @dataclass(frozen=True)
@@ -29,6 +58,7 @@ class WorldModel:
         depth_alignment: one line on how the dense depth was made metric.
         depth_fit: (scale, shift, inlier ratio, residual) of the ground fit; NaNs when none.
         warnings: things the user should know (one line each).
+        appearances: colours measured in the photo, per object and surface (those measured).
     """
 
     image_name: str
@@ -44,3 +74,4 @@ class WorldModel:
     depth_alignment: str = "none"
     depth_fit: tuple[float, float, float, float] = (float("nan"),) * 4
     warnings: tuple[str, ...] = ()
+    appearances: tuple[Appearance, ...] = ()

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from usdworld.errors import UsdWorldError
+from usdworld.perception.colour_space import linear_to_srgb
 
 
 def sun_direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
@@ -92,6 +93,47 @@ class Lighting:
             raise UsdWorldError(
                 f"Lighting.shadow_distance_m: must be > 0 or None, got {self.shadow_distance_m}"
             )
+
+
+def irradiance(lighting: Lighting, normal_world: np.ndarray) -> np.ndarray:
+    """The light the colour shader (:data:`~usdworld.render.shaders.LIT_FS`) gives an unshadowed surface.
+
+    ``ambient(n) + sun_color * max(n . sun, 0)``, where the ambient light blends the ground's
+    into the sky's as the normal turns up.
+
+    Args:
+        lighting: the lighting.
+        normal_world: (3,) float surface normal (normalised here).
+
+    Returns:
+        (3,) float64 linear RGB irradiance (the factor the albedo is multiplied by).
+    """
+    n = np.asarray(normal_world, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    t = 0.5 + 0.5 * n[2]
+    ambient = (1.0 - t) * lighting.ground_ambient + t * lighting.sky_ambient
+    return ambient + lighting.sun_color * max(float(n @ lighting.sun_direction_world), 0.0)
+
+
+def albedo_for_photo(shown_linear: np.ndarray, normal_world: np.ndarray, lighting: Lighting) -> np.ndarray:
+    """The albedo whose render reproduces a colour seen in the photo.
+
+    Inverts the colour shader for a lit surface with the given normal: the photo shows
+    ``srgb(shown_linear)``; the renderer shows ``(albedo * irradiance) ** (1 / gamma)``
+    (its Blinn-Phong highlight left aside: on a surface facing the camera it adds under
+    0.2 % with the default sun). So ``albedo = srgb(shown_linear) ** gamma / irradiance``,
+    clipped to [0, 1] (a colour brighter than a white surface in that light gives white).
+
+    Args:
+        shown_linear: (3,) float linear RGB measured in the photo (sRGB decoded).
+        normal_world: (3,) float normal of the surface the colour is matched on.
+        lighting: the lighting the world is rendered with.
+
+    Returns:
+        (3,) float64 linear albedo in [0, 1].
+    """
+    shown = linear_to_srgb(np.asarray(shown_linear, dtype=np.float64))
+    return np.clip(shown**lighting.gamma / irradiance(lighting, normal_world), 0.0, 1.0)
 
 
 def _box_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

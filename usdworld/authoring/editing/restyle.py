@@ -83,13 +83,21 @@ def apply_restyle(prim: Usd.Prim, color_hex: str) -> None:
     """Author the colour on the prim's targets and record it (in the current edit target)."""
     linear, hexed = parse_color(color_hex)
     materials, meshes = restyle_targets(prim)
+    author_colour(materials, meshes, linear)
+    prim.SetCustomDataByKey(COLOR_KEY, hexed)
+
+
+def author_colour(
+    materials: list[UsdShade.Material], meshes: list[UsdGeom.Mesh], linear: tuple[float, float, float]
+) -> None:
+    """Author a linear colour as the materials' ``diffuseColor`` and the meshes' ``displayColor``
+    (in the current edit target)."""
     for m in materials:
         shader, _, _ = m.ComputeSurfaceSource()
         if shader and shader.GetPrim().IsValid():
             shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*linear))
     for mesh in meshes:
         mesh.CreateDisplayColorAttr().Set(Vt.Vec3fArray([Gf.Vec3f(*linear)]))
-    prim.SetCustomDataByKey(COLOR_KEY, hexed)
 
 
 def clear_restyle(edits: Sdf.Layer, prim: Usd.Prim) -> None:

@@ -1,0 +1,127 @@
+"""Colours measured from the photo: a known paint colour through windows, shadow, highlight and occluder."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from usdworld.evaluation.colour_difference import delta_e76
+from usdworld.perception.appearance import MeasuredColour, object_colours, region_colour, trimmed_colour
+from usdworld.perception.colour_space import linear_to_lab, uint8_to_linear
+
+PAINT = np.array([222, 184, 28], dtype=np.uint8)  # ADAC yellow, sRGB
+BOX = np.array([40, 30, 200, 130])  # xmin ymin xmax ymax (max exclusive)
+OCCLUDER = np.array([150, 60, 240, 150])
+
+
+def _car_photo(paint: np.ndarray, window: tuple[int, int, int] = (35, 40, 45), seed: int = 0) -> np.ndarray:
+    """(160, 260, 3) uint8: grey road, a car box in ``paint`` with windows, a cast shadow, a highlight
+    and a blue car in front covering its right part; sensor noise on top."""
+    rng = np.random.default_rng(seed)
+    img = np.full((160, 260, 3), 95, dtype=np.float64)
+    x0, y0, x1, y1 = BOX
+    img[y0:y1, x0:x1] = paint
+    img[y0 + 8 : y0 + 40, x0 + 25 : x1 - 25] = window  # rear window
+    img[y1 - 22 : y1, x0:x1] = paint * 0.25  # shadow under the bumper, tyres
+    img[y0 + 50 : y0 + 55, x0 + 30 : x0 + 90] = 250  # specular highlight
+    a0, b0, a1, b1 = OCCLUDER
+    img[b0:b1, a0:a1] = (20, 60, 170)  # the nearer car
+    img += rng.normal(0.0, 3.0, img.shape)
+    return np.clip(np.round(img), 0, 255).astype(np.uint8)
+
+
+def _error(measured: MeasuredColour, paint: np.ndarray) -> float:
+    return float(delta_e76(linear_to_lab(measured.linear_rgb), linear_to_lab(uint8_to_linear(paint))))
+
+
+@pytest.mark.parametrize(
+    "paint, window",
+    [
+        (PAINT, (35, 40, 45)),
+        (np.array([190, 192, 196], np.uint8), (35, 40, 45)),  # silver
+        # black paint in sunlight: tinted glass over a dark interior is darker still (a region whose
+        # windows are brighter than its paint and cover more of it gives the windows' colour)
+        (np.array([30, 30, 34], np.uint8), (10, 11, 13)),
+    ],
+)
+def test_box_only_object_gives_its_paint_colour(paint, window):
+    linear = uint8_to_linear(_car_photo(paint, window))
+    found = object_colours(linear, np.stack([BOX, OCCLUDER]), [None, None], np.array([12.0, 8.0]))
+    assert set(found) == {0, 1}
+    assert found[0].region == "box"
+    assert _error(found[0], paint) < 2.0
+    assert _error(found[1], np.array([20, 60, 170], np.uint8)) < 2.0
+    assert np.all(
+        found[0].spread < 0.03
+    )  # the sensor noise (3 of 255 in sRGB) in linear RGB, not the windows
+
+
+def test_a_plain_median_of_the_box_would_miss_the_paint():
+    """The test above is discriminating: windows, shadow and the occluder pull a plain median away."""
+    linear = uint8_to_linear(_car_photo(PAINT))
+    x0, y0, x1, y1 = BOX
+    plain = np.median(linear[y0:y1, x0:x1].reshape(-1, 3), axis=0)
+    assert float(delta_e76(linear_to_lab(plain), linear_to_lab(uint8_to_linear(PAINT)))) > 15.0
+
+
+def test_occluder_farther_away_is_not_cut_out_and_the_paint_still_wins():
+    linear = uint8_to_linear(_car_photo(PAINT))
+    found = object_colours(linear, np.stack([BOX, OCCLUDER]), [None, None], np.array([8.0, 12.0]))
+    assert _error(found[0], PAINT) < 2.0
+
+
+def test_instance_mask_is_the_region_where_given():
+    photo = _car_photo(PAINT)
+    x0, y0, x1, y1 = BOX
+    mask = np.ones((y1 - y0, x1 - x0), dtype=bool)
+    mask[:, 110:] = False  # the occluder's part
+    found = object_colours(uint8_to_linear(photo), BOX[None], [mask], np.array([10.0]))
+    assert found[0].region == "mask"
+    assert _error(found[0], PAINT) < 2.0
+
+
+def test_objects_with_too_few_visible_pixels_get_no_colour():
+    linear = uint8_to_linear(_car_photo(PAINT))
+    hidden = np.array([160, 70, 170, 80])  # inside the occluder, farther than it
+    found = object_colours(linear, np.stack([hidden, OCCLUDER]), [None, None], np.array([20.0, 8.0]))
+    assert 0 not in found and 1 in found
+    outside = object_colours(linear, np.array([[300, 0, 320, 10]]), [None], np.array([5.0]))
+    assert outside == {}
+
+
+def test_region_colour_of_a_labelled_surface():
+    rng = np.random.default_rng(1)
+    road = np.tile(np.array([0.06, 0.06, 0.07]), (50, 80, 1)) * rng.uniform(0.95, 1.05, (50, 80, 1))
+    road[10:20] *= 0.3  # a shadow band across the road
+    region = np.ones((50, 80), dtype=bool)
+    measured = region_colour(road, region, "labels")
+    assert measured is not None and measured.region == "labels"
+    np.testing.assert_allclose(measured.linear_rgb, [0.06, 0.06, 0.07], rtol=0.03)
+    assert region_colour(road, np.zeros_like(region), "ground") is None
+
+
+def test_trimmed_colour_is_order_free_and_checks_input():
+    rng = np.random.default_rng(2)
+    px = rng.uniform(0.2, 0.3, (500, 3))
+    a = trimmed_colour(px, "mask")
+    b = trimmed_colour(px[rng.permutation(500)], "mask")
+    np.testing.assert_allclose(a.linear_rgb, b.linear_rgb)
+    with pytest.raises(ValueError):
+        trimmed_colour(np.zeros((0, 3)), "mask")
+    with pytest.raises(ValueError):
+        MeasuredColour(np.zeros(3), np.zeros(3), 5, "guess")
+
+
+def test_body_band_leaves_out_the_side_windows_of_a_near_car():
+    """A near car seen from the side: windows fill the upper part of its box, the red doors the lower."""
+    rng = np.random.default_rng(3)
+    img = np.full((120, 200, 3), 90.0)
+    img[10:110, 0:200] = (95, 105, 120)  # windows reflecting the sky: most of the box
+    img[65:100, 0:200] = (200, 30, 25)  # the doors below the belt line
+    img[100:110] = (15, 15, 15)  # tyres and the shadow under the car
+    linear = uint8_to_linear(np.clip(img + rng.normal(0, 2, img.shape), 0, 255).astype(np.uint8))
+    box = np.array([[0, 10, 200, 110]])
+    whole = object_colours(linear, box, [None], np.array([4.0]))[0]
+    band = object_colours(linear, box, [None], np.array([4.0]), rows=[(0.45, 0.9)])[0]
+    assert _error(band, np.array([200, 30, 25], np.uint8)) < 2.0
+    assert _error(whole, np.array([200, 30, 25], np.uint8)) > 20.0  # the windows win without the band

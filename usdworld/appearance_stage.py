@@ -1,0 +1,107 @@
+"""The appearance stage of ``build``: each object's and ground surface's colour from the photo.
+
+Wires :mod:`usdworld.perception.appearance` (the colours measured in the photo) to
+:func:`usdworld.render.lighting.albedo_for_photo` (the albedo that reproduces them in the
+render from the source camera, under the renderer's default lighting, on a lit surface
+facing the camera: vertical for objects, the ground for surfaces).
+
+Regions: an object's instance mask, else its box minus nearer objects' boxes; a surface's
+label pixels (``road``: road and parking, ``sidewalk``, ``terrain``) when labels are given;
+without labels, the terrain stands for the whole visible ground and its region is the
+image below the horizon outside every object's box.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from usdworld.geometry.camera import PinholeCamera
+from usdworld.io.types import Segmentation, SourceImage
+from usdworld.layout.model import Appearance
+from usdworld.layout.placement import Placement
+from usdworld.layout.surfaces import SurfaceMesh
+from usdworld.parameters.perception import PerceptionParams
+from usdworld.perception.appearance import MeasuredColour, object_colours, region_colour
+from usdworld.perception.colour_space import uint8_to_linear
+from usdworld.render.lighting import Lighting, albedo_for_photo
+
+#: Normal of the ground surfaces.
+UP_WORLD = np.array([0.0, 0.0, 1.0])
+
+
+def photo_appearances(
+    image: SourceImage,
+    seg: Segmentation | None,
+    placements: Sequence[Placement],
+    surfaces: Sequence[SurfaceMesh],
+    surface_label_ids: dict[str, list[int]],
+    camera: PinholeCamera,
+    params: PerceptionParams,
+    lighting: Lighting | None = None,
+) -> tuple[Appearance, ...]:
+    """The measured colour and its albedo for every placed object and ground surface that has one.
+
+    Args:
+        image: the photo.
+        seg: its labels, or None.
+        placements: the placed objects.
+        surfaces: the ground surfaces.
+        surface_label_ids: surface name -> Cityscapes label ids of its pixels.
+        camera: the source camera.
+        params: ``colour_*`` fields.
+        lighting: the lighting the albedo is chosen for (default: the renderer's).
+
+    Returns:
+        Objects first (in placement order), then surfaces.
+    """
+    light = Lighting() if lighting is None else lighting
+    linear = uint8_to_linear(image.rgb)
+    boxes = np.array([p.obj.box_px for p in placements], dtype=np.int64).reshape(-1, 4)
+    masks = [None if p.obj.box_only else p.obj.mask for p in placements]
+    depths = np.array([p.depth_m for p in placements], dtype=np.float64)
+    out = []
+    rows = [params.colour_rows(p.obj.class_name) for p in placements]
+    for i, colour in sorted(object_colours(linear, boxes, masks, depths, params, rows).items()):
+        towards_camera = camera.center_world - placements[i].position_world
+        towards_camera[2] = 0.0
+        if np.linalg.norm(towards_camera) < 1e-6:
+            towards_camera = -camera.rotation_world_from_cam[:, 2]
+        out.append(_appearance(placements[i].name, "object", colour, towards_camera, light))
+    for surface in surfaces:
+        region = _surface_region(surface.name, seg, surface_label_ids, boxes, camera, linear.shape[:2])
+        kind = "labels" if seg is not None else "ground"
+        colour = region_colour(linear, region, kind, params) if region is not None else None
+        if colour is not None:
+            out.append(_appearance(surface.name, "surface", colour, UP_WORLD, light))
+    return tuple(out)
+
+
+def _appearance(
+    target: str, kind: str, colour: MeasuredColour, normal_world: np.ndarray, light: Lighting
+) -> Appearance:
+    return Appearance(target, kind, colour, albedo_for_photo(colour.linear_rgb, normal_world, light))
+
+
+def _surface_region(
+    name: str,
+    seg: Segmentation | None,
+    label_ids: dict[str, list[int]],
+    boxes_px: np.ndarray,
+    camera: PinholeCamera,
+    shape: tuple[int, int],
+) -> np.ndarray | None:
+    """(H, W) bool pixels of a ground surface, or None when nothing marks them."""
+    if seg is not None:
+        ids = label_ids.get(name)
+        return np.isin(np.asarray(seg.label_ids), ids) if ids else None
+    if name != "terrain":
+        return None
+    h, w = shape
+    top = int(np.clip(np.ceil(camera.horizon_v()), 0, h))
+    region = np.zeros((h, w), dtype=bool)
+    region[top:] = True
+    for x0, y0, x1, y1 in boxes_px:
+        region[max(y0, 0) : max(y1, 0), max(x0, 0) : max(x1, 0)] = False
+    return region

@@ -1,0 +1,205 @@
+"""An object's colour measured from its own pixels in the photo.
+
+The colour of a region is a *trimmed median* in linear RGB:
+
+1. the region's darkest and brightest pixels by luminance are left out (cast shadows,
+   tyres and window interiors; specular highlights): ``colour_trim_dark`` and
+   ``colour_trim_bright`` of :class:`~usdworld.parameters.perception.PerceptionParams`;
+2. the dominant colour is the densest neighbourhood of a CIELAB histogram of the rest
+   (bins of ``colour_bin_lab``, summed over 3x3x3 bins);
+3. the pixels within ``colour_radius_lab`` (CIE76) of it are kept, the dominant colour is
+   re-centred on their median and they are chosen again; the result is their per-channel
+   median and spread (1.4826 x the median absolute deviation: the standard deviation of
+   normally distributed values).
+
+An object's region is its instance mask where it has one; a box-only object's is its box
+minus the boxes of the objects nearer the camera (occluders). Both are limited to the box
+shrunk by ``colour_inner_margin`` (and, for classes whose body colour lies in a band of their
+height, such as a car's below its windows, to that band) when that leaves enough pixels.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import uniform_filter
+
+from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
+from usdworld.perception.colour_space import linear_to_lab
+
+#: Rec. 709 luminance weights of linear RGB.
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+#: Where a colour's pixels can come from (:attr:`MeasuredColour.region`).
+REGIONS = ("mask", "box", "labels", "ground")
+#: Median absolute deviation -> standard deviation of a normal distribution.
+MAD_TO_SIGMA = 1.4826
+
+
+@dataclass(frozen=True)
+class MeasuredColour:
+    """A region's colour in the photo.
+
+    Attributes:
+        linear_rgb: (3,) float64 trimmed median, linear RGB in [0, 1].
+        spread: (3,) float64 robust standard deviation of the kept pixels per channel, linear RGB.
+        pixels: number of pixels the median was taken over.
+        region: where the pixels came from: ``mask``, ``box`` (minus nearer boxes), ``labels``
+            (a label map's region) or ``ground`` (the ground below the horizon outside every box).
+    """
+
+    linear_rgb: np.ndarray
+    spread: np.ndarray
+    pixels: int
+    region: str
+
+    def __post_init__(self) -> None:
+        for name in ("linear_rgb", "spread"):
+            a = np.array(getattr(self, name), dtype=np.float64)
+            if a.shape != (3,) or not np.all(np.isfinite(a)):
+                raise ValueError(f"MeasuredColour.{name}: must be 3 finite numbers, got {a}")
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+        if self.pixels < 1:
+            raise ValueError(f"MeasuredColour.pixels: must be >= 1, got {self.pixels}")
+        if self.region not in REGIONS:
+            raise ValueError(f"MeasuredColour.region: one of {REGIONS}, got {self.region!r}")
+
+
+def trimmed_colour(
+    linear: np.ndarray, region: str, params: PerceptionParams = DEFAULT_PERCEPTION
+) -> MeasuredColour:
+    """The trimmed median colour of a set of pixels (module docstring).
+
+    Args:
+        linear: (N, 3) float linear RGB pixels, N >= 1.
+        region: recorded in the result (one of :data:`REGIONS`).
+        params: ``colour_*`` fields.
+
+    Returns:
+        The colour, its spread and the number of pixels kept.
+
+    Raises:
+        ValueError: no pixels.
+    """
+    px = np.asarray(linear, dtype=np.float64).reshape(-1, 3)
+    if len(px) == 0:
+        raise ValueError("trimmed_colour: no pixels")
+    if len(px) > params.colour_max_samples:
+        px = px[np.linspace(0, len(px) - 1, params.colour_max_samples).astype(np.int64)]
+    lum = px @ LUMINANCE
+    lo, hi = np.quantile(lum, [params.colour_trim_dark, 1.0 - params.colour_trim_bright])
+    kept = px[(lum >= lo) & (lum <= hi)]
+    if len(kept) == 0:
+        kept = px
+    lab = linear_to_lab(kept)
+    centre = _dominant_lab(lab, params.colour_bin_lab)
+    for _ in range(2):
+        near = np.linalg.norm(lab - centre, axis=1) <= params.colour_radius_lab
+        if not near.any():
+            near = np.ones(len(lab), dtype=bool)
+        centre = np.median(lab[near], axis=0)
+    chosen = kept[near]
+    median = np.median(chosen, axis=0)
+    spread = MAD_TO_SIGMA * np.median(np.abs(chosen - median), axis=0)
+    return MeasuredColour(np.clip(median, 0.0, 1.0), spread, len(chosen), region)
+
+
+def _dominant_lab(lab: np.ndarray, bin_size: float) -> np.ndarray:
+    """(3,) mean CIELAB of the pixels in the densest 3x3x3-bin neighbourhood of a histogram."""
+    lo = lab.min(axis=0)
+    idx = np.floor((lab - lo) / bin_size).astype(np.int64)
+    shape = tuple(int(s) for s in idx.max(axis=0) + 1)
+    counts = np.zeros(shape)
+    np.add.at(counts, tuple(idx.T), 1.0)
+    density = uniform_filter(counts, size=3, mode="constant")
+    peak = np.array(np.unravel_index(int(np.argmax(density)), shape))
+    near = np.all(np.abs(idx - peak) <= 1, axis=1)
+    return lab[near].mean(axis=0)
+
+
+def _inner_box(box_px: np.ndarray, margin: float, rows: tuple[float, float]) -> tuple[int, int, int, int]:
+    x0, y0, x1, y1 = (float(v) for v in box_px)
+    w, h = x1 - x0, y1 - y0
+    top, bottom = max(margin, rows[0]), min(1.0 - margin, rows[1])
+    return round(x0 + w * margin), round(y0 + h * top), round(x1 - w * margin), round(y0 + h * bottom)
+
+
+def object_colours(
+    linear: np.ndarray,
+    boxes_px: np.ndarray,
+    masks: Sequence[np.ndarray | None],
+    depths_m: np.ndarray,
+    params: PerceptionParams = DEFAULT_PERCEPTION,
+    rows: Sequence[tuple[float, float]] | None = None,
+) -> dict[int, MeasuredColour]:
+    """Each object's colour from its own pixels (module docstring).
+
+    Args:
+        linear: (H, W, 3) float linear RGB photo.
+        boxes_px: (N, 4) int boxes ``xmin, ymin, xmax, ymax`` (max exclusive).
+        masks: per object its (ymax-ymin, xmax-xmin) bool mask crop, or None for a box-only
+            object (its region is then the box minus the boxes of nearer objects).
+        depths_m: (N,) float depth of each object; smaller is nearer.
+        params: ``colour_*`` fields.
+        rows: per object the band of its box height (top, bottom fractions from the top) where
+            its body colour is (a car's below its windows); default the whole height.
+
+    Returns:
+        Object index -> colour, for the objects with at least ``colour_min_pixels`` pixels.
+    """
+    h, w = linear.shape[:2]
+    boxes = np.asarray(boxes_px, dtype=np.int64).reshape(-1, 4)
+    depths = np.asarray(depths_m, dtype=np.float64)
+    out: dict[int, MeasuredColour] = {}
+    for i, box in enumerate(boxes):
+        x0, y0, x1, y1 = (int(v) for v in box)
+        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
+        if x1 <= x0 or y1 <= y0:
+            continue
+        mask = masks[i]
+        if mask is not None:
+            region = np.zeros((y1 - y0, x1 - x0), dtype=bool)
+            m = np.asarray(mask, dtype=bool)
+            oy, ox = y0 - int(box[1]), x0 - int(box[0])
+            region[:] = m[oy : oy + y1 - y0, ox : ox + x1 - x0]
+            kind = "mask"
+        else:
+            region = np.ones((y1 - y0, x1 - x0), dtype=bool)
+            for j in np.flatnonzero(depths < depths[i]):
+                a0, b0, a1, b1 = (int(v) for v in boxes[j])
+                region[max(b0 - y0, 0) : max(b1 - y0, 0), max(a0 - x0, 0) : max(a1 - x0, 0)] = False
+            kind = "box"
+        ix0, iy0, ix1, iy1 = _inner_box(
+            box, params.colour_inner_margin, rows[i] if rows is not None else (0.0, 1.0)
+        )
+        inner = np.zeros_like(region)
+        inner[max(iy0 - y0, 0) : max(iy1 - y0, 0), max(ix0 - x0, 0) : max(ix1 - x0, 0)] = True
+        if np.count_nonzero(region & inner) >= params.colour_min_pixels:
+            region = region & inner
+        if np.count_nonzero(region) < params.colour_min_pixels:
+            continue
+        out[i] = trimmed_colour(linear[y0:y1, x0:x1][region], kind, params)
+    return out
+
+
+def region_colour(
+    linear: np.ndarray, region: np.ndarray, kind: str, params: PerceptionParams = DEFAULT_PERCEPTION
+) -> MeasuredColour | None:
+    """The colour of an image region (road, sidewalk), or None when it has too few pixels.
+
+    Args:
+        linear: (H, W, 3) float linear RGB photo.
+        region: (H, W) bool pixels of the region.
+        kind: what the region is (``labels`` or ``ground``, see :data:`REGIONS`).
+        params: ``colour_*`` fields.
+    """
+    count = np.count_nonzero(region)
+    if count < params.colour_min_pixels:
+        return None
+    step = max(int(np.sqrt(count / params.colour_max_samples)), 1)  # a regular grid, not the whole image
+    sub = region[::step, ::step]
+    if np.count_nonzero(sub) < params.colour_min_pixels:
+        sub, step = region, 1
+    return trimmed_colour(linear[::step, ::step][sub], kind, params)

@@ -1,10 +1,13 @@
 """Colours from the photo as per-object material overrides in the base layer.
 
-For an object, the override is what ``restyle`` authors (see
-:mod:`usdworld.authoring.editing.restyle`), on the same targets (its paint materials'
-``inputs:diffuseColor`` and the ``primvars:displayColor`` of the meshes bound to them), but in
-the **base** layer: DCC tools see it as the material's value, and a ``restyle`` in the edits
-layer, the stronger layer, wins over it (removing the restyle brings the photo's colour back).
+For an object, the override is the material half of what ``restyle`` authors (see
+:mod:`usdworld.authoring.editing.restyle`): its paint materials' ``inputs:diffuseColor``, in
+the **base** layer. The meshes' ``primvars:displayColor`` (a fallback for viewers that show
+no materials) keeps the asset's value: an opinion on a mesh makes every export validate that
+mesh's points again (the asset's validation on its card no longer covers it), which tripled
+the usdz export time; the renderer, the GLB export, the browser editor and the DCC importers
+all read the material. DCC tools see it as the material's value, and a ``restyle`` in the
+edits layer, the stronger layer, wins over it (removing the restyle brings the photo's colour back).
 The asset's paint materials are variant-specific (``Looks/paint_red`` in one model,
 ``Looks/paint_white`` in another), so an object's override is written for **every** variant
 of its ``model`` variant set, each in that variant's body of the object's own variant set
@@ -138,7 +141,7 @@ def _object_targets(
     key = (str(refs), names)
     if key not in cache:
         if not names:
-            cache[key] = {"": _relative(prim, *restyle_targets(prim))}
+            cache[key] = {"": _relative(prim, restyle_targets(prim)[0], [])}
         else:
             vset = vsets.GetVariantSet(VARIANT_SET)
             found = {}
@@ -146,7 +149,7 @@ def _object_targets(
                 for name in names:
                     with Usd.EditContext(stage, stage.GetSessionLayer()):
                         vset.SetVariantSelection(name)
-                    found[name] = _relative(prim, *restyle_targets(prim))
+                    found[name] = _relative(prim, restyle_targets(prim)[0], [])  # materials only
             finally:
                 session = stage.GetSessionLayer().GetPrimAtPath(prim.GetPath())
                 if session:

@@ -176,7 +176,10 @@ class Scope:
         if layers - self.trusted - self.root_stack:
             return True, True  # also composed from a layer nobody vouched for
         path = prim.GetPath()
-        if any(spec.layer.identifier in self.root_stack and spec.path != path for spec in specs):
+        if any(
+            spec.layer.identifier in self.root_stack and spec.path.StripAllVariantSelections() != path
+            for spec in specs
+        ):
             return True, True  # the world's layers bring in other prims of their own (internal arcs)
         return bool(layers & self.root_stack), str(path) in self.owned_below
 

@@ -28,14 +28,14 @@ import argparse
 import json
 import os
 import platform
-import resource
 import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from bench_common import run_timed
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -64,21 +64,6 @@ print(f"{t1 - t0} {t2 - t1} {t3 - t2} {t4 - t3} {len(d['trusted_assets'])} {d['l
 """
 
 
-def _cpu_s() -> float:
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
-
-
-def _run(argv: list[str], env: dict[str, str]) -> tuple[float, float, str]:
-    """(wall s, CPU s, stdout) of one subprocess; exits when it fails."""
-    cpu0, t0 = _cpu_s(), time.perf_counter()
-    proc = subprocess.run(argv, env=env, capture_output=True, text=True, check=False)
-    wall, cpu = time.perf_counter() - t0, _cpu_s() - cpu0
-    if proc.returncode != 0:
-        raise SystemExit(f"failed: {' '.join(argv)}\n{proc.stderr[-2000:]}")
-    return wall, cpu, proc.stdout
-
-
 def _unvouched_copy(world: Path, dest: Path) -> Path:
     """A copy of the world whose asset cards record no validation."""
     shutil.copytree(world, dest)
@@ -97,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
     usdworld = [sys.executable, "-m", "usdworld", "-q"]
     with tempfile.TemporaryDirectory() as scratch:
         tmp = Path(scratch)
-        _run([*usdworld, "demo", "-o", str(tmp / "demo_world")], env)
+        run_timed([*usdworld, "demo", "-o", str(tmp / "demo_world")], env)
         world = tmp / "demo_world"
         unvouched = _unvouched_copy(world, tmp / "unvouched")
         variants = {
@@ -117,11 +102,11 @@ def main(argv: list[str] | None = None) -> int:
         loads = [os.getloadavg()[0]]
         for _ in range(args.repeats):
             for name, command in variants.items():
-                wall, cpu, _ = _run(command, env)
+                wall, cpu, _ = run_timed(command, env)
                 times[name].append((wall, cpu))
             loads.append(os.getloadavg()[0])
         (tmp / "parts").mkdir()
-        parts = _run([sys.executable, "-c", BREAKDOWN, str(world), str(tmp / "parts")], env)[2].split()
+        parts = run_timed([sys.executable, "-c", BREAKDOWN, str(world), str(tmp / "parts")], env)[2].split()
     median = {
         name: (statistics.median(r[0] for r in runs), statistics.median(r[1] for r in runs))
         for name, runs in times.items()

@@ -24,9 +24,7 @@ import argparse
 import datetime
 import os
 import platform
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -37,19 +35,16 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from usdworld.authoring.inspect import open_world  # noqa: E402
-from usdworld.pipeline import BuildRequest, build  # noqa: E402
-from usdworld.render import flythrough as fly  # noqa: E402
-from usdworld.render.outputs import view_camera, world_image_size  # noqa: E402
-from usdworld.render.renderer import Renderer  # noqa: E402
-from usdworld.render.scene import RenderScene  # noqa: E402
-from usdworld.render.video import Mp4Writer  # noqa: E402
-from usdworld.synth import make_street_scene, write_cityscapes_frame  # noqa: E402
+from bench_common import run_timed
 
-
-def _children_cpu_s() -> float:
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
+from usdworld.authoring.inspect import open_world
+from usdworld.pipeline import BuildRequest, build
+from usdworld.render import flythrough as fly
+from usdworld.render.outputs import view_camera, world_image_size
+from usdworld.render.renderer import Renderer
+from usdworld.render.scene import RenderScene
+from usdworld.render.video import Mp4Writer
+from usdworld.synth import make_street_scene, write_cityscapes_frame
 
 
 def _command(world: Path, out: Path, frames: int, width: int, height: int) -> tuple[float, float]:
@@ -57,9 +52,8 @@ def _command(world: Path, out: Path, frames: int, width: int, height: int) -> tu
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])]))
     args = [sys.executable, "-m", "usdworld", "-q", "flythrough", str(world), "-o", str(out)]
     args += ["--frames", str(frames), "--size", f"{width}x{height}"]
-    cpu0, t0 = _children_cpu_s(), time.perf_counter()
-    subprocess.run(args, check=True, env=env, stdout=subprocess.DEVNULL)
-    return time.perf_counter() - t0, _children_cpu_s() - cpu0
+    wall, cpu, _ = run_timed(args, env)
+    return wall, cpu
 
 
 def _frames_alone(world: Path, frames: int, width: int, height: int) -> tuple[float, list[np.ndarray]]:

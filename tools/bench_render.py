@@ -32,9 +32,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -42,6 +40,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from bench_common import run_timed
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -218,30 +217,15 @@ print(" ".join(f"{1000 * v:.0f}" for v in row))
 """
 
 
-def _cpu_s() -> float:
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
-
-
-def _run_timed(argv: list[str], env: dict[str, str]) -> tuple[float, float, str]:
-    """(wall s, CPU s, stdout) of one subprocess; raises when it fails."""
-    cpu0, t0 = _cpu_s(), time.perf_counter()
-    proc = subprocess.run(argv, env=env, capture_output=True, text=True, check=False)
-    wall, cpu = time.perf_counter() - t0, _cpu_s() - cpu0
-    if proc.returncode != 0:
-        raise SystemExit(f"failed: {' '.join(argv)}\n{proc.stderr[-2000:]}")
-    return wall, cpu, proc.stdout
-
-
 def _make_worlds(tmp: Path, env: dict[str, str]) -> dict[str, Path]:
     """The demo world and the synthetic 2048x1024 world of seed 3, built by the CLI."""
     usdworld = [sys.executable, "-m", "usdworld", "-q"]
-    _run_timed([*usdworld, "demo", "-o", str(tmp / "demo_world")], env)
-    _run_timed([*usdworld, "synth", "-o", str(tmp / "synth"), "--seed", "3", "--size", "2048x1024"], env)
+    run_timed([*usdworld, "demo", "-o", str(tmp / "demo_world")], env)
+    run_timed([*usdworld, "synth", "-o", str(tmp / "synth"), "--seed", "3", "--size", "2048x1024"], env)
     stem = str(tmp / "synth" / "synth_000000_000003")
     build = ["build", f"{stem}_leftImg8bit.png", "--labels", f"{stem}_gtFine_labelIds.png"]
     build += ["--instances", f"{stem}_gtFine_instanceIds.png", "--camera", f"{stem}_camera.json"]
-    _run_timed([*usdworld, *build, "-o", str(tmp / "synth_world")], env)
+    run_timed([*usdworld, *build, "-o", str(tmp / "synth_world")], env)
     return {"demo": tmp / "demo_world", "synth seed 3": tmp / "synth_world"}
 
 
@@ -258,13 +242,13 @@ def _bench_command(repeats: int) -> None:
             for name, write in variants:
                 argv = [sys.executable, "-m", "usdworld", "-q", "render", str(worlds[name])]
                 argv += ["-o", str(tmp / "out"), "--size", "2048x1024", "--write", write]
-                wall, cpu, _ = _run_timed(argv, env)
+                wall, cpu, _ = run_timed(argv, env)
                 times[(name, write)].append((wall, cpu))
             loads.append(os.getloadavg()[0])
         breakdown = {}
         for name, world in worlds.items():
             argv = [sys.executable, "-c", BREAKDOWN, str(world), "2048x1024", str(tmp / "parts")]
-            breakdown[name] = [float(v) for v in _run_timed(argv, env)[2].split()]
+            breakdown[name] = [float(v) for v in run_timed(argv, env)[2].split()]
     print(
         f"`usdworld render` at 2048x1024, whole command; median of {repeats} interleaved rounds; "
         f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.node()}, {os.cpu_count()} CPUs, "

@@ -325,13 +325,31 @@ def build_surfaces(
         if mesh is not None:
             out.append(mesh)
     # Everything else within range is plain ground, so no view shows sky below the horizon.
-    terrain = manifold3d.CrossSection.square((max_range_m + TERRAIN_BEHIND_M, 2.0 * max_range_m)).translate(
+    square = manifold3d.CrossSection.square((max_range_m + TERRAIN_BEHIND_M, 2.0 * max_range_m)).translate(
         (-TERRAIN_BEHIND_M, -max_range_m)
     )
-    for section in (road, sidewalk):
-        if section is not None and not section.is_empty():
-            terrain = terrain - section
-    mesh = extrude_surface("terrain", terrain, 0.0, -SLAB_DEPTH_M)
+    mesh = terrain_surface(square, road, sidewalk)
     if mesh is not None:
         out.append(mesh)
     return out
+
+
+def terrain_surface(
+    area: manifold3d.CrossSection,
+    road: manifold3d.CrossSection | None,
+    sidewalk: manifold3d.CrossSection | None,
+) -> SurfaceMesh | None:
+    """The plain ground: ``area`` less the road and the sidewalk, a slab with its top at z = 0.
+
+    Args:
+        area: the ground's extent on the ground plane, metres.
+        road: the road's cross-section, or None.
+        sidewalk: the sidewalk's cross-section, or None.
+
+    Returns:
+        The ``terrain`` mesh, or None when nothing is left.
+    """
+    for section in (road, sidewalk):
+        if section is not None and not section.is_empty():
+            area = area - section
+    return extrude_surface("terrain", area, 0.0, -SLAB_DEPTH_M)

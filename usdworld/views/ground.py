@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import manifold3d
 import numpy as np
 
-from usdworld.layout.surfaces import SLAB_DEPTH_M, SurfaceMesh, extrude_surface
+from usdworld.layout.surfaces import SLAB_DEPTH_M, SurfaceMesh, extrude_surface, terrain_surface
 
 #: The surfaces united across views (terrain is made anew around the world origin).
 UNITED = ("road", "sidewalk")
@@ -66,13 +66,10 @@ def rig_surfaces(
             mesh = extrude_surface(name, section, top, -SLAB_DEPTH_M)
             if mesh is not None:
                 out.append(mesh)
-    terrain = manifold3d.CrossSection.square((2.0 * max_range_m, 2.0 * max_range_m)).translate(
+    square = manifold3d.CrossSection.square((2.0 * max_range_m, 2.0 * max_range_m)).translate(
         (-max_range_m, -max_range_m)
     )
-    for section in (road, sidewalk):
-        if section is not None and not section.is_empty():
-            terrain = terrain - section
-    mesh = extrude_surface("terrain", terrain, 0.0, -SLAB_DEPTH_M)
+    mesh = terrain_surface(square, road, sidewalk)
     if mesh is not None:
         out.append(mesh)
     return out

@@ -25,14 +25,15 @@ from typing import Any
 
 import numpy as np
 
+from usdworld.appearance_stage import photo_appearances
 from usdworld.authoring import asset_library
 from usdworld.authoring.asset_measures import asset_catalogue
-from usdworld.appearance_stage import photo_appearances
 from usdworld.authoring.world import ROOT_LAYER, write_world
 from usdworld.depth_stage import DepthOutcome, estimate_depth
 from usdworld.errors import InputError, OutputError
 from usdworld.geometry.camera import PinholeCamera, ground_correspondences
 from usdworld.geometry.estimate import CameraEstimate, estimate_camera
+from usdworld.geometry.focal import FocalEstimate
 from usdworld.geometry.homography import HomographyFit, estimate_homography
 from usdworld.geometry.vanishing import VanishingPoint, detect_segments, find_vanishing_point
 from usdworld.io.asset_catalogue import AssetCatalogue
@@ -40,24 +41,23 @@ from usdworld.io.camera_files import read_camera
 from usdworld.io.class_table import ClassTable, load_class_table
 from usdworld.io.correspondences import read_correspondences
 from usdworld.io.detections import read_detections_json, read_kitti_labels
+from usdworld.io.exif import read_exif_focal
 from usdworld.io.hashing import read_input
 from usdworld.io.images import read_image
 from usdworld.io.label_table import label_lookups
 from usdworld.io.labels import read_polygons, read_segmentation
 from usdworld.io.limits import MAX_RANGE_CAP_M
 from usdworld.io.types import CameraSpec, Detections, InputFile, Segmentation, SourceImage
-from usdworld.geometry.focal import FocalEstimate
-from usdworld.io.exif import read_exif_focal
-from usdworld.layout.focal_cues import estimate_focal
 from usdworld.layout.camera_cues import height_observations, road_top_row, street_view, vanishing_yaw
+from usdworld.layout.focal_cues import estimate_focal
+from usdworld.layout.heading import check_traffic
 from usdworld.layout.model import WorldModel
 from usdworld.layout.placement import Skipped, place_objects, skip_warnings
 from usdworld.layout.surfaces import SURFACE_CLASSES, build_surfaces, fill_hidden_ground, surface_points
-from usdworld.layout.heading import check_traffic
 from usdworld.layout.yaw import road_axis
-from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.output_dir import prepare_output as _prepare_output
 from usdworld.output_dir import swap_in as _swap_in
+from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.perception.dedupe import merge_duplicates
 from usdworld.perception.facades import StreetView
 from usdworld.perception.objects import (

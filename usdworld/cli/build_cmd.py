@@ -57,14 +57,13 @@ def build(
     ),
 ) -> None:
     """Build a layered USD world from one street image, or from several views of one rig (--views)."""
+    from usdworld.cli import views_build
     from usdworld.cli.output import quiet
     from usdworld.cli.summary import print_build_summary
     from usdworld.io.parameters_file import read_parameters
     from usdworld.parameters import DEFAULT_PARAMETERS
     from usdworld.pipeline import BuildRequest
     from usdworld.pipeline import build as run_build
-
-    from usdworld.cli import views_build
 
     per_view = {
         "image": image,

@@ -32,8 +32,8 @@ from usdworld.io.hashing import (
     require,
 )
 from usdworld.io.images import PNG_COLOR_TYPES, decode_unchanged, png_header, sniff_format
-from usdworld.io.limits import MAX_PIXELS, check_pixels
 from usdworld.io.label_table import TABLE_NAME, LabelClass, known_ids, label_table
+from usdworld.io.limits import MAX_PIXELS, check_pixels
 from usdworld.io.types import Segmentation, SourceImage
 
 logger = logging.getLogger(__name__)

@@ -8,7 +8,13 @@ from usdworld.perception.objects import ImageObject
 
 
 def box_object(
-    class_name: str, box: tuple[int, int, int, int], ref: int, hidden: bool = False, by: int = -1
+    class_name: str,
+    box: tuple[int, int, int, int],
+    ref: int,
+    hidden: bool = False,
+    by: int = -1,
+    source_label: str | None = None,
+    instance_id: int | None = None,
 ) -> ImageObject:
     """An object whose mask fills its box, its contact below the box's middle column.
 
@@ -18,12 +24,14 @@ def box_object(
         ref: its identifier in the image.
         hidden: its bottom is hidden.
         by: the ``ref`` of what hides it (-1 none).
+        source_label: the label it came from (default: its class).
+        instance_id: its instance id (default: ``ref`` for a car, -1 for others).
     """
     x0, y0, x1, y1 = box
     return ImageObject(
         class_name=class_name,
-        source_label=class_name,
-        instance_id=ref if class_name == "car" else -1,
+        source_label=class_name if source_label is None else source_label,
+        instance_id=(ref if class_name == "car" else -1) if instance_id is None else instance_id,
         box_px=np.array(box, dtype=np.int64),
         mask=np.ones((y1 - y0, x1 - x0), bool),
         contact_px=np.array([(x0 + x1) / 2.0, y1 - 0.5]),

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
+
 import cv2
 import numpy as np
 import pytest
@@ -40,6 +43,13 @@ def _car(stage: Usd.Stage, box: tuple[int, ...]) -> Usd.Prim:
         if tuple(round(v) for v in bbox) == box:
             return prim
     raise AssertionError(f"no object with box {box}")
+
+
+def _copy_with_car(root: Path, copy: Path, box: tuple[int, ...]) -> tuple[Path, str]:
+    """A copy of the world (``root``'s folder) at ``copy``, and the name of its car with that box."""
+    shutil.copytree(root.parent, copy)
+    stage = Usd.Stage.Open(str(copy / "world.usda"))
+    return copy, _car(stage, box).GetName()
 
 
 def _paint_diffuse(prim: Usd.Prim) -> np.ndarray:
@@ -95,15 +105,8 @@ def _specs_below(layer: Sdf.Layer, path: Sdf.Path) -> list[Sdf.Spec]:
 
 
 def test_restyle_wins_and_reset_brings_the_photo_colour_back(tmp_path, world):
-    import shutil
-
-    root, _ = world
-    copy = tmp_path / "w"
-    shutil.copytree(root.parent, copy)
     box = (250, 170, 390, 242)
-    first = Usd.Stage.Open(str(copy / "world.usda"))
-    name = _car(first, box).GetName()
-    del first
+    copy, name = _copy_with_car(world[0], tmp_path / "w", box)
     with WorldEditor(copy) as editor:
         editor.restyle(name, "#c03030")
     stage = Usd.Stage.Open(str(copy / "world.usda"))
@@ -155,17 +158,10 @@ def test_glb_export_carries_each_objects_own_colour(tmp_path, world):
 def test_replaced_objects_keep_the_photo_colour_and_leave_no_dangling_over(
     tmp_path, world, with_class, variant
 ):
-    import shutil
-
-    root, _ = world
-    copy = tmp_path / "w"
-    shutil.copytree(root.parent, copy)
     box = (250, 170, 390, 242)
-    first = Usd.Stage.Open(str(copy / "world.usda"))
-    name = _car(first, box).GetName()
-    del first
+    copy, name = _copy_with_car(world[0], tmp_path / "w", box)
     with WorldEditor(copy) as editor:
-        if variant is None or variant != "hatchback":
+        if variant != "hatchback":
             editor.replace(name, with_class, variant=variant)
         else:
             editor.replace(name, "car", variant="suv")

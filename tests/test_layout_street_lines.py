@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from layout_support import box_object
 
 from usdworld.authoring.asset_library import library_dirs
 from usdworld.authoring.asset_measures import asset_catalogue
@@ -104,20 +105,15 @@ def _obj(
     box: tuple[int, int, int, int], ref: int, hidden: bool = False, by: int = -1, class_name: str = "tree"
 ) -> ImageObject:
     """A tree (or a car) whose mask fills its box; ``hidden``: its bottom is hidden by ``by``."""
-    x0, y0, x1, y1 = box
     car = class_name == "car"
-    return ImageObject(
-        class_name=class_name,
+    return box_object(
+        class_name,
+        box,
+        ref,
+        hidden,
+        by,
         source_label=class_name if car else "vegetation",
         instance_id=26000 + ref if car else -1,
-        box_px=np.array(box, dtype=np.int64),
-        mask=np.ones((y1 - y0, x1 - x0), bool),
-        contact_px=np.array([(x0 + x1) / 2.0, y1 - 0.5]),
-        bottom_truncated=False,
-        bottom_occluded=hidden,
-        top_truncated=False,
-        occluded_by=by,
-        ref=ref,
     )
 
 

@@ -38,32 +38,19 @@ from usdworld.resources import evaluation_data_dir
 def frames(data: Path) -> list[tuple[str, dict[str, Path]]]:
     """(frame name, build inputs) of every frame found under ``data``."""
     out = []
-    kitti = data / "kitti" / "training"
-    for image in sorted((kitti / "image_2").glob("*.png")):
-        f = image.stem
-        out.append(
-            (
-                f"kitti_{f}",
-                {
-                    "image": image,
-                    "detections": kitti / "label_2" / f"{f}.txt",
-                    "camera": kitti / "calib" / f"{f}.txt",
-                },
-            )
-        )
-    nus = data / "nuscenes" / "kitti_format"
-    for image in sorted((nus / "image_2").glob("*.png")):
-        f = image.stem
-        out.append(
-            (
-                f"nuscenes_{f}",
-                {
-                    "image": image,
-                    "detections": nus / "label_2" / f"{f}.txt",
-                    "camera": nus / "calib" / f"{f}.txt",
-                },
-            )
-        )
+    # KITTI and nuScenes CAM_FRONT in KITTI layout: image_2, label_2 and calib per frame.
+    for prefix, root in (
+        ("kitti", data / "kitti" / "training"),
+        ("nuscenes", data / "nuscenes" / "kitti_format"),
+    ):
+        for image in sorted((root / "image_2").glob("*.png")):
+            f = image.stem
+            inputs = {
+                "image": image,
+                "detections": root / "label_2" / f"{f}.txt",
+                "camera": root / "calib" / f"{f}.txt",
+            }
+            out.append((f"{prefix}_{f}", inputs))
     for image in sorted((data / "cityscapes").glob("*_leftImg8bit.png")):
         prefix = image.name[: -len("_leftImg8bit.png")]
         out.append(

@@ -136,7 +136,8 @@ def info_without_camera_message(doc: dict[str, Any], name: str) -> str:
     )
 
 
-def _matrix(value: Any, where: str, shapes: tuple[tuple[int, int], ...]) -> np.ndarray:
+def info_matrix(value: Any, where: str, shapes: tuple[tuple[int, int], ...]) -> np.ndarray:
+    """``value`` as a finite float64 matrix of one of ``shapes``; InputError naming ``where`` otherwise."""
     try:
         m = np.array(value, dtype=np.float64)
     except (TypeError, ValueError):
@@ -168,12 +169,12 @@ def read_info_camera(doc: dict[str, Any], name: str, camera: str) -> InfoCamera:
         )
     base = f"{name} -> data_list[0] -> images -> {camera}"
     entry = images[camera]
-    projection = _matrix(entry["cam2img"], f"{base} -> cam2img", ((3, 3), (3, 4), (4, 4)))
+    projection = info_matrix(entry["cam2img"], f"{base} -> cam2img", ((3, 3), (3, 4), (4, 4)))
     K = projection[:3, :3].copy()
     if "cam2ego" not in entry:
         return InfoCamera(K, f"{base} -> cam2img", None, None, "")
     pose_where = f"{base} -> cam2ego"
-    ego_from_cam = _matrix(entry["cam2ego"], pose_where, ((4, 4),))
+    ego_from_cam = info_matrix(entry["cam2ego"], pose_where, ((4, 4),))
     rotation = ego_from_cam[:3, :3]
     if (
         not np.allclose(rotation.T @ rotation, np.eye(3), atol=ROTATION_TOLERANCE)

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from usdworld.errors import InputError
-from usdworld.io.camera_infos import is_info_document, is_pickle, parse_info_json
+from usdworld.io.camera_infos import info_matrix, is_info_document, is_pickle, parse_info_json
 from usdworld.io.hashing import PathLike, read_input
 from usdworld.io.images import read_image
 from usdworld.io.types import Detection, Detections, InputFile
@@ -57,26 +57,16 @@ def _sample(doc: dict[str, Any], name: str, token: str | None) -> tuple[int, dic
     raise InputError(f"{name}: no sample with token {token!r}; its samples are {', '.join(tokens)}{more}")
 
 
-def _matrix(value: Any, where: str, shapes: tuple[tuple[int, int], ...]) -> np.ndarray:
-    try:
-        m = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: must be a matrix of numbers") from None
-    if m.shape not in shapes or not np.all(np.isfinite(m)):
-        raise InputError(f"{where}: must be a finite {' or '.join(f'{r}x{c}' for r, c in shapes)} matrix")
-    return m
-
-
 def _pose(entry: dict[str, Any], sample: dict[str, Any], where: str) -> np.ndarray:
     """The camera's pose in the sample's ego frame (see the module docstring)."""
     lidar = sample.get("lidar_points")
     if "lidar2cam" in entry and isinstance(lidar, dict) and "lidar2ego" in lidar:
-        ego_from_lidar = _matrix(lidar["lidar2ego"], f"{where} -> lidar_points -> lidar2ego", ((4, 4),))
-        cam_from_lidar = _matrix(entry["lidar2cam"], f"{where} -> lidar2cam", ((4, 4),))
+        ego_from_lidar = info_matrix(lidar["lidar2ego"], f"{where} -> lidar_points -> lidar2ego", ((4, 4),))
+        cam_from_lidar = info_matrix(entry["lidar2cam"], f"{where} -> lidar2cam", ((4, 4),))
         return check_pose(
             ego_from_lidar @ np.linalg.inv(cam_from_lidar), f"{where} -> lidar2ego @ inverse(lidar2cam)"
         )
-    return check_pose(_matrix(entry["cam2ego"], f"{where} -> cam2ego", ((4, 4),)), f"{where} -> cam2ego")
+    return check_pose(info_matrix(entry["cam2ego"], f"{where} -> cam2ego", ((4, 4),)), f"{where} -> cam2ego")
 
 
 def box_corners_cam(box_3d: np.ndarray) -> np.ndarray:
@@ -131,12 +121,12 @@ def _detections(
         label = categories.get(int(b["bbox_label"]))
         if label is None:  # -1: an ignored class
             continue
-        box = _matrix([b["bbox"]], f"{at} -> bbox", ((1, 4),))[0]
+        box = info_matrix([b["bbox"]], f"{at} -> bbox", ((1, 4),))[0]
         if not (box[2] > box[0] and box[3] > box[1]):
             raise InputError(f"{at} -> bbox: {box.tolist()} has non-positive size")
         truncated = 0.0
         if "bbox_3d" in b:
-            truncated = truncation(_matrix([b["bbox_3d"]], f"{at} -> bbox_3d", ((1, 7),))[0], K, *size)
+            truncated = truncation(info_matrix([b["bbox_3d"]], f"{at} -> bbox_3d", ((1, 7),))[0], K, *size)
         items.append(Detection(label=label, box_px=box, score=1.0, amodal=True, truncated=truncated))
     return Detections(items=tuple(items), file=file)
 
@@ -186,7 +176,7 @@ def read_nuscenes_views(path: PathLike, token: str | None = None) -> ViewSet:
         if not isinstance(entry, dict) or not {"cam2img", "cam2ego", "img_path"} <= set(entry):
             raise InputError(f"{where}: a nuScenes camera needs cam2img, cam2ego and img_path")
         check_view_name(cam, where)
-        K = _matrix(entry["cam2img"], f"{where} -> cam2img", ((3, 3), (3, 4), (4, 4)))[:3, :3]
+        K = info_matrix(entry["cam2img"], f"{where} -> cam2img", ((3, 3), (3, 4), (4, 4)))[:3, :3]
         pose = _pose(entry, sample, where)
         image = folder / Path(str(entry["img_path"])).name
         if not image.is_file():

@@ -67,6 +67,7 @@ from usdworld.authoring.asset_library import (
 from usdworld.authoring.shading import crease_normals, extent
 from usdworld.authoring.stages import open_stage
 from usdworld.errors import InputError
+from usdworld.perception.colour_space import srgb_to_linear
 from usdworld.resources import asset_library_dir
 
 log = logging.getLogger(__name__)
@@ -202,8 +203,8 @@ class SourcePart:
 
 
 def _srgb_to_linear(c: np.ndarray) -> np.ndarray:
-    c = np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    """sRGB values, clipped to [0, 1], decoded to linear RGB."""
+    return srgb_to_linear(np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0))
 
 
 def _texture_mean(image: object) -> np.ndarray | None:

@@ -16,6 +16,7 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
 from usdworld.errors import EditRefused, RefusalReason
+from usdworld.perception.colour_space import srgb_to_linear
 
 #: Prim customData key holding an object's restyle colour (``#rrggbb``).
 COLOR_KEY = "usdworld:restyleColor"
@@ -59,7 +60,7 @@ def parse_color(text: str) -> tuple[tuple[float, float, float], str]:
     if len(h) == 3:
         h = "".join(c * 2 for c in h)
     srgb = np.array([int(h[i : i + 2], 16) / 255.0 for i in (0, 2, 4)])
-    lin = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+    lin = srgb_to_linear(srgb)
     return (float(lin[0]), float(lin[1]), float(lin[2])), f"#{h}"
 
 

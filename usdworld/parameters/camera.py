@@ -182,6 +182,16 @@ class CameraParams:
         "A photo's cue less certain than this (x2.7 either way) is not a measurement and is left out.",
         "convention: weaker than the prior by a factor of three",
     )
+    principal_point_sigma_fraction: float = param(
+        0.014,
+        "fraction of the image diagonal",
+        "Spread, per axis, of the true principal point around the image centre that every build without "
+        "intrinsics assumes; it enters the vanishing-point focal cue's spread "
+        "(f^2 = -(v1 - c).(v2 - c) moves by (v1 + v2 - 2c).dc).",
+        "published: the root mean square of the principal-point offsets of KITTI P2 (11.4, 14.6 px of a "
+        "1297 px diagonal: 0.9 %, 1.1 %; Geiger et al. 2013) and nuScenes CAM_FRONT (16.3, 41.5 px of "
+        "1836 px: 0.9 %, 2.3 %; Caesar et al. 2020) calibrations",
+    )
     vertical_max_tilt_deg: float = param(
         20.0,
         "deg",

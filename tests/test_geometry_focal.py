@@ -147,6 +147,29 @@ def test_box_shapes_with_the_true_camera_height_are_tight():
     assert cue is not None and cue.f_px == pytest.approx(721.0, rel=0.03)
 
 
+def test_published_car_proportions_bracket_the_focal_length():
+    """Cars shaped as KITTI's mean (3.88 x 1.63 x 1.53 m) and as nuScenes' (4.61 x 1.95 x 1.72 m)
+    fall either side of the true f when the cue assumes their geometric mean
+    (``shape_car_size_m``), each within its stated spread; the class table's flatter car
+    (4.2 x 1.8 x 1.5 m) reads both long, KITTI's by more than 30 %."""
+    p = CameraParams()
+    place = [(-4, 12), (3.5, 15), (-3, 25), (6, 20), (0.5, 30), (-7, 18)]
+    for f_true, h_true in ((721.0, 1.65), (1100.0, 1.3)):
+        ratios = {}
+        for name, size in (("kitti", (3.88, 1.63, 1.53)), ("nuscenes", (4.61, 1.95, 1.72))):
+            seen = _kitti_boxes(f_true, h_true, place, size=size)
+            for assumed in ("published", "table"):
+                car = p.shape_car_size_m if assumed == "published" else (4.2, 1.8, 1.5)
+                shapes = BoxShapes(seen.box_px, np.tile(car, (len(seen), 1)), seen.height_std_m)
+                cue = box_shape_cue(W, H, shapes, params=p)
+                assert cue is not None
+                ratios[name, assumed] = cue.f_px / f_true
+                if assumed == "published":
+                    assert abs(np.log(ratios[name, assumed])) < cue.sigma_log
+        assert ratios["kitti", "published"] > 1.0 > ratios["nuscenes", "published"]
+        assert ratios["kitti", "table"] > 1.3 and ratios["nuscenes", "table"] > 1.1
+
+
 def test_box_shapes_need_two_vehicles():
     assert box_shape_cue(W, H, _kitti_boxes(721.0, 1.65, [(-4, 12)])) is None
 

@@ -21,15 +21,25 @@ from usdworld.parameters.camera import CameraParams
 from usdworld.perception.objects import ImageObject
 
 
-def box_shapes(objects: Sequence[ImageObject], table: ClassTable, width: int, height: int) -> BoxShapes:
+#: The class whose size the box-shape cue takes from ``CameraParams.shape_car_size_m``.
+CAR_CLASS = "car"
+
+
+def box_shapes(
+    objects: Sequence[ImageObject], table: ClassTable, width: int, height: int, params: CameraParams
+) -> BoxShapes:
     """Vehicles usable by the box-shape cue: classes aligned with the road and of rigid height,
     whose box touches no image border and whose bottom is neither cut nor hidden.
+
+    Sizes are the class table's, except a car's: ``params.shape_car_size_m`` (published
+    proportions; the table's car is sized for the camera-height fit).
 
     Args:
         objects: the image objects.
         table: the class table (sizes and height spreads).
         width: image width, pixels.
         height: image height, pixels.
+        params: the car's size for this cue.
     """
     rows, sizes, stds = [], [], []
     for o in objects:
@@ -40,7 +50,7 @@ def box_shapes(objects: Sequence[ImageObject], table: ClassTable, width: int, he
         if o.top_truncated or o.bottom_truncated or o.bottom_occluded or x0 <= 0 or x1 >= width or y1 >= height:
             continue
         rows.append((x0, y0, x1, y1))
-        sizes.append(prior.size_m)
+        sizes.append(params.shape_car_size_m if o.class_name == CAR_CLASS else prior.size_m)
         stds.append(prior.height_std_m)
     return BoxShapes(
         np.array(rows, dtype=np.float64).reshape(-1, 4),
@@ -80,7 +90,7 @@ def estimate_focal(
         cues.append(vp)
     horizon = horizon_measurement(street, prior.f_px, params) if street is not None else None
     shape = box_shape_cue(
-        width, height, box_shapes(objects, table, width, height), street.u if street else None, horizon, params
+        width, height, box_shapes(objects, table, width, height, params), street.u if street else None, horizon, params
     )
     if shape is not None:
         cues.append(shape)

@@ -198,6 +198,41 @@ class CameraParams:
         "Segments within this of the image vertical may belong to upright structure (the vertical vanishing point).",
         "geometry: a camera pitched or rolled by up to about 15 deg tilts verticals off the image's by less than this",
     )
+    segment_end_noise_px: float = param(
+        1.0,
+        "px",
+        "Standard error of a line segment's endpoint across the segment, in the lateral vanishing point's "
+        "likelihood (a 40 px segment's direction is then known to about 2 deg).",
+        "convention: about one pixel of edge localisation at the detection scale (LSD's gradients use 2 x 2 "
+        "pixel neighbourhoods; von Gioi et al. 2012, IPOL)",
+    )
+    lateral_max_slant_deg: float = param(
+        30.0,
+        "deg",
+        "Segments within this of the image horizontal (and not pointing at the street's vanishing point) may "
+        "run across the street (crossings, stop lines, side-street kerbs, car rears, window rows): the lateral "
+        "vanishing point's candidates.",
+        "geometry: lines across the street 3 m above or below the camera, 5-20 m ahead and up to 10 m to "
+        "either side slant by at most 17 deg in a camera turned 30 deg off the street; the margin is for "
+        "pitch, roll and wider lenses",
+    )
+    lateral_direction_std_deg: float = param(
+        8.0,
+        "deg",
+        "Spread of the direction of lines across the street around square to it (crossings and side streets "
+        "at an angle, cars turned in their lane); it enters the lateral focal cue's spread.",
+        "convention: as shape_yaw_std_deg, the spread of a vehicle's heading around the street's",
+    )
+    roll_prior_std_deg: float = param(
+        3.0,
+        "deg",
+        "Prior spread of the camera roll around level, a nuisance of the lateral vanishing point's focal cue.",
+        "convention: as the pitch prior (a vehicle or hand-held camera held about level)",
+    )
+    lateral_roll_steps: int = param(
+        25, "count", "Rolls searched by the lateral focal cue (evenly over three prior sigmas each side).",
+        "convention: resolution only (0.75 deg steps)",
+    )
     vertical_bootstrap: int = param(
         40, "count", "Bootstrap resamples of the vanishing points' inliers for the focal length's spread.",
         "convention: resolution only",

@@ -15,7 +15,12 @@ from usdworld.geometry.focal import (
     principal_point,
     prior_cue,
 )
-from usdworld.geometry.vanishing import VanishingPoint, find_vertical_vanishing_point, vanishing_focal_cue
+from usdworld.geometry.vanishing import (
+    VanishingPoint,
+    find_vertical_vanishing_point,
+    principal_point_f2_sigma,
+    vanishing_focal_cue,
+)
 from usdworld.parameters.camera import CameraParams
 
 W, H = 1242, 375
@@ -66,6 +71,47 @@ def test_street_and_vertical_lines_give_f_back():
     assert cue.sigma_log < 0.5
 
 
+def _street_and_poles(pitch_deg: float, f_true: float = 900.0, w: int = 1280, h: int = 720):
+    """Kerb-like lines along a street and poles seen by a camera pitched down ``pitch_deg``, yawed 5 deg."""
+    R = _rotation(np.radians(pitch_deg), np.radians(5.0))
+    segments = []
+    for x in (-6.0, -3.0, 3.0, 6.0, -9.0, 9.0):
+        for y in (1.5, -2.0):
+            a, b = _project(np.array([[x, y, 8.0], [x, y, 30.0]]), f_true, R, w, h)
+            segments.append([*a, *b])
+    for x, z in [(-5, 10), (5, 12), (-7, 20), (7, 25), (-4, 15), (4, 18), (-8, 30), (8, 35), (-6, 40), (6, 45)]:
+        a, b = _project(np.array([[x, 1.5, z], [x, -4.0, z]]), f_true, R, w, h)
+        segments.append([*a, *b])
+    street_dir = R @ np.array([0.0, 0.0, 1.0])
+    vp = principal_point(w, h) + f_true * street_dir[:2] / street_dir[2]
+    return VanishingPoint(float(vp[0]), float(vp[1]), 0.5, 12, 12), np.array(segments)
+
+
+def test_principal_point_spread_of_f2_known_answer():
+    """The gradient of f^2 in c is (v1 - c) + (v2 - c): its norm times the spread per axis."""
+    c, diag = np.array([600.0, 200.0]), 1000.0
+    p = CameraParams(principal_point_sigma_fraction=0.01)
+    got = principal_point_f2_sigma(c + [30.0, 0.0], c + [0.0, -40.0], c, diag, p)
+    assert got == pytest.approx(50.0 * 10.0)
+    # symmetric in the two points, and zero for points symmetric about the centre
+    assert principal_point_f2_sigma(c + [0.0, -40.0], c + [30.0, 0.0], c, diag, p) == pytest.approx(got)
+    assert principal_point_f2_sigma(c + [300.0, 0.0], c - [300.0, 0.0], c, diag, p) == pytest.approx(0.0)
+
+
+def test_a_nearly_level_camera_makes_the_vanishing_point_cue_weak():
+    """f comes back exactly at any pitch, but the unknown principal point (1.4 % of the
+    diagonal) moves f^2 by the far vertical point's lever arm: at 1 deg of pitch the cue is
+    weaker than the prior (0.3), at 8 deg it is a measurement (and the spread falls with pitch)."""
+    sigmas = []
+    for pitch in (1.0, 3.0, 8.0):
+        street, segments = _street_and_poles(pitch)
+        cue = vanishing_focal_cue(street, segments, 1280, 720, CameraParams())
+        assert cue is not None and cue.f_px == pytest.approx(900.0, rel=1e-6)
+        sigmas.append(cue.sigma_log)
+    assert sigmas[0] > 0.6 and sigmas[2] < 0.15
+    assert sigmas == sorted(sigmas, reverse=True)
+
+
 def _kitti_boxes(f: float, cam_h: float, placements, size=(4.2, 1.8, 1.5)) -> BoxShapes:
     c = principal_point(W, H)
     boxes = []
@@ -99,6 +145,29 @@ def test_box_shapes_with_the_true_camera_height_are_tight():
     shapes = _kitti_boxes(721.0, 1.65, [(-4, 12), (3.5, 15), (-3, 25), (6, 20), (0.5, 30), (-7, 18)])
     cue = box_shape_cue(W, H, shapes, params=params)
     assert cue is not None and cue.f_px == pytest.approx(721.0, rel=0.03)
+
+
+def test_published_car_proportions_bracket_the_focal_length():
+    """Cars shaped as KITTI's mean (3.88 x 1.63 x 1.53 m) and as nuScenes' (4.61 x 1.95 x 1.72 m)
+    fall either side of the true f when the cue assumes their geometric mean
+    (``shape_car_size_m``), each within its stated spread; the class table's flatter car
+    (4.2 x 1.8 x 1.5 m) reads both long, KITTI's by more than 30 %."""
+    p = CameraParams()
+    place = [(-4, 12), (3.5, 15), (-3, 25), (6, 20), (0.5, 30), (-7, 18)]
+    for f_true, h_true in ((721.0, 1.65), (1100.0, 1.3)):
+        ratios = {}
+        for name, size in (("kitti", (3.88, 1.63, 1.53)), ("nuscenes", (4.61, 1.95, 1.72))):
+            seen = _kitti_boxes(f_true, h_true, place, size=size)
+            for assumed in ("published", "table"):
+                car = p.shape_car_size_m if assumed == "published" else (4.2, 1.8, 1.5)
+                shapes = BoxShapes(seen.box_px, np.tile(car, (len(seen), 1)), seen.height_std_m)
+                cue = box_shape_cue(W, H, shapes, params=p)
+                assert cue is not None
+                ratios[name, assumed] = cue.f_px / f_true
+                if assumed == "published":
+                    assert abs(np.log(ratios[name, assumed])) < cue.sigma_log
+        assert ratios["kitti", "published"] > 1.0 > ratios["nuscenes", "published"]
+        assert ratios["kitti", "table"] > 1.3 and ratios["nuscenes", "table"] > 1.1
 
 
 def test_box_shapes_need_two_vehicles():

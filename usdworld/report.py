@@ -17,7 +17,8 @@ from usdworld.parameters import Parameters
 
 
 def _focal_entry(focal) -> dict | None:
-    """How the focal length was estimated (every cue, used or dropped), or None when K was given."""
+    """How the focal length was estimated (every cue, used or dropped, and the pitch and roll the
+    vanishing points imply, reported but not used by the camera fit), or None when K was given."""
     if focal is None:
         return None
 
@@ -29,6 +30,14 @@ def _focal_entry(focal) -> dict | None:
         "sigma_log": _num(focal.sigma_log),
         "used": [cue(c) for c in focal.used],
         "dropped": [cue(c) for c in focal.dropped],
+        "tilt": None
+        if focal.tilt is None
+        else {
+            "pitch_deg": _num(float(np.degrees(focal.tilt[0]))),
+            "roll_deg": _num(float(np.degrees(focal.tilt[1]))),
+            "source": focal.tilt_source,
+            "used": False,
+        },
     }
 
 

@@ -67,12 +67,18 @@ class FocalEstimate:
         sigma_log: standard error of ``log f`` (about the relative error).
         used: the cues fused.
         dropped: the cues dropped as inconsistent with the others.
+        tilt: (pitch, roll) radians the vanishing points imply at ``f_px``
+            (:func:`usdworld.geometry.lateral.tilt_from_vanishing_points`), or None; reported,
+            not used by the camera fit.
+        tilt_source: which vanishing points gave the tilt, one phrase.
     """
 
     f_px: float
     sigma_log: float
     used: tuple[FocalCue, ...]
     dropped: tuple[FocalCue, ...] = ()
+    tilt: tuple[float, float] | None = None
+    tilt_source: str = ""
 
     @property
     def sources(self) -> tuple[str, ...]:
@@ -86,6 +92,12 @@ class FocalEstimate:
         )
         if self.dropped:
             text += "; dropped as inconsistent: " + "; ".join(c.describe() for c in self.dropped)
+        if self.tilt is not None:
+            source = self.tilt_source or "the vanishing points"
+            text += (
+                f"; tilt from {source}: pitch {np.degrees(self.tilt[0]):.1f} deg, "
+                f"roll {np.degrees(self.tilt[1]):.1f} deg (reported, not used)"
+            )
         return text
 
 

@@ -299,6 +299,27 @@ def find_vertical_vanishing_point(
     return VerticalVanishingPoint(best, seg[inliers])
 
 
+def principal_point_f2_sigma(
+    vp1_px: np.ndarray, vp2_px: np.ndarray, center_px: np.ndarray, diagonal_px: float, params: CameraParams = DEFAULT_CAMERA
+) -> float:
+    """Standard error of ``f^2 = -(v1 - c) . (v2 - c)`` from the unknown principal point, pixels^2.
+
+    The gradient of ``f^2`` in ``c`` is ``(v1 - c) + (v2 - c)``; with an isotropic spread
+    ``params.principal_point_sigma_fraction * diagonal_px`` per axis the error is its norm
+    times that spread. A level camera looking along the street puts one point near the
+    centre and the other far away: the far one's lever arm makes the pair weak, as it is.
+
+    Args:
+        vp1_px: (2,) float64 first vanishing point, pixels.
+        vp2_px: (2,) float64 second, pixels.
+        center_px: (2,) float64 assumed principal point (the image centre), pixels.
+        diagonal_px: image diagonal, pixels.
+        params: the principal point's spread.
+    """
+    grad = (np.asarray(vp1_px) - center_px) + (np.asarray(vp2_px) - center_px)
+    return float(np.linalg.norm(grad)) * params.principal_point_sigma_fraction * diagonal_px
+
+
 def vanishing_focal_cue(
     street: VanishingPoint | None,
     segments: np.ndarray,
@@ -314,7 +335,8 @@ def vanishing_focal_cue(
     centre). The spread adds a bootstrap over the vertical's inliers
     (``params.vertical_bootstrap`` resamples) and the street point's row error, which
     includes ``params.road_slope_sigma_deg`` of road slope (a sloped street is not
-    orthogonal to the vertical). A nearly level camera puts the vertical point near
+    orthogonal to the vertical), and the unknown principal point
+    (:func:`principal_point_f2_sigma`). A nearly level camera puts the vertical point near
     infinity and the street point near the centre's row: the cue is then weak, and says so.
 
     Args:
@@ -354,7 +376,8 @@ def vanishing_focal_cue(
     sigma_f2_vert = float(np.std(f2s_arr[f2s_arr > 0]))
     slope_px = f * np.tan(np.radians(params.road_slope_sigma_deg))
     sigma_f2_street = abs(p_vert[1] - c[1]) * float(np.hypot(street.sigma_v_px, slope_px))
-    sigma = 0.5 * float(np.hypot(sigma_f2_vert, sigma_f2_street)) / f**2
+    sigma_f2_pp = principal_point_f2_sigma(p_street, p_vert, c, scale, params)
+    sigma = 0.5 * float(np.sqrt(sigma_f2_vert**2 + sigma_f2_street**2 + sigma_f2_pp**2)) / f**2
     sigma = max(sigma, params.focal_min_sigma_log)
     return FocalCue(
         "vanishing_points",

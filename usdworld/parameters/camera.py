@@ -182,11 +182,56 @@ class CameraParams:
         "A photo's cue less certain than this (x2.7 either way) is not a measurement and is left out.",
         "convention: weaker than the prior by a factor of three",
     )
+    principal_point_sigma_fraction: float = param(
+        0.014,
+        "fraction of the image diagonal",
+        "Spread, per axis, of the true principal point around the image centre that every build without "
+        "intrinsics assumes; it enters the vanishing-point focal cue's spread "
+        "(f^2 = -(v1 - c).(v2 - c) moves by (v1 + v2 - 2c).dc).",
+        "published: the root mean square of the principal-point offsets of KITTI P2 (11.4, 14.6 px of a "
+        "1297 px diagonal: 0.9 %, 1.1 %; Geiger et al. 2013) and nuScenes CAM_FRONT (16.3, 41.5 px of "
+        "1836 px: 0.9 %, 2.3 %; Caesar et al. 2020) calibrations",
+    )
     vertical_max_tilt_deg: float = param(
         20.0,
         "deg",
         "Segments within this of the image vertical may belong to upright structure (the vertical vanishing point).",
         "geometry: a camera pitched or rolled by up to about 15 deg tilts verticals off the image's by less than this",
+    )
+    segment_end_noise_px: float = param(
+        1.0,
+        "px",
+        "Standard error of a line segment's endpoint across the segment, in the lateral vanishing point's "
+        "likelihood (a 40 px segment's direction is then known to about 2 deg).",
+        "convention: about one pixel of edge localisation at the detection scale (LSD's gradients use 2 x 2 "
+        "pixel neighbourhoods; von Gioi et al. 2012, IPOL)",
+    )
+    lateral_max_slant_deg: float = param(
+        30.0,
+        "deg",
+        "Segments within this of the image horizontal (and not pointing at the street's vanishing point) may "
+        "run across the street (crossings, stop lines, side-street kerbs, car rears, window rows): the lateral "
+        "vanishing point's candidates.",
+        "geometry: lines across the street 3 m above or below the camera, 5-20 m ahead and up to 10 m to "
+        "either side slant by at most 17 deg in a camera turned 30 deg off the street; the margin is for "
+        "pitch, roll and wider lenses",
+    )
+    lateral_direction_std_deg: float = param(
+        8.0,
+        "deg",
+        "Spread of the direction of lines across the street around square to it (crossings and side streets "
+        "at an angle, cars turned in their lane); it enters the lateral focal cue's spread.",
+        "convention: as shape_yaw_std_deg, the spread of a vehicle's heading around the street's",
+    )
+    roll_prior_std_deg: float = param(
+        3.0,
+        "deg",
+        "Prior spread of the camera roll around level, a nuisance of the lateral vanishing point's focal cue.",
+        "convention: as the pitch prior (a vehicle or hand-held camera held about level)",
+    )
+    lateral_roll_steps: int = param(
+        25, "count", "Rolls searched by the lateral focal cue (evenly over three prior sigmas each side).",
+        "convention: resolution only (0.75 deg steps)",
     )
     vertical_bootstrap: int = param(
         40, "count", "Bootstrap resamples of the vanishing points' inliers for the focal length's spread.",
@@ -197,6 +242,18 @@ class CameraParams:
         "fraction",
         "Relative spread of a vehicle's length and width around its class size (the object-shape focal cue).",
         "published: KITTI car length 3.88 +- 0.43 m, width 1.63 +- 0.10 m (Geiger et al. 2012 label statistics)",
+    )
+    shape_car_size_m: tuple[float, float, float] = param(
+        (4.23, 1.78, 1.62),
+        "m",
+        "Length, width and height of a car in the object-shape focal cue. Only the proportions move the "
+        "focal length (a car scaled as a whole fits the same f with another camera height); the class "
+        "table's car (4.2 x 1.8 x 1.5 m, its height chosen for the camera-height fit) is flatter than "
+        "any published car mean (width/height 1.20 and length/height 2.80 against 1.07-1.13 and "
+        "2.54-2.68) and so reads the focal length long.",
+        "published: geometric mean of the KITTI Car label mean 3.88 x 1.63 x 1.53 m (g_type_mean_size, "
+        "Qi et al. 2018, Frustum PointNets) and the nuScenes car mean 4.61 x 1.95 x 1.72 m "
+        "(mmdetection3d's nuScenes anchor sizes)",
     )
     shape_yaw_std_deg: float = param(
         8.0,

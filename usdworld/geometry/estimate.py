@@ -6,7 +6,8 @@ standing on the ground whose bottom is at row ``v_b`` and top at ``v_t`` has, fo
 camera at height ``h`` pitched by ``theta``, a predicted top row that depends only on
 ``(h, theta)`` and its metric height. The posterior over ``(h, theta)`` combines robust
 (Cauchy) image residuals of every usable object with Gaussian priors on the height and
-pitch of a vehicle-mounted camera; a coarse-to-fine grid search finds its mode, and the
+pitch of a vehicle-mounted camera (or, when a road plane was given, on the plane's height and
+pitch: :class:`PosePrior`); a coarse-to-fine grid search finds its mode, and the
 estimate is the posterior mean (and spread) summed on a fine grid round it, which a few
 objects' long valleys and the cusps of roofs at camera height do not throw off as they
 do the mode (measured on the 10 KITTI frames: median depth error 4.5 % with the mode,

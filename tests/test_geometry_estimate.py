@@ -153,3 +153,38 @@ def test_up_to_the_cap_every_object_is_used_unchanged():
     assert len(sub) == 7 and keep == sorted(keep)
     # The nearest and the farthest object are both in: the subset spans the rows.
     assert sub.v_bottom.max() == obs.v_bottom.max() and sub.v_bottom.min() == obs.v_bottom.min()
+
+
+def test_a_measured_pose_is_a_prior_the_objects_correct():
+    """A road plane's height and pitch are fused with the objects, not fixed: objects of a
+    camera 1.65 m up and pitched 1 deg pull a plane's 1.85 m / 1.6 deg towards them."""
+    from usdworld.geometry.estimate import PosePrior
+
+    true = PinholeCamera(1240, 375, K, 1.65, pitch=np.radians(1.0))
+    centres = np.array([[x, y] for x in (8.0, 12.0, 16.0, 20.0, 25.0, 30.0, 38.0, 45.0) for y in (-3.0, 3.0)])
+    obs = _car_boxes(true, centres, (3.9, 1.6, 1.5))
+    prior = PosePrior(1.85, 0.14, np.radians(1.6), np.radians(0.573))
+    est = estimate_camera(1240, 375, K, None, None, 0.0, 0.0, obs, pose_prior=prior)
+    assert abs(est.camera.height_m - 1.65) < 0.25 * (1.85 - 1.65)
+    assert abs(est.camera.pitch - np.radians(1.0)) < 0.25 * np.radians(0.6)
+    assert 0 < est.sigma_height_m < 0.14 and 0 < est.sigma_pitch < np.radians(0.573)
+    assert "road plane" in est.method
+    # Without objects the prior is the answer, with its own spread.
+    empty = HeightObservations(*(np.zeros(0) for _ in range(5)))
+    alone = estimate_camera(1240, 375, K, None, None, 0.0, 0.0, empty, pose_prior=prior)
+    assert alone.camera.height_m == pytest.approx(1.85, abs=0.005)
+    assert alone.camera.pitch == pytest.approx(np.radians(1.6), abs=np.radians(0.01))
+    assert alone.sigma_height_m == pytest.approx(0.14, rel=0.05)
+    assert "nothing to go on" not in alone.method
+
+
+def test_a_pose_prior_needs_a_free_height_and_pitch_and_positive_spreads():
+    from usdworld.errors import CalibrationError
+    from usdworld.geometry.estimate import PosePrior
+
+    empty = HeightObservations(*(np.zeros(0) for _ in range(5)))
+    prior = PosePrior(1.65, 0.14, 0.01, 0.01)
+    with pytest.raises(CalibrationError, match="pose prior"):
+        estimate_camera(1240, 375, K, 1.65, None, 0.0, 0.0, empty, pose_prior=prior)
+    with pytest.raises(CalibrationError, match="sigmas must be > 0"):
+        PosePrior(1.65, 0.0, 0.01, 0.01)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import shutil
 import tempfile
 from dataclasses import dataclass, field
@@ -32,7 +33,7 @@ from usdworld.authoring.world import ROOT_LAYER, write_world
 from usdworld.depth_stage import DepthOutcome, estimate_depth
 from usdworld.errors import InputError, OutputError
 from usdworld.geometry.camera import PinholeCamera, ground_correspondences
-from usdworld.geometry.estimate import CameraEstimate, estimate_camera
+from usdworld.geometry.estimate import CameraEstimate, PosePrior, estimate_camera
 from usdworld.geometry.focal import FocalEstimate
 from usdworld.geometry.homography import HomographyFit, estimate_homography
 from usdworld.geometry.vanishing import VanishingPoint, detect_segments, find_vanishing_point
@@ -83,7 +84,8 @@ class BuildRequest:
         polygons: Cityscapes ``*_gtFine_polygons.json`` (instead of labels/instances).
         detections: KITTI ``label_2`` text or a detections JSON.
         camera: Cityscapes camera JSON, KITTI calib, or a plain camera JSON.
-        ground_plane: KITTI ``planes`` file (road plane) for the camera's height and pitch.
+        ground_plane: KITTI ``planes`` file (road plane): the camera's roll, and a prior on its
+            height and pitch that the objects refine (:class:`~usdworld.geometry.estimate.PosePrior`).
         correspondences: manual pixel <-> ground pairs (JSON or CSV).
         depth_map: dense metric depth (npy, 16-bit PNG metres*256, PFM); implies ``depth="file"``.
         depth: depth backend: ``ground`` (no dense map), ``file``, ``monodepth``,
@@ -242,10 +244,23 @@ def _camera(
     params: Parameters,
     focal: FocalEstimate | None = None,
 ) -> CameraEstimate:
+    pose_prior = None
     if spec is None:
         spec_values: tuple = (None, None, None, None, None)
     else:
         spec_values = (spec.K, spec.height_m, spec.pitch, spec.roll, spec.yaw)
+        if spec.height_m is not None and spec.pitch is not None and any(
+            f.role == "ground_plane" for f in spec.extra_files
+        ):
+            # A road plane is fitted round the car; the road under the objects ahead is not that
+            # plane: it is a measurement of height and pitch, fused with the objects.
+            pose_prior = PosePrior(
+                spec.height_m,
+                params.camera.plane_height_sigma_m,
+                spec.pitch,
+                math.radians(params.camera.plane_pitch_sigma_deg),
+            )
+            spec_values = (spec.K, None, None, spec.roll, spec.yaw)
     return estimate_camera(
         image.width,
         image.height,
@@ -255,6 +270,7 @@ def _camera(
         vanishing=vanishing,  # the photo's own lines measure the horizon when the pitch is not given
         params=params.camera,
         focal=focal,
+        pose_prior=pose_prior,
     )
 
 

@@ -40,7 +40,7 @@ def batch(
         None, "--split", help="Cityscapes split to build (repeatable; default: every split)."
     ),
     ground_plane: bool = typer.Option(
-        False, "--ground-plane", help="KITTI: use planes/<id>.txt for camera height and pitch."
+        False, "--ground-plane", help="KITTI: use planes/<id>.txt for roll and a prior on height and pitch."
     ),
     workers: int = typer.Option(
         1, "--workers", "-j", help="Local worker processes; 1 builds in this process."

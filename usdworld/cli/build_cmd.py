@@ -21,7 +21,7 @@ def build(
     polygons: Optional[Path] = typer.Option(None, "--polygons", help="Cityscapes *_gtFine_polygons.json (instead of --labels)."),
     detections: Optional[Path] = typer.Option(None, "--detections", help="KITTI label_2 .txt or a detections .json."),
     camera: Optional[Path] = typer.Option(None, "--camera", help="Cityscapes camera JSON, KITTI calib .txt, plain camera JSON or INFO.json#CAM_FRONT (mmdetection3d info)."),
-    ground_plane: Optional[Path] = typer.Option(None, "--ground-plane", help="KITTI planes file (road plane) for height and pitch."),
+    ground_plane: Optional[Path] = typer.Option(None, "--ground-plane", help="KITTI planes file (road plane): roll, and a prior on height and pitch."),
     ground_points: Optional[Path] = typer.Option(None, "--ground-points", help="Manual pixel <-> ground pairs (JSON or CSV, >= 4)."),
     depth: DepthBackendName = typer.Option(DepthBackendName.ground, "--depth", help="Depth backend."),
     depth_weights: Optional[Path] = typer.Option(None, "--depth-weights", help="Weights file/folder of a network backend."),

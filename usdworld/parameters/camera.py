@@ -45,6 +45,25 @@ class CameraParams:
     pitch_prior_std_deg: float = param(
         3.0, "deg", "Prior spread of the camera pitch around level.", "convention: a forward-looking vehicle camera"
     )
+    plane_height_sigma_m: float = param(
+        0.14,
+        "m",
+        "Uncertainty of the camera height a given road plane (a KITTI planes file) says, as a statement "
+        "about the road under the objects: the plane is fitted round the car, and the road one or two "
+        "lanes over lies higher or lower across its crossfall. The plane is a Gaussian prior on the "
+        "height, fused with the objects' top rows (geometry.estimate.PosePrior), not a fixed height.",
+        "published: road crossfall 1.5-2.5 % (AASHTO, A Policy on Geometric Design of Highways and "
+        "Streets, 2018, sec. 4.2.2): 2 % across two 3.5 m lanes",
+    )
+    plane_pitch_sigma_deg: float = param(
+        0.573,
+        "deg",
+        "Uncertainty of the pitch a given road plane says, as a statement about the road under the "
+        "objects ahead: a road may change grade without a vertical curve, which the plane fitted round "
+        "the car does not see (fused as plane_height_sigma_m).",
+        "published: grade changes of up to 1 % without a vertical curve at design speeds up to 45 mph "
+        "(TxDOT Roadway Design Manual, sec. 4.8.3): atan(0.01)",
+    )
     edge_noise_px: float = param(
         1.5,
         "px",

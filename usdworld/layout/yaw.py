@@ -158,28 +158,46 @@ def view_angle_from_box(box_w_px: float, box_h_px: float, size_lwh: tuple[float,
     return float(np.clip(peak - np.arccos(np.clip(across / radius, -1.0, 1.0)), 0.0, np.pi / 2))
 
 
-def yaw_from_view_angle(view_angle: float, bearing: float, road_yaw: float) -> float:
-    """The yaw ``bearing +- view_angle`` (either way round) closest to ``road_yaw``.
+def line_from_view_angles(
+    view_angles: tuple[float, ...], bearing: float, axis_angle: float
+) -> tuple[float, bool]:
+    """The line (yaw modulo pi) a box's turns allow that lies nearest the road or across it.
 
-    The box's aspect says how far the object is turned from the line of sight but not to
-    which side, nor which way it faces: the candidate nearest to the road's yaw is kept,
-    facing the way the road's yaw faces.
+    A box's aspect gives the turn from the line of sight, to either side (``bearing +-
+    angle``), and near the aspect's peak two turns (:func:`usdworld.layout.boxes.fit_view_angles`).
+    Vehicles move along the road or, at a crossing, across it, and streets meet at about
+    right angles: of the candidate lines the one nearest the road axis or its
+    perpendicular is kept; on a tie, along the road.
 
     Args:
-        view_angle: in [0, pi/2] radians (:func:`view_angle_from_box`).
+        view_angles: one or more turns in [0, pi/2] radians.
         bearing: world yaw of the line of sight to the object, radians.
-        road_yaw: the yaw the road gives (:func:`choose_yaw`), radians.
+        axis_angle: the road axis's yaw, radians.
 
     Returns:
-        Yaw in radians, wrapped to (-pi, pi].
+        (the line's yaw in radians, wrapped to (-pi, pi], which way along it not decided;
+        whether it is across the road: nearer the axis's perpendicular than the axis).
+
+    Example:
+        >>> line, across = line_from_view_angles((np.radians(68.0),), np.radians(-25.0), 0.0)
+        >>> round(float(np.degrees(line)), 1), across
+        (-93.0, True)
     """
-    best = None
-    for candidate in (bearing + view_angle, bearing - view_angle, bearing + view_angle + np.pi, bearing - view_angle + np.pi):
-        gap = abs(_wrap(candidate - road_yaw))
-        if best is None or gap < best[0]:
-            best = (gap, candidate)
+    best: tuple[float, bool, float] | None = None
+    for angle in view_angles:
+        for candidate in (bearing + angle, bearing - angle):
+            off = abs(_wrap(2.0 * (candidate - axis_angle))) / 2.0  # from the axis, modulo pi: [0, pi/2]
+            across = off > 0.25 * np.pi
+            gap = 0.5 * np.pi - off if across else off
+            if best is None or (gap, across) < (best[0], best[1]):
+                best = (gap, across, candidate)
     assert best is not None
-    return _wrap(best[1])
+    return _wrap(best[2]), best[1]
+
+
+def facing(line: float, towards: float) -> float:
+    """``line`` or ``line + pi``, whichever is nearer the yaw ``towards`` (radians, wrapped)."""
+    return _wrap(line) if abs(_wrap(line - towards)) <= 0.5 * np.pi else _wrap(line + np.pi)
 
 
 def _wrap(angle: float) -> float:

@@ -117,3 +117,15 @@ def test_a_seen_road_region_keeps_its_centre_line():
     objects = _cars([((30.0, LANE), 0.0), ((45.0, 3.0 * LANE), np.pi), ((25.0, -LANE), 0.0)])
     placed = _place(objects, "road_region")
     assert _faces_camera(placed[0].yaw) and "vehicle_span" not in placed[0].yaw_source
+
+
+def test_the_axis_says_what_gave_its_centre_line():
+    from usdworld.layout.yaw import road_axis
+
+    pts = np.column_stack([np.linspace(5, 40, 200), np.where(np.arange(200) % 2, 4.0, -6.0)])
+    assert road_axis(pts, vanishing_angle=0.02).center_source == "road_region"
+    assert road_axis(pts).center_source == "road_region"
+    assert road_axis(None, vanishing_angle=0.02).center_source == "camera"
+    assert road_axis(None).center_source == "camera"
+    with pytest.raises(ValueError, match="center_source"):
+        RoadAxis(0.0, np.zeros(2), "camera_forward", "right", "kerb")

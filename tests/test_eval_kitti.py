@@ -73,3 +73,14 @@ def test_no_camera_and_planes_on_kitti(shared_data, tmp_path):
     summary = eval_kitti.summarise(rows)
     assert set(summary["per_frame"]) == {"000008"} and "vehicle_heading_within_30" in summary
     json.dumps(summary)
+
+
+@pytest.mark.shared_data
+def test_traffic_side_is_passed_to_the_build(shared_data, tmp_path):
+    # nuScenes' front frame is from Singapore (left-hand traffic): the truck parked on the
+    # left kerb (label 8) faces away from the camera with the traffic there.
+    data = shared_data / "nuscenes" / "kitti_format"
+    left, _ = eval_kitti.evaluate_frame("nus_front", data, False, tmp_path, traffic="left")
+    right, _ = eval_kitti.evaluate_frame("nus_front", data, False, tmp_path / "r", traffic="right")
+    assert left[8]["type"] == "Truck" and left[8]["yaw_error_deg"] < 30.0
+    assert right[8]["yaw_error_deg"] > 150.0

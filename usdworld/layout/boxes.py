@@ -118,12 +118,8 @@ def fit_view_angle(
     Returns:
         The angle in [0, pi/2] radians.
     """
-    turns = fit_view_angles(camera, ground, size_lwh, obj, params)
-    if len(turns) == 1:
-        return turns[0]
-    angles_deg, curve = _aspect_curve(camera, ground, size_lwh, params.view_angle_step_deg)
-    assert curve is not None  # two turns come from a curve
-    return float(np.radians(angles_deg[int(np.argmax(curve))]))
+    turns, peak = _fit_turns(camera, ground, size_lwh, obj, params)
+    return turns[0] if len(turns) == 1 else peak
 
 
 def fit_view_angles(
@@ -146,20 +142,29 @@ def fit_view_angles(
     Returns:
         One or two angles in [0, pi/2] radians, the rising slope's first.
     """
+    return _fit_turns(camera, ground, size_lwh, obj, params)[0]
+
+
+def _fit_turns(
+    camera: PinholeCamera, ground: np.ndarray, size_lwh: np.ndarray, obj: ImageObject, params: PlacementParams
+) -> tuple[tuple[float, ...], float]:
+    """(:func:`fit_view_angles`'s turns, the turn of the aspect's peak in radians)."""
     x0, y0, x1, y1 = (float(b) for b in obj.box_px)
     observed = (x1 - x0) / (y1 - y0)
     angles_deg, curve = _aspect_curve(camera, ground, size_lwh, params.view_angle_step_deg)
     if curve is None:
-        return (float(view_angle_from_box(x1 - x0, y1 - y0, tuple(size_lwh))),)
+        flat = float(view_angle_from_box(x1 - x0, y1 - y0, tuple(size_lwh)))
+        return (flat,), flat
     peak = int(np.argmax(curve))
+    peak_turn = float(np.radians(angles_deg[peak]))
     if observed <= curve[0]:
-        return (0.0,)
+        return (0.0,), peak_turn
     if observed >= curve[peak]:
-        return (float(np.radians(angles_deg[peak])),)
-    rising = _crossing(angles_deg[: peak + 1], curve[: peak + 1], observed)
+        return (peak_turn,), peak_turn
+    rising = _reaches(angles_deg[: peak + 1], curve[: peak + 1], observed)
     if observed < curve[-1]:
-        return (rising,)
-    return rising, _crossing(angles_deg[peak:][::-1], curve[peak:][::-1], observed)
+        return (rising,), peak_turn
+    return (rising, _reaches(angles_deg[peak:][::-1], curve[peak:][::-1], observed)), peak_turn
 
 
 def _aspect_curve(
@@ -182,7 +187,7 @@ def _aspect_curve(
     return angles_deg, curve if np.isfinite(curve).all() else None
 
 
-def _crossing(angles_deg: np.ndarray, curve: np.ndarray, observed: float) -> float:
+def _reaches(angles_deg: np.ndarray, curve: np.ndarray, observed: float) -> float:
     """The turn, radians, where a rising ``curve`` (K,) over ``angles_deg`` (K,) reaches
     ``observed`` (linear between the turns tried; ``observed`` within the curve's range)."""
     k = int(np.searchsorted(curve, observed))

@@ -89,3 +89,13 @@ def test_the_road_plane_fused_with_the_objects_places_kitti_objects(shared_data,
     errors = np.array([r["rel_depth_error"] for r in rows])
     assert len(errors) == 27
     assert np.median(errors) < 0.05 and np.percentile(errors, 90) < 0.10
+
+
+def test_traffic_side_is_passed_to_the_build(shared_data, tmp_path):
+    # nuScenes' front frame is from Singapore (left-hand traffic): the truck parked on the
+    # left kerb (label 8) faces away from the camera with the traffic there.
+    data = shared_data / "nuscenes" / "kitti_format"
+    left, _ = eval_kitti.evaluate_frame("nus_front", data, False, tmp_path, traffic="left")
+    right, _ = eval_kitti.evaluate_frame("nus_front", data, False, tmp_path / "r", traffic="right")
+    assert left[8]["type"] == "Truck" and left[8]["yaw_error_deg"] < 30.0
+    assert right[8]["yaw_error_deg"] > 150.0

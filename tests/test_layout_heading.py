@@ -2,8 +2,9 @@
 
 Known answers on a synthetic camera 1.65 m above the origin looking along +x and a road
 along +x: a car ahead in the camera's lane moves away, an oncoming car one lane to the
-left (right-hand traffic) faces the camera, ``traffic="left"`` mirrors both, and a
-person on the sidewalk faces along the street.
+left (right-hand traffic) faces the camera, ``traffic="left"`` mirrors both, a car
+crossing ahead moves as on the crossing road's near side, and a person on the sidewalk
+faces along the street.
 """
 
 from __future__ import annotations
@@ -16,7 +17,13 @@ from usdworld.io.class_table import load_class_table
 from usdworld.io.types import Detection, Detections, InputFile
 from usdworld.io.label_table import label_lookups
 from usdworld.layout.boxes import box_corners, object_heading
-from usdworld.layout.heading import Heading, along_road_heading, lateral_offset, traffic_heading
+from usdworld.layout.heading import (
+    Heading,
+    along_road_heading,
+    crossing_heading,
+    lateral_offset,
+    traffic_heading,
+)
 from usdworld.layout.yaw import RoadAxis, heading_for
 from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.objects import objects_from_detections
@@ -153,3 +160,32 @@ def test_box_aspect_keeps_the_side_rule_direction(centre, true_yaw, traffic):
     h = object_heading(prior, centre, _axis(traffic), obj, CAM, PlacementParams())
     assert h.source.startswith("box_aspect_vanishing_point_traffic_")
     assert abs(np.degrees(np.angle(np.exp(1j * (h.yaw - true_yaw))))) < 15.0
+
+
+def test_crossing_traffic_moves_as_on_the_near_side():
+    right, left = crossing_heading(0.1, "right"), crossing_heading(0.1, "left")
+    assert np.degrees(right.yaw) == pytest.approx(np.degrees(0.1) - 90.0)  # left to right
+    assert np.degrees(left.yaw) == pytest.approx(np.degrees(0.1) + 90.0)  # right to left
+    assert right.confidence == left.confidence == 0.5
+    assert right.source == "crossing_traffic_right_near_side"
+    assert left.source == "crossing_traffic_left_near_side"
+    with pytest.raises(InputError):
+        crossing_heading(0.0, "middle")
+
+
+@pytest.mark.parametrize(
+    "centre, traffic",
+    [
+        (np.array([22.0, -9.0]), "right"),  # ahead on the right, crossing left to right
+        (np.array([30.0, 6.0]), "right"),  # ahead on the left
+        (np.array([22.0, -9.0]), "left"),  # left-hand traffic: right to left
+    ],
+)
+def test_a_box_turned_across_the_road_crosses_it(centre, traffic):
+    true_yaw = -np.pi / 2 if traffic == "right" else np.pi / 2
+    obj = _box_object(centre, true_yaw)
+    prior = load_class_table()["car"]
+    h = object_heading(prior, centre, _axis(traffic), obj, CAM, PlacementParams())
+    assert h.source == f"box_aspect_vanishing_point_crossing_traffic_{traffic}_near_side"
+    assert abs(np.degrees(np.angle(np.exp(1j * (h.yaw - true_yaw))))) < 10.0
+    assert h.confidence == 0.5

@@ -1,4 +1,5 @@
-"""Yaw from a box's aspect (layout.yaw.view_angle_from_box / yaw_from_view_angle)."""
+"""Yaw from a box's aspect (layout.yaw.view_angle_from_box, line_from_view_angles and facing;
+layout.boxes.fit_view_angle and fit_view_angles)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,8 @@ from hypothesis import strategies as st
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.label_table import label_lookups
 from usdworld.io.types import Detection, Detections, InputFile
-from usdworld.layout.boxes import box_corners, fit_view_angle
-from usdworld.layout.yaw import view_angle_from_box, yaw_from_view_angle
+from usdworld.layout.boxes import box_corners, fit_view_angle, fit_view_angles
+from usdworld.layout.yaw import facing, line_from_view_angles, view_angle_from_box
 from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.objects import objects_from_detections
 
@@ -72,9 +73,53 @@ def test_camera_free_turn_is_close_far_away_and_short_near():
 def test_candidate_nearest_the_road_and_its_facing():
     bearing = np.radians(10.0)
     # The road runs along +X, with traffic: the turn of 25 degrees goes to the side nearer 0.
-    assert np.degrees(yaw_from_view_angle(np.radians(25.0), bearing, 0.0)) == pytest.approx(-15.0)
+    line, across = line_from_view_angles((np.radians(25.0),), bearing, 0.0)
+    assert np.degrees(facing(line, 0.0)) == pytest.approx(-15.0) and not across
     # Oncoming (road yaw pi): same line, facing the other way.
-    assert np.degrees(yaw_from_view_angle(np.radians(25.0), bearing, np.pi)) == pytest.approx(165.0)
+    assert np.degrees(facing(line, np.pi)) == pytest.approx(165.0)
+
+
+def test_a_turn_across_the_road_gives_the_crossing_line():
+    # Seen 25 degrees right of ahead and turned 68 degrees from the line of sight: -93
+    # degrees lies 3 degrees from across the road, 43 degrees lies 43 from along it.
+    line, across = line_from_view_angles((np.radians(68.0),), np.radians(-25.0), 0.0)
+    assert across and np.degrees(line) == pytest.approx(-93.0)
+    # Exactly half-way (45 degrees either side): along the road.
+    line, across = line_from_view_angles((np.radians(45.0),), 0.0, 0.0)
+    assert not across and abs(np.degrees(line)) == pytest.approx(45.0)
+    # Of two turns, the one that lies along the road wins over one that lies near neither.
+    line, across = line_from_view_angles((np.radians(40.0), np.radians(12.0)), np.radians(10.0), 0.0)
+    assert not across and np.degrees(line) == pytest.approx(-2.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(turn=st.floats(0.0, np.pi / 2), bearing=st.floats(-0.8, 0.8), axis=st.floats(-0.5, 0.5))
+def test_the_line_kept_is_one_the_turn_allows_and_faces_either_way(turn, bearing, axis):
+    line, across = line_from_view_angles((turn,), bearing, axis)
+    off = abs(np.angle(np.exp(2j * (line - bearing)))) / 2  # from the line of sight, modulo pi
+    assert off == pytest.approx(turn, abs=1e-9)
+    from_axis = abs(np.angle(np.exp(2j * (line - axis)))) / 2
+    assert across == (from_axis > np.pi / 4)
+    for towards in (axis, axis + np.pi):
+        assert abs(np.angle(np.exp(1j * (facing(line, towards) - towards)))) <= np.pi / 2 + 1e-12
+
+
+def test_both_slopes_of_an_aspect_past_side_on():
+    # 55 m ahead, a car turned 55 degrees shows a wider box than side on (4.2 sin 55 +
+    # 1.8 cos 55 = 4.47 m against 4.2 m), and so does one turned 80 degrees: the aspect is
+    # met on both slopes, and the true turn is one of the two (fit_view_angle gives the
+    # peak between them, 69 degrees).
+    centre = np.array([55.0, 0.5])
+    bearing = np.arctan2(centre[1], centre[0])
+    for turn_deg in (55.0, 80.0):
+        box = _box(centre, bearing + np.radians(turn_deg), CAR, TELE)
+        dets = Detections((Detection("Car", box, amodal=True),), InputFile("detections", "d.txt", "0" * 64))
+        (obj,) = objects_from_detections(dets, TELE.width, TELE.height, lookups=label_lookups())
+        turns = fit_view_angles(TELE, centre, np.array(CAR), obj, PlacementParams())
+        assert len(turns) == 2 and turns[0] < turns[1]
+        assert min(abs(np.degrees(t) - turn_deg) for t in turns) < 1.5
+        peak = np.degrees(fit_view_angle(TELE, centre, np.array(CAR), obj, PlacementParams()))
+        assert np.degrees(turns[0]) < peak < np.degrees(turns[1])
 
 
 def test_road_axis_takes_the_vanishing_direction_and_refuses_a_crossing():

@@ -28,7 +28,10 @@ focal-length error ``|f_est - f_true| / f_true`` is reported per frame and as a 
 
 Usage::
 
-    python tools/eval_kitti.py [DATA_DIR] [--planes | --no-camera | --level-camera 1.65] [--json]
+    python tools/eval_kitti.py [DATA_DIR] [--planes | --no-camera | --level-camera 1.65] [--traffic left] [--json]
+
+``--traffic`` is the build's: ``left`` for frames from left-hand traffic (nuScenes'
+Singapore logs, ``n015-...+0800``; KITTI and nuScenes' Boston logs drive on the right).
 
 ``DATA_DIR`` defaults to ``$USDWORLD_DATA/kitti/training`` (``../shared/data/kitti/training``
 when ``USDWORLD_DATA`` is unset).
@@ -137,6 +140,7 @@ def evaluate_frame(
     out: Path,
     level_height: float | None = None,
     no_camera: bool = False,
+    traffic: str = "right",
 ) -> tuple[list[dict], dict]:
     """Build one frame and compare each placed object with its label.
 
@@ -158,6 +162,7 @@ def evaluate_frame(
         detections=data / "label_2" / f"{frame}.txt",
         camera=camera_file,
         ground_plane=plane if planes and plane.is_file() else None,
+        traffic=traffic,
     )
     result = build(request)
     gt = read_gt(request.detections)
@@ -305,6 +310,13 @@ def main(argv: list[str] | None = None) -> int:
         metavar="HEIGHT_M",
         help="baseline: assume a level camera (zero pitch and roll) at this height instead of estimating",
     )
+    parser.add_argument(
+        "--traffic",
+        choices=("right", "left"),
+        default="right",
+        help="the side traffic keeps to where the frames were taken (build --traffic): right for KITTI "
+        "(Karlsruhe) and nuScenes Boston, left for nuScenes Singapore",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     parser.add_argument("--verbose", action="store_true", help="print one line per object")
     args = parser.parse_args(argv)
@@ -320,7 +332,13 @@ def main(argv: list[str] | None = None) -> int:
         for image in images:
             try:
                 frame_rows, info = evaluate_frame(
-                    image.stem, args.data_dir, args.planes, Path(tmp), args.level_camera, args.no_camera
+                    image.stem,
+                    args.data_dir,
+                    args.planes,
+                    Path(tmp),
+                    args.level_camera,
+                    args.no_camera,
+                    args.traffic,
                 )
             except UsdWorldError as exc:
                 print(f"error: frame {image.stem}: {exc}", file=sys.stderr)

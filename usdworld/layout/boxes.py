@@ -16,8 +16,8 @@ import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.class_table import ClassPrior
-from usdworld.layout.heading import Heading
-from usdworld.layout.yaw import RoadAxis, heading_for, view_angle_from_box, yaw_from_view_angle
+from usdworld.layout.heading import Heading, crossing_heading
+from usdworld.layout.yaw import RoadAxis, facing, heading_for, line_from_view_angles, view_angle_from_box
 from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.objects import ImageObject
 
@@ -106,7 +106,7 @@ def fit_view_angle(
     box is taller than ``f H / d`` (its near bottom edge is lower), which the flat
     formula reads as a narrower, less turned car. The aspect rises from end on to a peak
     near ``atan(L / W)`` and falls to side on; an aspect beyond the side-on one is
-    ambiguous and gives the peak.
+    ambiguous and gives the peak (:func:`fit_view_angles` gives both turns).
 
     Args:
         camera: the source camera.
@@ -118,32 +118,82 @@ def fit_view_angle(
     Returns:
         The angle in [0, pi/2] radians.
     """
+    turns, peak = _fit_turns(camera, ground, size_lwh, obj, params)
+    return turns[0] if len(turns) == 1 else peak
+
+
+def fit_view_angles(
+    camera: PinholeCamera, ground: np.ndarray, size_lwh: np.ndarray, obj: ImageObject, params: PlacementParams
+) -> tuple[float, ...]:
+    """Every turn from the line of sight whose projected box has the image box's aspect.
+
+    The aspect rises from end on to a peak near ``atan(L / W)`` and falls to side on:
+    an aspect between the side-on one and the peak is met twice, once on each slope
+    (a car seen turned 50 degrees or 80 degrees can show the same box), and both turns
+    are returned; one above the peak gives the peak, one below end on gives 0.
+
+    Args:
+        camera: the source camera.
+        ground: (2,) footprint centre, metres.
+        size_lwh: (3,) the class's length, width and height, metres.
+        obj: the image evidence (a usable box: :func:`box_aspect_usable`).
+        params: the turns tried (:attr:`~PlacementParams.view_angles_deg`).
+
+    Returns:
+        One or two angles in [0, pi/2] radians, the rising slope's first.
+    """
+    return _fit_turns(camera, ground, size_lwh, obj, params)[0]
+
+
+def _fit_turns(
+    camera: PinholeCamera, ground: np.ndarray, size_lwh: np.ndarray, obj: ImageObject, params: PlacementParams
+) -> tuple[tuple[float, ...], float]:
+    """(:func:`fit_view_angles`'s turns, the turn of the aspect's peak in radians)."""
     x0, y0, x1, y1 = (float(b) for b in obj.box_px)
     observed = (x1 - x0) / (y1 - y0)
+    angles_deg, curve = _aspect_curve(camera, ground, size_lwh, params.view_angle_step_deg)
+    if curve is None:
+        flat = float(view_angle_from_box(x1 - x0, y1 - y0, tuple(size_lwh)))
+        return (flat,), flat
+    peak = int(np.argmax(curve))
+    peak_turn = float(np.radians(angles_deg[peak]))
+    if observed <= curve[0]:
+        return (0.0,), peak_turn
+    if observed >= curve[peak]:
+        return (peak_turn,), peak_turn
+    rising = _reaches(angles_deg[: peak + 1], curve[: peak + 1], observed)
+    if observed < curve[-1]:
+        return (rising,), peak_turn
+    return (rising, _reaches(angles_deg[peak:][::-1], curve[peak:][::-1], observed)), peak_turn
+
+
+def _aspect_curve(
+    camera: PinholeCamera, ground: np.ndarray, size_lwh: np.ndarray, step_deg: float
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """((K,) turns tried in degrees, (K,) the projected box's aspect at each, or None when a
+    turn projects off the image plane)."""
     bearing = float(np.arctan2(ground[1], ground[0]))
-    angles_deg, angles = _turns(params.view_angle_step_deg)
+    angles_deg, angles = _turns(step_deg)
     # All turns at once, each trial box projected exactly as on its own (same products, same bits).
     px, depth = camera.project_stacked(box_corners_turned(ground, bearing + angles, np.asarray(size_lwh)))
     if not (np.isfinite(px).all() and (depth > 0).all()):  # a turn projects off the image plane
-        return float(view_angle_from_box(x1 - x0, y1 - y0, tuple(size_lwh)))
+        return angles_deg, None
     # The spans as np.ptp takes them, max - min over the 8 corners of each turn; corner-major
     # (8, K, 2) so that each reduction is 7 elementwise passes (max and min select, in any order).
     by_corner = np.ascontiguousarray(px.transpose(1, 0, 2))
     span = by_corner.max(axis=0) - by_corner.min(axis=0)
     with np.errstate(invalid="ignore"):
         curve = span[:, 0] / np.maximum(span[:, 1], 1e-9)
-    if not np.isfinite(curve).all():
-        return float(view_angle_from_box(x1 - x0, y1 - y0, tuple(size_lwh)))
-    peak = int(np.argmax(curve))
-    if observed <= curve[0]:
-        return 0.0
-    if observed >= curve[-1]:
-        return float(np.radians(angles_deg[peak]))
-    rising = curve[: peak + 1]
-    k = int(np.searchsorted(rising, observed))
-    k = min(max(k, 1), peak)
+    return angles_deg, curve if np.isfinite(curve).all() else None
+
+
+def _reaches(angles_deg: np.ndarray, curve: np.ndarray, observed: float) -> float:
+    """The turn, radians, where a rising ``curve`` (K,) over ``angles_deg`` (K,) reaches
+    ``observed`` (linear between the turns tried; ``observed`` within the curve's range)."""
+    k = int(np.searchsorted(curve, observed))
+    k = min(max(k, 1), len(curve) - 1)
     a0, a1 = angles_deg[k - 1], angles_deg[k]
-    t = (observed - rising[k - 1]) / max(rising[k] - rising[k - 1], 1e-12)
+    t = (observed - curve[k - 1]) / max(curve[k] - curve[k - 1], 1e-12)
     return float(np.radians(a0 + min(max(t, 0.0), 1.0) * (a1 - a0)))
 
 
@@ -233,10 +283,13 @@ def object_heading(
 ) -> Heading:
     """The class's heading rule at ``point`` (:func:`usdworld.layout.yaw.heading_for`: the
     side of the road and the traffic direction), turned to match a whole box's aspect when
-    there is one (:func:`fit_view_angle`).
+    there is one (:func:`fit_view_angles`).
 
-    The aspect gives the turn from the line of sight modulo 180 degrees (front and back
-    look alike in a box); the side rule picks which way round.
+    The aspect gives the turn from the line of sight, to either side and modulo 180
+    degrees (front and back look alike in a box); of those lines the one nearest the road
+    or across it is kept (:func:`usdworld.layout.yaw.line_from_view_angles`), and the
+    side rule picks which way round: the road's side rule along it, the crossing road's
+    (:func:`usdworld.layout.heading.crossing_heading`) across it.
 
     Args:
         prior: the object's class prior (its yaw mode and size).
@@ -247,12 +300,17 @@ def object_heading(
         params: the turns tried by the box fit and the lane width.
 
     Returns:
-        The heading (source ``box_aspect_`` prefixed when the box turned it; the side
-        rule's confidence, which is about front versus back).
+        The heading (source ``box_aspect_`` prefixed when the box turned it,
+        ``box_aspect_<axis source>_crossing_traffic_<side>_near_side`` across the road; the
+        side rule's confidence, which is about front versus back).
     """
     h = heading_for(prior.yaw, point, axis, params)
     if not box_aspect_usable(obj, prior, camera.width):
         return h
-    angle = fit_view_angle(camera, point, prior.size_m, obj, params)
+    turns = fit_view_angles(camera, point, prior.size_m, obj, params)
     bearing = float(np.arctan2(point[1], point[0]))
-    return Heading(yaw_from_view_angle(angle, bearing, h.yaw), f"box_aspect_{h.source}", h.confidence)
+    line, across = line_from_view_angles(turns, bearing, axis.angle)
+    if across:
+        h = crossing_heading(axis.angle, axis.traffic)
+        return Heading(facing(line, h.yaw), f"box_aspect_{axis.source}_{h.source}", h.confidence)
+    return Heading(facing(line, h.yaw), f"box_aspect_{h.source}", h.confidence)

@@ -15,6 +15,20 @@ What the side cannot tell (a one-way street, a crossing, a car turning) is not k
 the road alone; each heading carries a confidence in [0.5, 1]: 0.5 at the dividing line
 (a coin flip), rising to 1 one lane away from it.
 
+Where no road region was seen (a detector's boxes alone), the road's extent is read from
+the vehicles on it: the carriageway spans at least from the outermost vehicle on one side
+to the outermost on the other, the camera's own car included, and a two-way road's
+dividing line lies at the middle of its carriageway (equal lanes each way; the roads'
+design guidelines, e.g. RAA 2008 and the AASHTO Green Book, build two-way cross-sections
+symmetric about the centre line): :func:`vehicle_span_centre`.
+
+A vehicle whose box shows it turned across the road is crossing it (streets meet at
+about right angles; :func:`usdworld.layout.yaw.line_from_view_angles`). Which way it
+crosses follows the same side rule on the crossing road, whose centre line is not seen:
+the camera sees the crossing road's near side first, whose traffic moves from the
+camera's left to its right in right-hand traffic (right to left in left-hand traffic):
+:func:`crossing_heading`, a tie-break with confidence 0.5.
+
 People walk along the sidewalk or the road, either way (pedestrian flows on a sidewalk
 run both ways): the axis gives their heading modulo 180 degrees, and the same side rule
 only breaks the tie (confidence 0.5).
@@ -151,6 +165,54 @@ def along_road_heading(
     """
     h = traffic_heading(point_ground, axis_angle, centre_ground, traffic, lane_width_m)
     return Heading(h.yaw, f"along_road_{h.source}", 0.5)
+
+
+def crossing_heading(axis_angle: float, traffic: str) -> Heading:
+    """The heading of a vehicle crossing the road: on the crossing road's near side.
+
+    Args:
+        axis_angle: the (camera's) road axis's yaw, radians.
+        traffic: ``right`` or ``left``.
+
+    Returns:
+        yaw ``axis - pi/2`` (moving to the camera's right) in right-hand traffic,
+        ``axis + pi/2`` in left-hand traffic; source ``crossing_traffic_<side>_near_side``;
+        confidence 0.5 (which side of the crossing road it is on is not known).
+
+    Example:
+        >>> h = crossing_heading(0.0, "right")
+        >>> (round(float(np.degrees(h.yaw)), 1), h.source, h.confidence)
+        (-90.0, 'crossing_traffic_right_near_side', 0.5)
+    """
+    check_traffic(traffic)
+    turn = -0.5 * np.pi if traffic == "right" else 0.5 * np.pi
+    return Heading(_wrap(axis_angle + turn), f"crossing_traffic_{traffic}_near_side", 0.5)
+
+
+def vehicle_span_centre(points_ground: np.ndarray, axis_angle: float) -> np.ndarray:
+    """A point on the road's centre line read from the vehicles on it.
+
+    The carriageway spans at least from the outermost vehicle on one side of the camera
+    to the outermost on the other, the camera itself (at the origin, on the road)
+    included; its centre line is taken half-way between the two.
+
+    Args:
+        points_ground: (N, 2) float64 ground points of the vehicles moving along the road
+            (N may be 0).
+        axis_angle: the road axis's yaw, radians.
+
+    Returns:
+        (2,) float64 the point of that centre line abreast of the camera (on the line
+        through the origin across the road).
+
+    Example:
+        >>> vehicle_span_centre(np.array([[30.0, 2.5], [40.0, 11.0], [20.0, -3.0]]), 0.0)
+        array([0., 4.])
+    """
+    pts = np.asarray(points_ground, dtype=np.float64).reshape(-1, 2)
+    offsets = np.array([lateral_offset(p, axis_angle) for p in pts] + [0.0])
+    middle = 0.5 * (float(offsets.min()) + float(offsets.max()))
+    return middle * np.array([-np.sin(axis_angle), np.cos(axis_angle)]) + 0.0
 
 
 def _wrap(angle: float) -> float:

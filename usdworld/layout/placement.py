@@ -43,6 +43,7 @@ from usdworld.layout.drafting import draft_object
 from usdworld.layout.occlusion import drop_unbounded, move_behind_occluders, place_behind_occluders
 from usdworld.layout.ordering import apply_ordering_rules
 from usdworld.layout.rows import onto_street_rows
+from usdworld.layout.traffic_sides import face_the_traffic
 from usdworld.layout.yaw import RoadAxis
 from usdworld.parameters.collision import CollisionParams
 from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
@@ -198,6 +199,7 @@ def place_objects(
     drafts, unplaced = drop_unbounded(drafts, unplaced, ctx, max_partial_depth_m)
     drafts, no_depth = place_behind_occluders(drafts, unplaced, ctx)
     drafts = apply_ordering(drafts, ctx)
+    drafts = face_the_traffic(drafts, ctx)
     placements, piled = resolve_footprints(drafts, ctx)
     skipped = [Skipped(n, SkipReason.NO_DEPTH) for n in no_depth] + [Skipped(n, SkipReason.PILED) for n in piled]
     return placements, skipped

@@ -10,6 +10,10 @@ from usdworld.layout.heading import Heading, along_road_heading, check_traffic, 
 from usdworld.parameters.placement import PlacementParams
 
 
+#: What can give a road axis's centre line (:attr:`RoadAxis.center_source`).
+CENTER_SOURCES = ("road_region", "vehicles", "camera")
+
+
 @dataclass(frozen=True)
 class RoadAxis:
     """The road's principal direction on the ground.
@@ -19,15 +23,23 @@ class RoadAxis:
         center_ground: (2,) float64 a point on the road's centre line.
         source: how it was found (``vanishing_point``, ``road_pca`` or ``camera_forward``).
         traffic: the side traffic keeps to, ``right`` or ``left`` (``--traffic``).
+        center_source: what gave ``center_ground``: ``road_region`` (the road pixels'
+            median), ``vehicles`` (:func:`usdworld.layout.heading.vehicle_span_centre`)
+            or ``camera`` (nothing: the camera's position).
     """
 
     angle: float
     center_ground: np.ndarray
     source: str
     traffic: str = "right"
+    center_source: str = "camera"
 
     def __post_init__(self) -> None:
         check_traffic(self.traffic)
+        if self.center_source not in CENTER_SOURCES:
+            raise ValueError(
+                f"RoadAxis.center_source must be one of {', '.join(CENTER_SOURCES)}, got {self.center_source!r}"
+            )
 
 
 def road_axis(
@@ -58,8 +70,9 @@ def road_axis(
     enough = road_points_ground is not None and len(road_points_ground) >= params.road_axis_min_points
     max_angle = params.max_road_axis_angle
     center = np.median(np.asarray(road_points_ground, dtype=np.float64), axis=0) if enough else np.zeros(2)
+    center_source = "road_region" if enough else "camera"
     if vanishing_angle is not None and abs(_wrap(vanishing_angle)) <= max_angle:
-        return RoadAxis(_wrap(vanishing_angle), center, "vanishing_point", traffic)
+        return RoadAxis(_wrap(vanishing_angle), center, "vanishing_point", traffic, center_source)
     if not enough:
         return RoadAxis(0.0, np.zeros(2), "camera_forward", traffic)
     pts = np.asarray(road_points_ground, dtype=np.float64)
@@ -72,8 +85,8 @@ def road_axis(
     # A street seen from a car runs away from the camera; an axis across the view
     # means the road region is a crossing, so keep the camera's heading instead.
     if abs(angle) > max_angle:
-        return RoadAxis(0.0, center, "camera_forward", traffic)
-    return RoadAxis(angle, center, "road_pca", traffic)
+        return RoadAxis(0.0, center, "camera_forward", traffic, center_source)
+    return RoadAxis(angle, center, "road_pca", traffic, center_source)
 
 
 def choose_yaw(
@@ -108,7 +121,9 @@ def heading_for(
 
     Returns:
         The heading; its source is prefixed by the axis's source for the road modes
-        (``vanishing_point_traffic_right_same_side``).
+        (``vanishing_point_traffic_right_same_side``), and by ``vehicle_span_`` after it
+        when the vehicles gave the road's centre line
+        (``vanishing_point_vehicle_span_traffic_right_same_side``).
     """
     if mode == "camera":
         bearing = float(np.arctan2(position_ground[1], position_ground[0]))
@@ -116,7 +131,8 @@ def heading_for(
     if mode in ("road", "along_road"):
         rule = traffic_heading if mode == "road" else along_road_heading
         h = rule(position_ground, axis.angle, axis.center_ground, axis.traffic, params.lane_width_m)
-        return Heading(h.yaw, f"{axis.source}_{h.source}", h.confidence)
+        span = "vehicle_span_" if axis.center_source == "vehicles" else ""
+        return Heading(h.yaw, f"{axis.source}_{span}{h.source}", h.confidence)
     if mode == "face_road":
         d = np.array([np.cos(axis.angle), np.sin(axis.angle)])
         rel = np.asarray(position_ground, dtype=np.float64) - axis.center_ground
@@ -158,28 +174,46 @@ def view_angle_from_box(box_w_px: float, box_h_px: float, size_lwh: tuple[float,
     return float(np.clip(peak - np.arccos(np.clip(across / radius, -1.0, 1.0)), 0.0, np.pi / 2))
 
 
-def yaw_from_view_angle(view_angle: float, bearing: float, road_yaw: float) -> float:
-    """The yaw ``bearing +- view_angle`` (either way round) closest to ``road_yaw``.
+def line_from_view_angles(
+    view_angles: tuple[float, ...], bearing: float, axis_angle: float
+) -> tuple[float, bool]:
+    """The line (yaw modulo pi) a box's turns allow that lies nearest the road or across it.
 
-    The box's aspect says how far the object is turned from the line of sight but not to
-    which side, nor which way it faces: the candidate nearest to the road's yaw is kept,
-    facing the way the road's yaw faces.
+    A box's aspect gives the turn from the line of sight, to either side (``bearing +-
+    angle``), and near the aspect's peak two turns (:func:`usdworld.layout.boxes.fit_view_angles`).
+    Vehicles move along the road or, at a crossing, across it, and streets meet at about
+    right angles: of the candidate lines the one nearest the road axis or its
+    perpendicular is kept; on a tie, along the road.
 
     Args:
-        view_angle: in [0, pi/2] radians (:func:`view_angle_from_box`).
+        view_angles: one or more turns in [0, pi/2] radians.
         bearing: world yaw of the line of sight to the object, radians.
-        road_yaw: the yaw the road gives (:func:`choose_yaw`), radians.
+        axis_angle: the road axis's yaw, radians.
 
     Returns:
-        Yaw in radians, wrapped to (-pi, pi].
+        (the line's yaw in radians, wrapped to (-pi, pi], which way along it not decided;
+        whether it is across the road: nearer the axis's perpendicular than the axis).
+
+    Example:
+        >>> line, across = line_from_view_angles((np.radians(68.0),), np.radians(-25.0), 0.0)
+        >>> round(float(np.degrees(line)), 1), across
+        (-93.0, True)
     """
-    best = None
-    for candidate in (bearing + view_angle, bearing - view_angle, bearing + view_angle + np.pi, bearing - view_angle + np.pi):
-        gap = abs(_wrap(candidate - road_yaw))
-        if best is None or gap < best[0]:
-            best = (gap, candidate)
+    best: tuple[float, bool, float] | None = None
+    for angle in view_angles:
+        for candidate in (bearing + angle, bearing - angle):
+            off = abs(_wrap(2.0 * (candidate - axis_angle))) / 2.0  # from the axis, modulo pi: [0, pi/2]
+            across = off > 0.25 * np.pi
+            gap = 0.5 * np.pi - off if across else off
+            if best is None or (gap, across) < (best[0], best[1]):
+                best = (gap, across, candidate)
     assert best is not None
-    return _wrap(best[1])
+    return _wrap(best[2]), best[1]
+
+
+def facing(line: float, towards: float) -> float:
+    """``line`` or ``line + pi``, whichever is nearer the yaw ``towards`` (radians, wrapped)."""
+    return _wrap(line) if abs(_wrap(line - towards)) <= 0.5 * np.pi else _wrap(line + np.pi)
 
 
 def _wrap(angle: float) -> float:

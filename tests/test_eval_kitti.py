@@ -91,6 +91,7 @@ def test_the_road_plane_fused_with_the_objects_places_kitti_objects(shared_data,
     assert np.median(errors) < 0.05 and np.percentile(errors, 90) < 0.10
 
 
+@pytest.mark.shared_data
 def test_traffic_side_is_passed_to_the_build(shared_data, tmp_path):
     # nuScenes' front frame is from Singapore (left-hand traffic): the truck parked on the
     # left kerb (label 8) faces away from the camera with the traffic there.

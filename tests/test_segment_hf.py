@@ -212,3 +212,35 @@ def test_panoptic_model_output_places_the_objects_of_the_truth(scene, tiny_mask2
         near = [i for i, (c, px, py) in enumerate(placed) if c == cls and np.hypot(px - x, py - y) < 0.3]
         assert len(near) == 1, (cls, x, y, placed)
         placed.pop(near[0])
+
+
+def test_unknown_class_names_are_unlabelled_and_counted_in_a_warning(tiny_segformer, tmp_path, monkeypatch, caplog) -> None:
+    import shutil
+
+    from usdworld.io.images import read_image
+    from usdworld.segment_stage import segment_photo
+
+    folder = tmp_path / "renamed"
+    shutil.copytree(tiny_segformer, folder)
+    config = json.loads((folder / "config.json").read_text())
+    config["id2label"]["0"] = "zebra crossing"  # road, renamed to a class no table knows
+    (folder / "config.json").write_text(json.dumps(config))
+    monkeypatch.setattr(HfSegmentBackend, "_run_model", _semantic_output)
+    image_path = tmp_path / "photo.png"
+    cv2.imwrite(str(image_path), np.zeros((CAMERA.height, CAMERA.width, 3), np.uint8))
+    with caplog.at_level("WARNING"):
+        seg = segment_photo("hf", folder, read_image(image_path))
+    truth_labels, _ = _truth()
+    road = truth_labels == by_name("road").id
+    assert (seg.label_ids[road] == 0).all() and np.array_equal(seg.label_ids[~road], truth_labels[~road])
+    assert f"{road.sum()} pixels of 1 classes not in the segmentation label table were left unlabeled: zebra crossing ({road.sum()} px)" in caplog.text
+
+
+def test_oneformer_is_refused_with_the_reason(tmp_path, capsys) -> None:
+    folder = tmp_path / "oneformer"
+    folder.mkdir()
+    transformers.OneFormerConfig().save_pretrained(folder)
+    image = tmp_path / "p.png"
+    cv2.imwrite(str(image), np.zeros((8, 8, 3), np.uint8))
+    code, _, err = _run(capsys, "segment", image, "--segment-model", folder, "-o", tmp_path / "s")
+    assert code == 2 and err.count("\n") == 1 and "OneFormer is not supported: its processor fetches" in err, err

@@ -3,7 +3,7 @@
 Backends (:func:`make_backend`):
 
 * ``none``: no backend; labels come from files (``--labels``, ``--polygons``) or not at all.
-* ``hf``: a transformers segmentation model (SegFormer, Mask2Former, OneFormer ...) from a
+* ``hf``: a transformers segmentation model (SegFormer, Mask2Former ...) from a
   local folder, offline (:mod:`usdworld.perception.segment.hf`).
 
 torch and transformers are imported only when a network backend is made, so this

@@ -8,7 +8,7 @@ touches the network (``local_files_only=True``, ``HF_HUB_OFFLINE=1``).
 
 What the model is, is read from its config:
 
-* a universal segmentation model (Mask2Former, MaskFormer, OneFormer, DETR ...) runs
+* a universal segmentation model (Mask2Former, MaskFormer, DETR ...) runs
   panoptic segmentation (``post_process_panoptic_segmentation``, segments of stuff
   classes fused): its objects become the instances;
 * any other semantic segmentation model (SegFormer, UperNet, BEiT, DPT ...) gives one class
@@ -18,6 +18,9 @@ What the model is, is read from its config:
 
 The config's class names (``id2label``) map to Cityscapes label ids through the
 segmentation label table (:mod:`usdworld.perception.segment.classes`).
+
+OneFormer is refused: its processor reads its class metadata from the hub
+(``shi-labs/oneformer_demo``) when it loads, and it needs a text task prompt.
 """
 
 from __future__ import annotations
@@ -45,6 +48,17 @@ MODEL_SOURCE = (
     "`huggingface-cli download <repo> --local-dir <folder>` (e.g. nvidia/segformer-b0-finetuned-cityscapes-1024-1024, "
     "facebook/mask2former-swin-tiny-cityscapes-panoptic; each model has its own licence)"
 )
+
+
+#: Model types refused, with the reason.
+UNSUPPORTED = {
+    "oneformer": "OneFormer is not supported: its processor fetches class metadata from the hub when it loads "
+    "and takes a text task prompt; use a Mask2Former or SegFormer model",
+}
+
+
+class _Unsupported(Exception):
+    """A model type of :data:`UNSUPPORTED` (turned into InputError by the loader)."""
 
 
 def _first_line(exc: Exception) -> str:
@@ -91,6 +105,8 @@ class HfSegmentBackend:
         try:
             config = transformers.AutoConfig.from_pretrained(folder, local_files_only=True)
             self.model_type = str(getattr(config, "model_type", "unknown"))
+            if self.model_type in UNSUPPORTED:
+                raise _Unsupported(UNSUPPORTED[self.model_type])
             self.kind: SegmentKind = (
                 "panoptic" if self.model_type in MODEL_FOR_UNIVERSAL_SEGMENTATION_MAPPING_NAMES else "semantic"
             )
@@ -99,10 +115,10 @@ class HfSegmentBackend:
                 if self.kind == "panoptic"
                 else transformers.AutoModelForSemanticSegmentation
             )
-            # OneFormer's processor also tokenises its task prompt; the others are image processors.
-            auto_processor = transformers.AutoProcessor if self.model_type == "oneformer" else transformers.AutoImageProcessor
-            self.processor = auto_processor.from_pretrained(folder, local_files_only=True)
+            self.processor = transformers.AutoImageProcessor.from_pretrained(folder, local_files_only=True)
             self.model = auto_model.from_pretrained(folder, local_files_only=True)
+        except _Unsupported as exc:
+            raise InputError(f"segmentation model {folder}: {exc}") from None
         except Exception as exc:  # transformers raises many types for a folder it cannot load
             raise InputError(
                 f"segmentation model {folder}: cannot load a segmentation model and image processor ({_first_line(exc)})"
@@ -120,8 +136,7 @@ class HfSegmentBackend:
     def _run_model(self, rgb: np.ndarray) -> Any:
         """The model's raw output for one photo (what the processor's post-processing takes)."""
         torch = import_torch(NAME)
-        extra = {"task_inputs": ["panoptic"]} if self.model_type == "oneformer" else {}
-        inputs = self.processor(images=rgb, return_tensors="pt", **extra)
+        inputs = self.processor(images=rgb, return_tensors="pt")
         inputs = {k: v.to(self.device) if hasattr(v, "to") else v for k, v in inputs.items()}
         with torch.inference_mode():
             return self.model(**inputs)

@@ -233,7 +233,9 @@ def test_a_build_error_after_a_reader_warning_is_one_line(tmp_path: Path, capsys
     assert main([*args, "--detections", str(bad)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("error: d.json -> detections -> [0] -> box:"), err
-    assert main(args) == 0
+    labels = tmp_path / "img_labelIds.png"
+    cv2.imwrite(str(labels), np.full((64, 96), 7, np.uint8))  # all road (a photo alone is refused)
+    assert main([*args, "--labels", str(labels)]) == 0
     assert "principal point (0.5, 40) is far from the centre" in capsys.readouterr().err
 
 

@@ -211,15 +211,11 @@ def _read_detections(request: BuildRequest, image: SourceImage) -> Detections | 
     return read_kitti_labels(request.detections, image)
 
 
-def _read_segmentation(
-    request: BuildRequest, image: SourceImage, detections: Detections | None, params: Parameters
-) -> Segmentation | None:
+def _read_segmentation(request: BuildRequest, image: SourceImage) -> Segmentation | None:
     if request.polygons is not None:
         return read_polygons(request.polygons, image)
     if request.labels is not None:
         return read_segmentation(request.labels, request.instances, image)
-    if request.segment != "none":
-        return segment_photo(request.segment, request.segment_model, image, detections, params.perception)
     return None
 
 
@@ -346,11 +342,13 @@ def read_scene_head(
         params: the parameters used.
     """
     image = read_image(request.image)
-    dets = _read_detections(request, image)
-    seg = _read_segmentation(request, image, dets, params)
+    seg = _read_segmentation(request, image)
     spec = request.camera_spec
     if spec is None and request.camera is not None:
         spec = read_camera(request.camera, image, request.ground_plane)
+    dets = _read_detections(request, image)
+    if request.segment != "none":  # the model runs once every input file has been read and checked
+        seg = segment_photo(request.segment, request.segment_model, image, dets, params.perception)
     segments = detect_segments(image.rgb, params.camera)
     vanishing = find_vanishing_point(segments, image.width, image.height, params.camera)
     view = street_view(spec, image.width, image.height, vanishing, params.placement.curb_height_m, params.camera)

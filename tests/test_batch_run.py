@@ -296,12 +296,10 @@ def test_cli_manifest_row_with_missing_inputs_fails_the_batch(
 ) -> None:
     image = dataset / "leftImg8bit" / "val" / "synthcity" / f"{IDS[0]}_leftImg8bit.png"
     camera = dataset / "camera" / "val" / "synthcity" / f"{IDS[0]}_camera.json"
+    labels = dataset / "gtFine" / "val" / "synthcity" / f"{IDS[0]}_gtFine_labelIds.png"
     manifest = tmp_path / "frames.json"
-    manifest.write_text(
-        json.dumps(
-            [{"id": "good", "image": str(image), "camera": str(camera)}, {"id": "gone", "image": "gone.png"}]
-        )
-    )
+    good = {"id": "good", "image": str(image), "camera": str(camera), "labels": str(labels)}
+    manifest.write_text(json.dumps([good, {"id": "gone", "image": "gone.png"}]))
     out = tmp_path / "w"
     assert main(["batch", str(manifest), "-o", str(out)]) == 1
     captured = capsys.readouterr()

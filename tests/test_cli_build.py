@@ -128,10 +128,21 @@ def test_rebuild_keeps_edits(capsys, inputs):
     assert json.loads(stdout)["objects_inactive"] == 1
 
 
-def test_image_without_objects_gives_valid_world_with_warning(capsys, tmp_path):
+def test_photo_alone_is_refused_naming_the_three_object_sources(capsys, tmp_path):
     image = tmp_path / "empty.png"
     cv2.imwrite(str(image), np.full((120, 200, 3), 128, np.uint8))
-    code, _, err = _run(capsys, "build", str(image), "-o", str(tmp_path / "w"))
+    for extra in ([], ["--depth", "ground"]):  # a depth backend finds no objects either
+        code, _, err = _run(capsys, "build", str(image), *extra, "-o", str(tmp_path / "w"))
+        _one_line_error(code, err, "empty.png: nothing to find objects in")
+        assert all(flag in err for flag in ("--labels", "--polygons", "--detections", "--segment hf")), err
+    assert not (tmp_path / "w").exists()
+
+
+def test_labels_without_objects_give_valid_world_with_warning(capsys, tmp_path):
+    image, labels = tmp_path / "empty.png", tmp_path / "empty_labelIds.png"
+    cv2.imwrite(str(image), np.full((120, 200, 3), 128, np.uint8))
+    cv2.imwrite(str(labels), np.full((120, 200), 7, np.uint8))  # all road: nothing to place
+    code, _, err = _run(capsys, "build", str(image), "--labels", str(labels), "-o", str(tmp_path / "w"))
     assert code == 0 and "no objects found" in err
     assert _run(capsys, "validate", str(tmp_path / "w"), "--no-omni")[0] == 0
 
@@ -222,7 +233,9 @@ def test_a_build_error_after_a_reader_warning_is_one_line(tmp_path: Path, capsys
     assert main([*args, "--detections", str(bad)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("error: d.json -> detections -> [0] -> box:"), err
-    assert main(args) == 0
+    labels = tmp_path / "img_labelIds.png"
+    cv2.imwrite(str(labels), np.full((64, 96), 7, np.uint8))  # all road (a photo alone is refused)
+    assert main([*args, "--labels", str(labels)]) == 0
     assert "principal point (0.5, 40) is far from the centre" in capsys.readouterr().err
 
 

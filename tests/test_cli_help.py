@@ -12,7 +12,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from test_edit_support import fresh_world
 
-from usdworld.cli.choices import DepthBackendName, ExportFormat, Traffic
+from usdworld.cli.choices import DepthBackendName, ExportFormat, SegmentBackendName, Traffic
 from usdworld.cli.main import COMMANDS, main
 
 
@@ -26,8 +26,10 @@ def test_choices_mirror_the_domain_tables() -> None:
     from usdworld.export import FORMATS
     from usdworld.layout.heading import TRAFFIC_SIDES
     from usdworld.perception.depth import BACKEND_NAMES
+    from usdworld.perception.segment import BACKEND_NAMES as SEGMENT_BACKEND_NAMES
 
     assert [c.value for c in DepthBackendName] == list(BACKEND_NAMES)
+    assert [c.value for c in SegmentBackendName] == list(SEGMENT_BACKEND_NAMES)
     assert [c.value for c in ExportFormat] == list(FORMATS)
     assert [c.value for c in Traffic] == list(TRAFFIC_SIDES)
 
@@ -35,7 +37,8 @@ def test_choices_mirror_the_domain_tables() -> None:
 @pytest.mark.parametrize(
     ("command", "expected"),
     [
-        (["build"], ["--depth <ground|monodepth|monodepth2|hf|file>", "--traffic <right|left>"]),
+        (["build"], ["--depth <ground|monodepth|monodepth2|hf|file>", "--traffic <right|left>", "--segment <none|hf>"]),
+        (["segment"], ["--segment-model <path>", "--detections <path>"]),
         (["depth"], ["--depth <ground|monodepth|monodepth2|hf|file>"]),
         (["export"], ["-f, --format <usdz|usdc|usda-flat|glb>"]),
         (["batch"], ["--layout <cityscapes|kitti|manifest>"]),

@@ -49,6 +49,7 @@ EXTRA_MODULES = {
     "perception/depth/monodepth2.py": "depth",
     "perception/depth/runtime.py": "depth",
     "perception/depth/hf.py": "depth",
+    "perception/segment/hf.py": "segment",
     "serve/": "serve",
     "cli/serve_cmd.py": "serve",
 }

@@ -138,7 +138,9 @@ def test_cli_info_file_without_camera_is_one_line_exit_2(tmp_path: Path, capsys)
     import cv2
 
     cv2.imwrite(str(image), np.zeros((900, 1600, 3), np.uint8))
-    assert main(["build", str(image), "--camera", str(info), "-o", str(tmp_path / "w")]) == 2
+    labels = tmp_path / "frame_labelIds.png"
+    cv2.imwrite(str(labels), np.zeros((900, 1600), np.uint8))
+    assert main(["build", str(image), "--labels", str(labels), "--camera", str(info), "-o", str(tmp_path / "w")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(
         "error: info.json: an mmdetection3d nuscenes v1.0-mini info file"

@@ -55,7 +55,9 @@ def test_build_without_camera_file_takes_the_exif_focal_length(tmp_path):
     exif = Image.Exif()
     exif.get_ifd(0x8769)[0xA405] = 26
     image.save(path, exif=exif)
-    result = build(BuildRequest(image=path, output=tmp_path / "out"))
+    labels = tmp_path / "photo_labelIds.png"
+    Image.fromarray(np.zeros((240, 320), np.uint8)).save(labels)  # all unlabelled (a photo alone is refused)
+    result = build(BuildRequest(image=path, labels=labels, output=tmp_path / "out"))
     expected = 26 * 400.0 / FILM_DIAGONAL_MM
     cam = result.model.camera
     assert cam.focal is not None and "exif" in cam.focal.sources

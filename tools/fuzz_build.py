@@ -165,7 +165,10 @@ def main() -> int:
         cmd = [sys.executable, "-m", "usdworld", "build", str(base / "img.png"), "-o", str(world)]
         subprocess.run(cmd, capture_output=True, timeout=120, check=False)
         if not (world / "world.usda").is_file():  # the seed case may itself be refused: build a plain one
-            subprocess.run(cmd[:5] + ["-o", str(world)], capture_output=True, timeout=120, check=True)
+            cv2.imwrite(str(base / "img.png"), np.full((H, W, 3), 90, np.uint8))
+            cv2.imwrite(str(base / "road.png"), np.full((H, W), 7, np.uint8))  # all road: a photo alone is refused
+            plain = cmd[:5] + ["--labels", str(base / "road.png"), "-o", str(world)]
+            subprocess.run(plain, capture_output=True, timeout=120, check=True)
         before = _digest(world)
         for i in range(ns.n):
             folder = root / f"case{i:04d}"

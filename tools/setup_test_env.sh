@@ -21,7 +21,7 @@ fi
 # torch first, pinned: the pinned CPU build is on this machine's disk; an open
 # requirement would pull a multi-GB CUDA build.
 python3 -m pip install -q "torch==2.13.0"
-python3 -m pip install -q -e ".[test,render,depth,batch,serve]"
+python3 -m pip install -q -e ".[test,render,depth,segment,batch,serve]"
 # The blender extra (bpy, Blender 4.5 LTS) without its numpy<2 requirement: resolving it would
 # downgrade numpy and opencv-python-headless; its other requirements come explicitly.
 python3 -m pip install -q --no-deps "bpy>=4.5,<4.6" zstandard cython

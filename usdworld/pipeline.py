@@ -67,7 +67,9 @@ from usdworld.perception.objects import (
     objects_from_segmentation,
     sort_objects,
 )
+from usdworld.perception.segment import BACKEND_NAMES as SEGMENT_BACKENDS
 from usdworld.report import make_report
+from usdworld.segment_stage import segment_photo
 
 log = logging.getLogger(__name__)
 
@@ -91,6 +93,10 @@ class BuildRequest:
         depth: depth backend: ``ground`` (no dense map), ``file``, ``monodepth``,
             ``monodepth2`` or ``hf``.
         depth_weights: weights file or folder of a network backend.
+        segment: segmentation backend: ``none`` (labels from ``labels``/``polygons`` or
+            none) or ``hf`` (:mod:`usdworld.perception.segment`); its output stands in for
+            ``labels`` and ``instances``.
+        segment_model: the model folder of the ``hf`` segmentation backend.
         library: a user asset library layered over the built-in one.
         max_range_m: farthest ground distance meshed (``--max-range``); when given it
             replaces ``params.scene.max_range_m``.
@@ -115,6 +121,8 @@ class BuildRequest:
     depth_map: Path | None = None
     depth: str = "ground"
     depth_weights: Path | None = None
+    segment: str = "none"
+    segment_model: Path | None = None
     library: Path | None = None
     max_range_m: float | None = None
     params: Parameters = DEFAULT_PARAMETERS
@@ -128,6 +136,12 @@ class BuildRequest:
             raise InputError("--instances needs --labels (the labelIds PNG of the same frame)")
         if self.polygons is not None and self.labels is not None:
             raise InputError("pass either --polygons or --labels/--instances, not both")
+        if self.segment not in SEGMENT_BACKENDS:
+            raise InputError(f"--segment must be one of {', '.join(SEGMENT_BACKENDS)}, got {self.segment!r}")
+        if self.segment != "none" and (self.labels is not None or self.polygons is not None):
+            raise InputError("pass either --segment (labels from a model) or --labels/--polygons (labels from files), not both")
+        if self.segment_model is not None and self.segment == "none":
+            raise InputError("--segment-model needs --segment hf (the backend that loads it)")
         if self.ground_plane is not None and self.camera is None:
             raise InputError("--ground-plane needs --camera (the KITTI calib file of the same frame)")
         given = self.max_range_m is not None
@@ -189,12 +203,37 @@ class SceneHead:
 # --- adapters -------------------------------------------------------------------------
 
 
+def _read_detections(request: BuildRequest, image: SourceImage) -> Detections | None:
+    if request.detection_items is not None:
+        return request.detection_items
+    if request.detections is None:
+        return None
+    if request.detections.suffix.lower() == ".json":
+        return read_detections_json(request.detections, image)
+    return read_kitti_labels(request.detections, image)
+
+
 def _read_segmentation(request: BuildRequest, image: SourceImage) -> Segmentation | None:
     if request.polygons is not None:
         return read_polygons(request.polygons, image)
     if request.labels is not None:
         return read_segmentation(request.labels, request.instances, image)
     return None
+
+
+def require_object_source(request: BuildRequest) -> None:
+    """Refuse a single-image build with nothing to find objects in (the photo alone).
+
+    Raises:
+        InputError: no labels, polygons, detections or segmentation backend; the message
+            names the three ways to give objects.
+    """
+    sources = (request.labels, request.polygons, request.detections, request.detection_items)
+    if all(s is None for s in sources) and request.segment == "none":
+        raise InputError(
+            f"{Path(request.image).name}: nothing to find objects in; give Cityscapes labels (--labels or "
+            "--polygons), 2D detections (--detections) or a segmentation model (--segment hf --segment-model DIR)"
+        )
 
 
 def _label_mask(seg: Segmentation | None, name: str) -> np.ndarray | None:
@@ -205,7 +244,7 @@ def _label_mask(seg: Segmentation | None, name: str) -> np.ndarray | None:
 
 
 def _objects(
-    request: BuildRequest,
+    dets: Detections | None,
     image: SourceImage,
     seg: Segmentation | None,
     view: StreetView | None,
@@ -213,14 +252,8 @@ def _objects(
     params: Parameters,
 ) -> list[ImageObject]:
     lookups = label_lookups()
-    if request.detections is None and request.detection_items is None:
+    if dets is None:
         return objects_from_segmentation(seg, view, table, lookups, params.perception) if seg is not None else []
-    if request.detection_items is not None:
-        dets = request.detection_items
-    elif request.detections.suffix.lower() == ".json":
-        dets = read_detections_json(request.detections, image)
-    else:
-        dets = read_kitti_labels(request.detections, image)
     things = merge_duplicates(
         objects_from_detections(dets, image.width, image.height, seg, lookups=lookups, params=params.perception),
         params.collision,
@@ -329,10 +362,13 @@ def read_scene_head(
     spec = request.camera_spec
     if spec is None and request.camera is not None:
         spec = read_camera(request.camera, image, request.ground_plane)
+    dets = _read_detections(request, image)
+    if request.segment != "none":  # the model runs once every input file has been read and checked
+        seg = segment_photo(request.segment, request.segment_model, image, dets, params.perception)
     segments = detect_segments(image.rgb, params.camera)
     vanishing = find_vanishing_point(segments, image.width, image.height, params.camera)
     view = street_view(spec, image.width, image.height, vanishing, params.placement.curb_height_m, params.camera)
-    objects = _objects(request, image, seg, view, table, params)
+    objects = _objects(dets, image, seg, view, table, params)
     catalogue = asset_catalogue((o.class_name for o in objects), libraries)
     focal = None
     if spec is None or spec.K is None:  # no intrinsics given: the photo's own cues (EXIF, lines, vehicles)
@@ -463,8 +499,11 @@ def build(request: BuildRequest) -> BuildResult:
         What was written.
 
     Raises:
+        InputError: the photo alone: no labels, polygons, detections or segmentation backend
+            (:func:`require_object_source`).
         UsdWorldError: any bad input (InputError, CalibrationError ...) or an unwritable output.
     """
+    require_object_source(request)
     out = Path(request.output)
     keep_edits = _prepare_output(out)
     libraries = asset_library.library_dirs(request.library)

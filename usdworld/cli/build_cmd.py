@@ -10,7 +10,7 @@ from typing import Optional
 
 import typer
 
-from usdworld.cli.choices import DepthBackendName, Traffic, ViewsLayout
+from usdworld.cli.choices import DepthBackendName, SegmentBackendName, Traffic, ViewsLayout
 
 
 def build(
@@ -26,6 +26,12 @@ def build(
     depth: DepthBackendName = typer.Option(DepthBackendName.ground, "--depth", help="Depth backend."),
     depth_weights: Optional[Path] = typer.Option(None, "--depth-weights", help="Weights file/folder of a network backend."),
     depth_map: Optional[Path] = typer.Option(None, "--depth-map", help="Dense metric depth for --depth file: .npy, 16-bit PNG (m*256) or .pfm."),
+    segment: SegmentBackendName = typer.Option(
+        SegmentBackendName.none, "--segment", help="Segmentation backend: labels from a model instead of --labels."
+    ),
+    segment_model: Optional[Path] = typer.Option(
+        None, "--segment-model", help="Model folder of --segment hf (saved with save_pretrained; never downloaded)."
+    ),
     library: Optional[Path] = typer.Option(
         None, "--library", envvar="USDWORLD_LIBRARY", help="User asset library layered over the built-in one."
     ),
@@ -60,6 +66,7 @@ def build(
     from usdworld.cli import views_build
     from usdworld.cli.output import quiet
     from usdworld.cli.summary import print_build_summary
+    from usdworld.errors import InputError
     from usdworld.io.parameters_file import read_parameters
     from usdworld.parameters import DEFAULT_PARAMETERS
     from usdworld.pipeline import BuildRequest
@@ -78,6 +85,8 @@ def build(
     }
     views_build.check_options(views, per_view, any(v is not None for v in (layout, sample, jobs)))
     if views is not None:
+        if segment is not SegmentBackendName.none or segment_model is not None:
+            raise InputError("--segment: a views build takes each view's labels from --views; drop --segment")
         shared = {
             "depth": depth.value,
             "depth_weights": depth_weights,
@@ -105,6 +114,8 @@ def build(
         depth_map=depth_map,
         depth=depth.value,
         depth_weights=depth_weights,
+        segment=segment.value,
+        segment_model=segment_model,
         library=library,
         max_range_m=max_range,
         traffic=traffic.value,

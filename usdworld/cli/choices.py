@@ -21,6 +21,13 @@ class DepthBackendName(str, enum.Enum):
     file = "file"
 
 
+class SegmentBackendName(str, enum.Enum):
+    """``--segment``: the segmentation backends of :func:`usdworld.perception.segment.make_backend`."""
+
+    none = "none"
+    hf = "hf"
+
+
 class Traffic(str, enum.Enum):
     """``--traffic``: the side traffic keeps to."""
 

@@ -24,6 +24,7 @@ import typer
 COMMANDS = {
     "build": "build_cmd",
     "depth": "depth_cmd",
+    "segment": "segment_cmd",
     "batch": "batch_cmd",
     "demo": "demo_cmd",
     "info": "info_cmd",

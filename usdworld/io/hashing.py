@@ -168,3 +168,37 @@ def as_floats(value: Any, where: str, n: int) -> list[float]:
     if len(items) != n:
         raise InputError(f"{where}: must hold {n} numbers, got {len(items)}")
     return [as_float(v, f"{where} -> [{i}]") for i, v in enumerate(items)]
+
+
+def folder_identity(path: PathLike, role: str) -> InputFile:
+    """Describe a folder input (a model saved with ``save_pretrained``) by its files' content.
+
+    The digest covers every regular file below the folder (hidden ones left out), in sorted
+    relative-path order, each as its path and bytes, streamed in 4 MiB blocks.
+
+    Args:
+        path: the folder.
+        role: what the folder is for (``segment_model``).
+
+    Returns:
+        ``InputFile(role, name=<folder name>, sha256=<digest>)``.
+
+    Raises:
+        InputError: the path is not a readable folder.
+    """
+    folder = Path(path)
+    if not folder.is_dir():
+        raise InputError(f"{folder}: no such folder (the {role}); check the path")
+    digest = hashlib.sha256()
+    try:
+        files = sorted(
+            p for p in folder.rglob("*") if p.is_file() and not any(part.startswith(".") for part in p.relative_to(folder).parts)
+        )
+        for file in files:
+            digest.update(file.relative_to(folder).as_posix().encode("utf-8") + b"\0")
+            with file.open("rb") as stream:
+                for block in iter(lambda: stream.read(4 * 1024 * 1024), b""):
+                    digest.update(block)
+    except OSError as exc:
+        raise InputError(f"{folder}: cannot be read ({exc.strerror or exc}); check the {role}") from exc
+    return InputFile(role=role, name=folder.name, sha256=digest.hexdigest())

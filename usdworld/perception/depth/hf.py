@@ -19,7 +19,6 @@ What the model's output means is read from its config (override with ``kind``):
 from __future__ import annotations
 
 import logging
-import os
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +33,12 @@ from usdworld.perception.depth.base import (
     check_camera_matches,
     check_rgb,
 )
-from usdworld.perception.depth.runtime import import_torch, require_weights_path, select_device
+from usdworld.perception.depth.runtime import (
+    import_torch,
+    import_transformers,
+    require_weights_path,
+    select_device,
+)
 
 log = logging.getLogger(__name__)
 
@@ -56,18 +60,6 @@ def output_kind(config: Any) -> DepthKind:
     if getattr(config, "depth_estimation_type", None) == "metric":
         return "metric"
     return "disparity"
-
-
-def _import_transformers() -> Any:
-    os.environ["HF_HUB_OFFLINE"] = "1"
-    os.environ.setdefault("TRANSFORMERS_OFFLINE", "1")
-    try:
-        import transformers
-    except ImportError as exc:
-        raise InputError(
-            f"{NAME}: needs the transformers package, which is not installed: pip install transformers ({exc})"
-        ) from exc
-    return transformers
 
 
 class HfDepthBackend:
@@ -94,7 +86,7 @@ class HfDepthBackend:
         if kind is not None and kind not in DEPTH_KINDS:
             raise InputError(f"{NAME}: kind must be one of {DEPTH_KINDS}, got {kind!r}")
         import_torch(NAME)
-        transformers = _import_transformers()
+        transformers = import_transformers(NAME)
         self.device = select_device(device, NAME)
         bars = transformers.utils.logging.is_progress_bar_enabled()
         transformers.utils.logging.disable_progress_bar()  # the library prints nothing

@@ -37,6 +37,19 @@ def import_torch(where: str) -> Any:
     return torch
 
 
+def import_transformers(where: str) -> Any:
+    """Import transformers offline (``HF_HUB_OFFLINE=1`` set first) or raise InputError saying how to install it."""
+    os.environ["HF_HUB_OFFLINE"] = "1"
+    os.environ.setdefault("TRANSFORMERS_OFFLINE", "1")
+    try:
+        import transformers
+    except ImportError as exc:
+        raise InputError(
+            f"{where}: needs the transformers package, which is not installed: pip install transformers ({exc})"
+        ) from exc
+    return transformers
+
+
 def select_device(device: str | None, where: str) -> torch.device:
     """The device a network runs on.
 

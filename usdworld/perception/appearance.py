@@ -126,6 +126,38 @@ def _inner_box(box_px: np.ndarray, margin: float, rows: tuple[float, float]) -> 
     return round(x0 + w * margin), round(y0 + h * top), round(x1 - w * margin), round(y0 + h * bottom)
 
 
+def nearer_cutting_boxes(
+    boxes_px: np.ndarray, depths_m: np.ndarray, i: int, window: tuple[int, int, int, int]
+) -> np.ndarray:
+    """The boxes nearer than object ``i`` that cover at least one pixel of a window.
+
+    These are exactly the occluders whose pixels :func:`object_colours` clears from a
+    box-only object's region: every other nearer box's slice of the window is empty, so
+    leaving them out changes nothing (and makes a crowd of N boxes cost less than N^2 slices).
+
+    Args:
+        boxes_px: (N, 4) int64 boxes ``xmin, ymin, xmax, ymax`` (max exclusive).
+        depths_m: (N,) float64 depths; smaller is nearer.
+        i: the object whose region is being cut.
+        window: ``(x0, y0, x1, y1)`` the object's box clipped to the image, x1 > x0, y1 > y0.
+
+    Returns:
+        (K, 4) int64 rows of ``boxes_px``, in input order.
+    """
+    x0, y0, x1, y1 = window
+    b = boxes_px
+    cuts = (
+        (depths_m < depths_m[i])
+        & (b[:, 0] < b[:, 2])
+        & (b[:, 1] < b[:, 3])
+        & (b[:, 0] < x1)
+        & (b[:, 2] > x0)
+        & (b[:, 1] < y1)
+        & (b[:, 3] > y0)
+    )
+    return b[cuts]
+
+
 def object_colours(
     linear: np.ndarray,
     boxes_px: np.ndarray,
@@ -167,8 +199,7 @@ def object_colours(
             kind = "mask"
         else:
             region = np.ones((y1 - y0, x1 - x0), dtype=bool)
-            for j in np.flatnonzero(depths < depths[i]):
-                a0, b0, a1, b1 = (int(v) for v in boxes[j])
+            for a0, b0, a1, b1 in nearer_cutting_boxes(boxes, depths, i, (x0, y0, x1, y1)).tolist():
                 region[max(b0 - y0, 0) : max(b1 - y0, 0), max(a0 - x0, 0) : max(a1 - x0, 0)] = False
             kind = "box"
         ix0, iy0, ix1, iy1 = _inner_box(

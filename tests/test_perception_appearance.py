@@ -15,7 +15,7 @@ from usdworld.perception.appearance import (
     region_colour,
     trimmed_colour,
 )
-from usdworld.perception.colour_space import linear_to_lab, uint8_to_linear
+from usdworld.perception.colour_space import linear_to_lab, linear_to_srgb, uint8_to_linear
 
 PAINT = np.array([222, 184, 28], dtype=np.uint8)  # ADAC yellow, sRGB
 BOX = np.array([40, 30, 200, 130])  # xmin ymin xmax ymax (max exclusive)
@@ -53,8 +53,7 @@ def _error(measured: MeasuredColour, paint: np.ndarray) -> float:
     ],
 )
 def test_box_only_object_gives_its_paint_colour(paint, window):
-    linear = uint8_to_linear(_car_photo(paint, window))
-    found = object_colours(linear, np.stack([BOX, OCCLUDER]), [None, None], np.array([12.0, 8.0]))
+    found = object_colours(_car_photo(paint, window), np.stack([BOX, OCCLUDER]), [None, None], np.array([12.0, 8.0]))
     assert set(found) == {0, 1}
     assert found[0].region == "box"
     assert _error(found[0], paint) < 2.0
@@ -73,8 +72,7 @@ def test_a_plain_median_of_the_box_would_miss_the_paint():
 
 
 def test_occluder_farther_away_is_not_cut_out_and_the_paint_still_wins():
-    linear = uint8_to_linear(_car_photo(PAINT))
-    found = object_colours(linear, np.stack([BOX, OCCLUDER]), [None, None], np.array([8.0, 12.0]))
+    found = object_colours(_car_photo(PAINT), np.stack([BOX, OCCLUDER]), [None, None], np.array([8.0, 12.0]))
     assert _error(found[0], PAINT) < 2.0
 
 
@@ -83,24 +81,25 @@ def test_instance_mask_is_the_region_where_given():
     x0, y0, x1, y1 = BOX
     mask = np.ones((y1 - y0, x1 - x0), dtype=bool)
     mask[:, 110:] = False  # the occluder's part
-    found = object_colours(uint8_to_linear(photo), BOX[None], [mask], np.array([10.0]))
+    found = object_colours(photo, BOX[None], [mask], np.array([10.0]))
     assert found[0].region == "mask"
     assert _error(found[0], PAINT) < 2.0
 
 
 def test_objects_with_too_few_visible_pixels_get_no_colour():
-    linear = uint8_to_linear(_car_photo(PAINT))
+    photo = _car_photo(PAINT)
     hidden = np.array([160, 70, 170, 80])  # inside the occluder, farther than it
-    found = object_colours(linear, np.stack([hidden, OCCLUDER]), [None, None], np.array([20.0, 8.0]))
+    found = object_colours(photo, np.stack([hidden, OCCLUDER]), [None, None], np.array([20.0, 8.0]))
     assert 0 not in found and 1 in found
-    outside = object_colours(linear, np.array([[300, 0, 320, 10]]), [None], np.array([5.0]))
+    outside = object_colours(photo, np.array([[300, 0, 320, 10]]), [None], np.array([5.0]))
     assert outside == {}
 
 
 def test_region_colour_of_a_labelled_surface():
     rng = np.random.default_rng(1)
-    road = np.tile(np.array([0.06, 0.06, 0.07]), (50, 80, 1)) * rng.uniform(0.95, 1.05, (50, 80, 1))
-    road[10:20] *= 0.3  # a shadow band across the road
+    linear = np.tile(np.array([0.06, 0.06, 0.07]), (50, 80, 1)) * rng.uniform(0.95, 1.05, (50, 80, 1))
+    linear[10:20] *= 0.3  # a shadow band across the road
+    road = np.round(linear_to_srgb(linear) * 255).astype(np.uint8)
     region = np.ones((50, 80), dtype=bool)
     measured = region_colour(road, region, "labels")
     assert measured is not None and measured.region == "labels"
@@ -127,10 +126,10 @@ def test_body_band_leaves_out_the_side_windows_of_a_near_car():
     img[10:110, 0:200] = (95, 105, 120)  # windows reflecting the sky: most of the box
     img[65:100, 0:200] = (200, 30, 25)  # the doors below the belt line
     img[100:110] = (15, 15, 15)  # tyres and the shadow under the car
-    linear = uint8_to_linear(np.clip(img + rng.normal(0, 2, img.shape), 0, 255).astype(np.uint8))
+    photo = np.clip(img + rng.normal(0, 2, img.shape), 0, 255).astype(np.uint8)
     box = np.array([[0, 10, 200, 110]])
-    whole = object_colours(linear, box, [None], np.array([4.0]))[0]
-    band = object_colours(linear, box, [None], np.array([4.0]), rows=[(0.45, 0.9)])[0]
+    whole = object_colours(photo, box, [None], np.array([4.0]))[0]
+    band = object_colours(photo, box, [None], np.array([4.0]), rows=[(0.45, 0.9)])[0]
     assert _error(band, np.array([200, 30, 25], np.uint8)) < 2.0
     assert _error(whole, np.array([200, 30, 25], np.uint8)) > 20.0  # the windows win without the band
 

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter
 
 from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
-from usdworld.perception.colour_space import linear_to_lab
+from usdworld.perception.colour_space import linear_to_lab, uint8_to_linear
 
 #: Rec. 709 luminance weights of linear RGB.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -159,7 +159,7 @@ def nearer_cutting_boxes(
 
 
 def object_colours(
-    linear: np.ndarray,
+    rgb: np.ndarray,
     boxes_px: np.ndarray,
     masks: Sequence[np.ndarray | None],
     depths_m: np.ndarray,
@@ -169,7 +169,7 @@ def object_colours(
     """Each object's colour from its own pixels (module docstring).
 
     Args:
-        linear: (H, W, 3) float linear RGB photo.
+        rgb: (H, W, 3) uint8 sRGB photo; only the pixels measured are decoded to linear RGB.
         boxes_px: (N, 4) int boxes ``xmin, ymin, xmax, ymax`` (max exclusive).
         masks: per object its (ymax-ymin, xmax-xmin) bool mask crop, or None for a box-only
             object (its region is then the box minus the boxes of nearer objects).
@@ -181,7 +181,7 @@ def object_colours(
     Returns:
         Object index -> colour, for the objects with at least ``colour_min_pixels`` pixels.
     """
-    h, w = linear.shape[:2]
+    h, w = rgb.shape[:2]
     boxes = np.asarray(boxes_px, dtype=np.int64).reshape(-1, 4)
     depths = np.asarray(depths_m, dtype=np.float64)
     out: dict[int, MeasuredColour] = {}
@@ -211,17 +211,17 @@ def object_colours(
             region = region & inner
         if np.count_nonzero(region) < params.colour_min_pixels:
             continue
-        out[i] = trimmed_colour(linear[y0:y1, x0:x1][region], kind, params)
+        out[i] = trimmed_colour(uint8_to_linear(rgb[y0:y1, x0:x1][region]), kind, params)
     return out
 
 
 def region_colour(
-    linear: np.ndarray, region: np.ndarray, kind: str, params: PerceptionParams = DEFAULT_PERCEPTION
+    rgb: np.ndarray, region: np.ndarray, kind: str, params: PerceptionParams = DEFAULT_PERCEPTION
 ) -> MeasuredColour | None:
     """The colour of an image region (road, sidewalk), or None when it has too few pixels.
 
     Args:
-        linear: (H, W, 3) float linear RGB photo.
+        rgb: (H, W, 3) uint8 sRGB photo; only the pixels measured are decoded to linear RGB.
         region: (H, W) bool pixels of the region.
         kind: what the region is (``labels`` or ``ground``, see :data:`REGIONS`).
         params: ``colour_*`` fields.
@@ -233,4 +233,4 @@ def region_colour(
     sub = region[::step, ::step]
     if np.count_nonzero(sub) < params.colour_min_pixels:
         sub, step = region, 1
-    return trimmed_colour(linear[::step, ::step][sub], kind, params)
+    return trimmed_colour(uint8_to_linear(rgb[::step, ::step][sub]), kind, params)

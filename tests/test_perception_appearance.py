@@ -53,7 +53,8 @@ def _error(measured: MeasuredColour, paint: np.ndarray) -> float:
     ],
 )
 def test_box_only_object_gives_its_paint_colour(paint, window):
-    found = object_colours(_car_photo(paint, window), np.stack([BOX, OCCLUDER]), [None, None], np.array([12.0, 8.0]))
+    photo = _car_photo(paint, window)
+    found = object_colours(photo, np.stack([BOX, OCCLUDER]), [None, None], np.array([12.0, 8.0]))
     assert set(found) == {0, 1}
     assert found[0].region == "box"
     assert _error(found[0], paint) < 2.0

@@ -84,12 +84,14 @@ def _run_case(args: argparse.Namespace, image: Path, calib: Path, n: int, identi
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout, preexec_fn=cap)
     except subprocess.TimeoutExpired:
-        return {"seconds": None, "cpu_seconds": None, "outcome": f"stopped after {args.timeout:.0f} s", "rss_mb": None}
+        stopped = f"stopped after {args.timeout:.0f} s"
+        return {"seconds": None, "cpu_seconds": None, "outcome": stopped, "rss_mb": None}
     wall = time.perf_counter() - t0
     rss_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024  # the largest child so far
     if proc.returncode != 0:
         last = (proc.stderr.strip().splitlines() or ["?"])[-1]
-        return {"seconds": wall, "cpu_seconds": None, "outcome": f"failed (exit {proc.returncode}): {last[:120]}", "rss_mb": rss_mb}
+        failed = f"failed (exit {proc.returncode}): {last[:120]}"
+        return {"seconds": wall, "cpu_seconds": None, "outcome": failed, "rss_mb": rss_mb}
     row = json.loads(proc.stdout.strip().splitlines()[-1])
     row["rss_mb"] = rss_mb
     return row
@@ -123,7 +125,8 @@ def main(argv: list[str] | None = None) -> int:
                 secs = "-" if row["seconds"] is None else f"{row['seconds']:.1f} s"
                 cpu = "-" if row["cpu_seconds"] is None else f"{row['cpu_seconds']:.1f} s"
                 rss = "-" if row["rss_mb"] is None else f"{row['rss_mb']:.0f} MB"
-                print(f"| {n} | {'identical' if identical else 'random'} | {secs} | {cpu} | {rss} | {row['outcome']} |", flush=True)
+                kind = "identical" if identical else "random"
+                print(f"| {n} | {kind} | {secs} | {cpu} | {rss} | {row['outcome']} |", flush=True)
     return 0
 
 

@@ -138,7 +138,9 @@ def fit_view_angle(
     return float(np.radians(a0 + min(max(t, 0.0), 1.0) * (a1 - a0)))
 
 
-def _aspect_curve(camera: PinholeCamera, ground: np.ndarray, yaws: np.ndarray, size_lwh: np.ndarray) -> np.ndarray | None:
+def _aspect_curve(
+    camera: PinholeCamera, ground: np.ndarray, yaws: np.ndarray, size_lwh: np.ndarray
+) -> np.ndarray | None:
     """(K,) float64 width over height of the projected box at each yaw, or None when a turn
     projects a corner behind the camera or to a non-finite pixel, or a ratio is not finite.
 

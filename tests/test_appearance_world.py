@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import shutil
 from pathlib import Path
 
@@ -96,6 +97,22 @@ def test_measured_colour_is_a_base_layer_override_with_provenance(world):
     assert _car(stage, (250, 170, 390, 242)).GetAttribute("usdworld:albedo").Get()[0] > 0.5  # yellow
     terrain = stage.GetPrimAtPath("/World/Ground/Terrain")
     assert terrain.GetAttribute("usdworld:measuredColorRegion").Get() == "ground"
+
+
+def test_the_base_layer_colours_the_selected_variant_only(world):
+    """One variant body per coloured object, the built one: every other variant's materials
+    keep the asset's opinions (an export then validates one variant's materials, not all)."""
+    root, _ = world
+    stage = Usd.Stage.Open(str(root))
+    base = Sdf.Layer.FindOrOpen(str(root.parent / "layers" / "base.usda"))
+    for box in PAINTS:
+        car = _car(stage, box)
+        selected = car.GetVariantSets().GetVariantSelection("model")
+        assert len(car.GetVariantSets().GetVariantSet("model").GetVariantNames()) > 1
+        colours = [s.path for s in _specs_below(base, car.GetPath()) if s.path.name == "inputs:diffuseColor"]
+        assert colours
+        assert all(re.findall(r"\{[^}]*\}", str(p)) == [f"{{model={selected}}}"] for p in colours)
+        assert list(base.GetPrimAtPath(car.GetPath()).variantSets["model"].variants.keys()) == [selected]
 
 
 def _specs_below(layer: Sdf.Layer, path: Sdf.Path) -> list[Sdf.Spec]:

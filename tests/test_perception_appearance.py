@@ -4,10 +4,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from usdworld.evaluation.colour_difference import delta_e76
-from usdworld.perception.appearance import MeasuredColour, object_colours, region_colour, trimmed_colour
-from usdworld.perception.colour_space import linear_to_lab, uint8_to_linear
+from usdworld.perception.appearance import (
+    MeasuredColour,
+    nearer_cutting_boxes,
+    object_colours,
+    region_colour,
+    trimmed_colour,
+)
+from usdworld.perception.colour_space import linear_to_lab, linear_to_srgb, uint8_to_linear
 
 PAINT = np.array([222, 184, 28], dtype=np.uint8)  # ADAC yellow, sRGB
 BOX = np.array([40, 30, 200, 130])  # xmin ymin xmax ymax (max exclusive)
@@ -45,8 +53,8 @@ def _error(measured: MeasuredColour, paint: np.ndarray) -> float:
     ],
 )
 def test_box_only_object_gives_its_paint_colour(paint, window):
-    linear = uint8_to_linear(_car_photo(paint, window))
-    found = object_colours(linear, np.stack([BOX, OCCLUDER]), [None, None], np.array([12.0, 8.0]))
+    photo = _car_photo(paint, window)
+    found = object_colours(photo, np.stack([BOX, OCCLUDER]), [None, None], np.array([12.0, 8.0]))
     assert set(found) == {0, 1}
     assert found[0].region == "box"
     assert _error(found[0], paint) < 2.0
@@ -65,8 +73,7 @@ def test_a_plain_median_of_the_box_would_miss_the_paint():
 
 
 def test_occluder_farther_away_is_not_cut_out_and_the_paint_still_wins():
-    linear = uint8_to_linear(_car_photo(PAINT))
-    found = object_colours(linear, np.stack([BOX, OCCLUDER]), [None, None], np.array([8.0, 12.0]))
+    found = object_colours(_car_photo(PAINT), np.stack([BOX, OCCLUDER]), [None, None], np.array([8.0, 12.0]))
     assert _error(found[0], PAINT) < 2.0
 
 
@@ -75,24 +82,25 @@ def test_instance_mask_is_the_region_where_given():
     x0, y0, x1, y1 = BOX
     mask = np.ones((y1 - y0, x1 - x0), dtype=bool)
     mask[:, 110:] = False  # the occluder's part
-    found = object_colours(uint8_to_linear(photo), BOX[None], [mask], np.array([10.0]))
+    found = object_colours(photo, BOX[None], [mask], np.array([10.0]))
     assert found[0].region == "mask"
     assert _error(found[0], PAINT) < 2.0
 
 
 def test_objects_with_too_few_visible_pixels_get_no_colour():
-    linear = uint8_to_linear(_car_photo(PAINT))
+    photo = _car_photo(PAINT)
     hidden = np.array([160, 70, 170, 80])  # inside the occluder, farther than it
-    found = object_colours(linear, np.stack([hidden, OCCLUDER]), [None, None], np.array([20.0, 8.0]))
+    found = object_colours(photo, np.stack([hidden, OCCLUDER]), [None, None], np.array([20.0, 8.0]))
     assert 0 not in found and 1 in found
-    outside = object_colours(linear, np.array([[300, 0, 320, 10]]), [None], np.array([5.0]))
+    outside = object_colours(photo, np.array([[300, 0, 320, 10]]), [None], np.array([5.0]))
     assert outside == {}
 
 
 def test_region_colour_of_a_labelled_surface():
     rng = np.random.default_rng(1)
-    road = np.tile(np.array([0.06, 0.06, 0.07]), (50, 80, 1)) * rng.uniform(0.95, 1.05, (50, 80, 1))
-    road[10:20] *= 0.3  # a shadow band across the road
+    linear = np.tile(np.array([0.06, 0.06, 0.07]), (50, 80, 1)) * rng.uniform(0.95, 1.05, (50, 80, 1))
+    linear[10:20] *= 0.3  # a shadow band across the road
+    road = np.round(linear_to_srgb(linear) * 255).astype(np.uint8)
     region = np.ones((50, 80), dtype=bool)
     measured = region_colour(road, region, "labels")
     assert measured is not None and measured.region == "labels"
@@ -119,9 +127,47 @@ def test_body_band_leaves_out_the_side_windows_of_a_near_car():
     img[10:110, 0:200] = (95, 105, 120)  # windows reflecting the sky: most of the box
     img[65:100, 0:200] = (200, 30, 25)  # the doors below the belt line
     img[100:110] = (15, 15, 15)  # tyres and the shadow under the car
-    linear = uint8_to_linear(np.clip(img + rng.normal(0, 2, img.shape), 0, 255).astype(np.uint8))
+    photo = np.clip(img + rng.normal(0, 2, img.shape), 0, 255).astype(np.uint8)
     box = np.array([[0, 10, 200, 110]])
-    whole = object_colours(linear, box, [None], np.array([4.0]))[0]
-    band = object_colours(linear, box, [None], np.array([4.0]), rows=[(0.45, 0.9)])[0]
+    whole = object_colours(photo, box, [None], np.array([4.0]))[0]
+    band = object_colours(photo, box, [None], np.array([4.0]), rows=[(0.45, 0.9)])[0]
     assert _error(band, np.array([200, 30, 25], np.uint8)) < 2.0
     assert _error(whole, np.array([200, 30, 25], np.uint8)) > 20.0  # the windows win without the band
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    boxes=st.lists(
+        st.tuples(*(st.integers(-20, 120) for _ in range(4))), min_size=1, max_size=12
+    ),
+    depths=st.lists(st.floats(0.5, 5.0), min_size=12, max_size=12),
+    i=st.integers(0, 11),
+    own=st.tuples(st.integers(-20, 99), st.integers(-20, 79), st.integers(1, 40), st.integers(1, 40)),
+)
+def test_nearer_cutting_boxes_are_exactly_the_occluders_that_clear_a_pixel(boxes, depths, i, own):
+    """Cutting every nearer box (the quadratic loop it replaces) and cutting only the ones
+    returned clear the same pixels, and each one returned clears at least one pixel."""
+    b = np.array(boxes, dtype=np.int64).reshape(-1, 4)
+    d = np.array(depths[: len(b)], dtype=np.float64)
+    i = i % len(b)
+    # The object's own box always reaches into the 100 x 80 image (drawn so, not filtered).
+    b[i] = (own[0], own[1], max(own[0], 0) + own[2], max(own[1], 0) + own[3])
+    x0, y0, x1, y1 = max(int(b[i, 0]), 0), max(int(b[i, 1]), 0), min(int(b[i, 2]), 100), min(int(b[i, 3]), 80)
+    assume(x1 > x0 and y1 > y0)
+
+    def cut(rows: np.ndarray) -> list[np.ndarray]:
+        out = []
+        for a0, b0, a1, b1 in rows.tolist():
+            region = np.ones((y1 - y0, x1 - x0), dtype=bool)
+            region[max(b0 - y0, 0) : max(b1 - y0, 0), max(a0 - x0, 0) : max(a1 - x0, 0)] = False
+            out.append(region)
+        return out
+
+    every = cut(b[d < d[i]])
+    chosen = nearer_cutting_boxes(b, d, i, (x0, y0, x1, y1))
+    kept = cut(chosen)
+    assert all(not r.all() for r in kept)
+    assert np.array_equal(
+        np.logical_and.reduce(every + [np.ones((y1 - y0, x1 - x0), dtype=bool)]),
+        np.logical_and.reduce(kept + [np.ones((y1 - y0, x1 - x0), dtype=bool)]),
+    )

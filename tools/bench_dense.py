@@ -2,8 +2,9 @@
 
 For each case a fresh Python process writes a KITTI ``label_2`` file of N ``Car`` lines
 and builds the world in-process (``usdworld.pipeline.build``: reading, perception,
-layout, authoring, writing); the parent reports its wall time and peak resident memory
-(``ru_maxrss`` of the child). A case over ``--timeout`` seconds is stopped and reported
+layout, authoring, writing); the parent reports its wall time, its CPU time
+(``time.process_time``, which a loaded machine inflates far less than the wall time) and
+peak resident memory (``ru_maxrss`` of the child). A case over ``--timeout`` seconds is stopped and reported
 as such; the child's address space is capped at ``--max-gb`` so that a blow-up fails
 there instead of swapping a shared machine.
 
@@ -60,14 +61,14 @@ def _child(image: str, calib: str, labels: str, out: str) -> None:
     from usdworld.errors import UsdWorldError
     from usdworld.pipeline import BuildRequest, build
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     try:
         result = build(BuildRequest(image=Path(image), camera=Path(calib), detections=Path(labels), output=Path(out)))
         outcome = f"built, {len(result.model.placements)} objects"
     except UsdWorldError as exc:
         outcome = f"refused: {exc}"
-    seconds = time.perf_counter() - t0
-    print(json.dumps({"seconds": seconds, "outcome": outcome}))
+    seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
+    print(json.dumps({"seconds": seconds, "cpu_seconds": cpu, "outcome": outcome}))
 
 
 def _run_case(args: argparse.Namespace, image: Path, calib: Path, n: int, identical: bool, tmp: Path) -> dict:
@@ -83,12 +84,14 @@ def _run_case(args: argparse.Namespace, image: Path, calib: Path, n: int, identi
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout, preexec_fn=cap)
     except subprocess.TimeoutExpired:
-        return {"seconds": None, "outcome": f"stopped after {args.timeout:.0f} s", "rss_mb": None}
+        stopped = f"stopped after {args.timeout:.0f} s"
+        return {"seconds": None, "cpu_seconds": None, "outcome": stopped, "rss_mb": None}
     wall = time.perf_counter() - t0
     rss_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024  # the largest child so far
     if proc.returncode != 0:
         last = (proc.stderr.strip().splitlines() or ["?"])[-1]
-        return {"seconds": wall, "outcome": f"failed (exit {proc.returncode}): {last[:120]}", "rss_mb": rss_mb}
+        failed = f"failed (exit {proc.returncode}): {last[:120]}"
+        return {"seconds": wall, "cpu_seconds": None, "outcome": failed, "rss_mb": rss_mb}
     row = json.loads(proc.stdout.strip().splitlines()[-1])
     row["rss_mb"] = rss_mb
     return row
@@ -112,16 +115,18 @@ def main(argv: list[str] | None = None) -> int:
         print(f"skipped: KITTI frame {args.frame} not found under {args.kitti} (pass --kitti)")
         return 0
     print(f"machine: {platform.machine()}, {os.cpu_count()} cpus, python {platform.python_version()}; load {os.getloadavg()}")
-    print("| car boxes | kind | build | peak RSS | outcome |")
-    print("|---|---|---|---|---|")
+    print("| car boxes | kind | build | CPU | peak RSS | outcome |")
+    print("|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for n in (int(v) for v in args.sizes.split(",")):
             for identical in (False, True):
                 # A fresh parent-side maximum per case: run each case's child from a new helper process.
                 row = _measure(args, image, calib, n, identical, Path(tmp))
                 secs = "-" if row["seconds"] is None else f"{row['seconds']:.1f} s"
+                cpu = "-" if row["cpu_seconds"] is None else f"{row['cpu_seconds']:.1f} s"
                 rss = "-" if row["rss_mb"] is None else f"{row['rss_mb']:.0f} MB"
-                print(f"| {n} | {'identical' if identical else 'random'} | {secs} | {rss} | {row['outcome']} |", flush=True)
+                kind = "identical" if identical else "random"
+                print(f"| {n} | {kind} | {secs} | {cpu} | {rss} | {row['outcome']} |", flush=True)
     return 0
 
 

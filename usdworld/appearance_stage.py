@@ -24,7 +24,6 @@ from usdworld.layout.placement import Placement
 from usdworld.layout.surfaces import SurfaceMesh
 from usdworld.parameters.perception import PerceptionParams
 from usdworld.perception.appearance import MeasuredColour, object_colours, region_colour
-from usdworld.perception.colour_space import uint8_to_linear
 from usdworld.render.lighting import Lighting, albedo_for_photo
 
 #: Normal of the ground surfaces.
@@ -57,22 +56,21 @@ def photo_appearances(
         Objects first (in placement order), then surfaces.
     """
     light = Lighting() if lighting is None else lighting
-    linear = uint8_to_linear(image.rgb)
     boxes = np.array([p.obj.box_px for p in placements], dtype=np.int64).reshape(-1, 4)
     masks = [None if p.obj.box_only else p.obj.mask for p in placements]
     depths = np.array([p.depth_m for p in placements], dtype=np.float64)
     out = []
     rows = [params.colour_rows(p.obj.class_name) for p in placements]
-    for i, colour in sorted(object_colours(linear, boxes, masks, depths, params, rows).items()):
+    for i, colour in sorted(object_colours(image.rgb, boxes, masks, depths, params, rows).items()):
         towards_camera = camera.center_world - placements[i].position_world
         towards_camera[2] = 0.0
         if np.linalg.norm(towards_camera) < 1e-6:
             towards_camera = -camera.rotation_world_from_cam[:, 2]
         out.append(_appearance(placements[i].name, "object", colour, towards_camera, light))
     for surface in surfaces:
-        region = _surface_region(surface.name, seg, surface_label_ids, boxes, camera, linear.shape[:2])
+        region = _surface_region(surface.name, seg, surface_label_ids, boxes, camera, image.rgb.shape[:2])
         kind = "labels" if seg is not None else "ground"
-        colour = region_colour(linear, region, kind, params) if region is not None else None
+        colour = region_colour(image.rgb, region, kind, params) if region is not None else None
         if colour is not None:
             out.append(_appearance(surface.name, "surface", colour, UP_WORLD, light))
     return tuple(out)

@@ -9,12 +9,16 @@ the usdz export time; the renderer, the GLB export, the browser editor and the D
 all read the material. DCC tools see it as the material's value, and a ``restyle`` in the
 edits layer, the stronger layer, wins over it (removing the restyle brings the photo's colour back).
 The asset's paint materials are variant-specific (``Looks/paint_red`` in one model,
-``Looks/paint_white`` in another), so an object's override is written for **every** variant
-of its ``model`` variant set, each in that variant's body of the object's own variant set
-in the base layer (``car_0001{model=sedan}Looks/paint_white/...``): the selected variant's
-paint always carries the photo's colour, also after ``replace`` selects another variant, and
-no opinion is left dangling on a material the new selection does not have. An asset
-without variants gets the overrides directly.
+``Looks/paint_white`` in another), so an object's override is written for its **selected**
+variant only, in that variant's body of the object's own variant set in the base layer
+(``car_0001{model=sedan}Looks/paint_white/...``): when ``replace`` selects another variant
+the override falls away with it (no opinion is left dangling on a material the new
+selection does not have) and ``replace`` authors the photo's colour, the prim's
+``usdworld:albedo``, on the new variant's paint in the edits layer
+(:func:`usdworld.authoring.editing.restyle.apply_photo_colour`). Writing it into every
+variant made an export validate every variant's materials. An asset without variants gets
+the overrides directly. The targets are found in each class asset's own stage, not in the
+composed world.
 For a ground surface, it is the ``diffuseColor`` of the surface's own material and its
 ``displayColor``. The measured colour, its spread and the albedo go into the prim's
 ``UsdWorldAppearanceAPI`` attributes.
@@ -29,7 +33,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
 from usdworld.authoring.asset_library import VARIANT_SET
 from usdworld.authoring.editing.restyle import restyle_targets
-from usdworld.authoring.provenance import APPEARANCE_API, apply_with_values
+from usdworld.authoring.provenance import APPEARANCE_API, author_values
 from usdworld.errors import AuthoringError
 from usdworld.world_files import GROUND_PATH, OBJECTS_PATH
 
@@ -37,46 +41,40 @@ if TYPE_CHECKING:
     from usdworld.layout.model import Appearance
 
 
-def define_appearances(stage: Usd.Stage, appearances: Sequence[Appearance]) -> None:
-    """Author each appearance on its object or ground surface (in the stage's root layer).
+def define_appearances(layer: Sdf.Layer, appearances: Sequence[Appearance]) -> None:
+    """Author each appearance on its object or ground surface (in the base layer).
 
-    The targets are found on the composed stage once per asset and variant (every object of
-    a class references the same asset), then all overrides are written as specs in one
+    No stage composes the world for this: an object's targets are found in its class
+    asset's own stage (opened once per asset, its paint found once per variant), a
+    surface's in the ground layer's stage; then all overrides are written as specs in one
     change block.
 
     Args:
-        stage: the world's base stage, objects and ground already authored (the overrides
-            land on the composed assets' materials).
+        layer: the world's base layer, objects (their reference and ``model`` variant
+            selection) and the ground reference already authored.
         appearances: the colours; targets are object names or surface names.
 
     Raises:
-        AuthoringError: a target that is not in the stage.
+        AuthoringError: a target that is not in the world.
     """
-    layer = stage.GetRootLayer()
-    cache: dict[tuple, dict[str, _Targets]] = {}
+    finder = _TargetFinder(layer)
     plans = []
     for look in appearances:
-        path = (
-            f"{OBJECTS_PATH}/{look.target}"
-            if look.kind == "object"
-            else f"{GROUND_PATH}/{look.target.capitalize()}"
-        )
-        prim = stage.GetPrimAtPath(path)
-        if not prim:
+        if look.kind == "object":
+            path = Sdf.Path(f"{OBJECTS_PATH}/{look.target}")
+            by_variant = finder.object_targets(path)
+        else:
+            path = Sdf.Path(f"{GROUND_PATH}/{look.target.capitalize()}")
+            by_variant = finder.surface_targets(path)
+        if by_variant is None:
             raise AuthoringError(f"appearance of '{look.target}': no such {look.kind} in the world")
-        plans.append(
-            (
-                look,
-                prim,
-                _object_targets(stage, prim, cache) if look.kind == "object" else _surface_targets(prim),
-            )
-        )
+        plans.append((look, path, by_variant))
     with Sdf.ChangeBlock():
-        for look, prim, by_variant in plans:
+        for look, path, by_variant in plans:
             albedo = Gf.Vec3f(*(float(c) for c in look.albedo))
-            spec = layer.GetPrimAtPath(prim.GetPath()) or Sdf.CreatePrimInLayer(layer, prim.GetPath())
+            spec = layer.GetPrimAtPath(path) or Sdf.CreatePrimInLayer(layer, path)
             for variant, (shaders, meshes) in by_variant.items():
-                root = prim.GetPath()
+                root = path
                 if variant:
                     if VARIANT_SET not in spec.variantSetNameList.prependedItems:
                         spec.variantSetNameList.prependedItems.append(VARIANT_SET)
@@ -93,19 +91,19 @@ def define_appearances(stage: Usd.Stage, appearances: Sequence[Appearance]) -> N
                         Sdf.ValueTypeNames.Color3fArray,
                         Vt.Vec3fArray([albedo]),
                     )
-    for look, prim, _ in plans:
-        m = look.measured
-        apply_with_values(
-            prim,
-            APPEARANCE_API,
-            {
-                "usdworld:measuredColor": Gf.Vec3f(*(float(c) for c in m.linear_rgb)),
-                "usdworld:measuredColorSpread": Gf.Vec3f(*(float(c) for c in m.spread)),
-                "usdworld:measuredColorPixels": int(m.pixels),
-                "usdworld:measuredColorRegion": m.region,
-                "usdworld:albedo": Gf.Vec3f(*(float(c) for c in look.albedo)),
-            },
-        )
+        for look, path, _ in plans:
+            m = look.measured
+            author_values(
+                layer.GetPrimAtPath(path) or Sdf.CreatePrimInLayer(layer, path),
+                APPEARANCE_API,
+                {
+                    "usdworld:measuredColor": Gf.Vec3f(*(float(c) for c in m.linear_rgb)),
+                    "usdworld:measuredColorSpread": Gf.Vec3f(*(float(c) for c in m.spread)),
+                    "usdworld:measuredColorPixels": int(m.pixels),
+                    "usdworld:measuredColorRegion": m.region,
+                    "usdworld:albedo": Gf.Vec3f(*(float(c) for c in look.albedo)),
+                },
+            )
 
 
 #: Paths relative to an object (or absolute, for surfaces) of the shaders and meshes to colour.
@@ -129,36 +127,63 @@ def _relative(prim: Usd.Prim, materials: list[UsdShade.Material], meshes: list[U
     return shaders, [mesh.GetPath().MakeRelativePath(prim.GetPath()) for mesh in meshes]
 
 
-def _object_targets(
-    stage: Usd.Stage, prim: Usd.Prim, cache: dict[tuple, dict[str, _Targets]]
-) -> dict[str, _Targets]:
-    """Variant name ('' for an asset without variants) -> the restyle targets in that variant."""
-    refs = prim.GetMetadata("references")
-    vsets = prim.GetVariantSets()
-    names = (
-        tuple(vsets.GetVariantSet(VARIANT_SET).GetVariantNames()) if vsets.HasVariantSet(VARIANT_SET) else ()
-    )
-    key = (str(refs), names)
-    if key not in cache:
-        if not names:
-            cache[key] = {"": _relative(prim, restyle_targets(prim)[0], [])}
-        else:
-            vset = vsets.GetVariantSet(VARIANT_SET)
-            found = {}
-            try:
-                for name in names:
-                    with Usd.EditContext(stage, stage.GetSessionLayer()):
-                        vset.SetVariantSelection(name)
-                    found[name] = _relative(prim, restyle_targets(prim)[0], [])  # materials only
-            finally:
-                session = stage.GetSessionLayer().GetPrimAtPath(prim.GetPath())
-                if session:
-                    del session.variantSelections[VARIANT_SET]
-            cache[key] = found
-    return cache[key]
+class _TargetFinder:
+    """The restyle targets of the base layer's objects and surfaces, each class asset (and
+    the ground layer) opened on its own, once, and each asset variant's paint found once."""
 
+    def __init__(self, layer: Sdf.Layer) -> None:
+        self.layer = layer
+        self.stages: dict[str, Usd.Stage] = {}
+        self.found: dict[tuple[str, str], dict[str, _Targets]] = {}
 
-def _surface_targets(prim: Usd.Prim) -> dict[str, _Targets]:
-    """The surface mesh's own bound material and the mesh (relative to the mesh)."""
-    bound = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
-    return {"": _relative(prim, [bound] if bound else [], [UsdGeom.Mesh(prim)])}
+    def _stage(self, asset_path: str) -> Usd.Stage | None:
+        resolved = self.layer.ComputeAbsolutePath(asset_path)
+        if resolved not in self.stages:
+            self.stages[resolved] = Usd.Stage.Open(resolved)
+        return self.stages[resolved]
+
+    def object_targets(self, path: Sdf.Path) -> dict[str, _Targets] | None:
+        """Variant name ('' for an asset without variants) -> the restyle targets of the
+        object's selected variant (materials only), relative to the object; None when the
+        layer holds no such object."""
+        spec = self.layer.GetPrimAtPath(path)
+        refs = spec.referenceList.prependedItems if spec else []
+        if not refs:
+            return None
+        asset = refs[0].assetPath
+        chosen = spec.variantSelections.get(VARIANT_SET, "")
+        key = (asset, chosen)
+        if key not in self.found:
+            stage = self._stage(asset)
+            root = stage.GetDefaultPrim()
+            vsets = root.GetVariantSets()
+            if not vsets.HasVariantSet(VARIANT_SET):
+                self.found[key] = {"": _relative(root, restyle_targets(root)[0], [])}
+            else:
+                vset = vsets.GetVariantSet(VARIANT_SET)
+                variant = chosen or vset.GetVariantSelection()
+                session = stage.GetSessionLayer()
+                try:
+                    with Usd.EditContext(stage, session):
+                        vset.SetVariantSelection(variant)
+                    self.found[key] = {variant: _relative(root, restyle_targets(root)[0], [])}
+                finally:
+                    over = session.GetPrimAtPath(root.GetPath())
+                    if over:
+                        del over.variantSelections[VARIANT_SET]
+        return self.found[key]
+
+    def surface_targets(self, path: Sdf.Path) -> dict[str, _Targets] | None:
+        """The surface mesh's own bound material and the mesh (relative to the mesh), found in
+        the ground layer the base layer references; None when it has no such surface."""
+        ground = self.layer.GetPrimAtPath(GROUND_PATH)
+        refs = ground.referenceList.prependedItems if ground else []
+        if not refs:
+            return None
+        stage = self._stage(refs[0].assetPath)
+        root = stage.GetDefaultPrim()
+        prim = stage.GetPrimAtPath(path.ReplacePrefix(Sdf.Path(GROUND_PATH), root.GetPath()))
+        if not prim:
+            return None
+        bound = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
+        return {"": _relative(prim, [bound] if bound else [], [UsdGeom.Mesh(prim)])}

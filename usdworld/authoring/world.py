@@ -259,9 +259,9 @@ def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) 
     del stage  # the objects go straight into the layer; no stage composes them
     define_objects(layer, model.placements, asset_refs, model.image_name)
     if model.appearances:
-        # The colour overrides land on the referenced assets' materials: only a stage
-        # composed with the objects (and their assets) finds them.
-        define_appearances(Usd.Stage.Open(layer), model.appearances)
+        # The colour overrides land on the referenced assets' materials, found in each
+        # asset's own stage (and the ground layer's): no stage composes the world.
+        define_appearances(layer, model.appearances)
     layer.Save()
 
 

@@ -174,17 +174,7 @@ def _aspect_curve(
     turn projects off the image plane)."""
     bearing = float(np.arctan2(ground[1], ground[0]))
     angles_deg, angles = _turns(step_deg)
-    # All turns at once, each trial box projected exactly as on its own (same products, same bits).
-    px, depth = camera.project_stacked(box_corners_turned(ground, bearing + angles, np.asarray(size_lwh)))
-    if not (np.isfinite(px).all() and (depth > 0).all()):  # a turn projects off the image plane
-        return angles_deg, None
-    # The spans as np.ptp takes them, max - min over the 8 corners of each turn; corner-major
-    # (8, K, 2) so that each reduction is 7 elementwise passes (max and min select, in any order).
-    by_corner = np.ascontiguousarray(px.transpose(1, 0, 2))
-    span = by_corner.max(axis=0) - by_corner.min(axis=0)
-    with np.errstate(invalid="ignore"):
-        curve = span[:, 0] / np.maximum(span[:, 1], 1e-9)
-    return angles_deg, curve if np.isfinite(curve).all() else None
+    return angles_deg, _aspect_at_yaws(camera, ground, bearing + angles, size_lwh)
 
 
 def _reaches(angles_deg: np.ndarray, curve: np.ndarray, observed: float) -> float:
@@ -195,6 +185,42 @@ def _reaches(angles_deg: np.ndarray, curve: np.ndarray, observed: float) -> floa
     a0, a1 = angles_deg[k - 1], angles_deg[k]
     t = (observed - curve[k - 1]) / max(curve[k] - curve[k - 1], 1e-12)
     return float(np.radians(a0 + min(max(t, 0.0), 1.0) * (a1 - a0)))
+
+
+def _aspect_at_yaws(
+    camera: PinholeCamera, ground: np.ndarray, yaws: np.ndarray, size_lwh: np.ndarray
+) -> np.ndarray | None:
+    """(K,) float64 width over height of the projected box at each yaw, or None when a turn
+    projects a corner behind the camera or to a non-finite pixel, or a ratio is not finite.
+
+    The values are bit for bit those of :meth:`PinholeCamera.project_stacked` on
+    :func:`box_corners_turned` followed by ``np.ptp`` over the 8 corners (the same products
+    in the same shapes, the same elementwise operations), with fewer numpy calls: the
+    pixel is only divided out where every depth is in front of the camera (where
+    :meth:`~PinholeCamera.project_stacked` would write NaN, the fit gives up either way).
+
+    Args:
+        camera: the source camera.
+        ground: (2,) float64 footprint centre, metres.
+        yaws: (K,) float64 yaws, radians.
+        size_lwh: (3,) float64 length, width and height, metres.
+    """
+    corners = box_corners_turned(ground, yaws, np.asarray(size_lwh))
+    p_cam = (corners - camera.center_world) @ camera.rotation_world_from_cam
+    depth = p_cam[..., 2]
+    if not (depth > 1e-9).all():
+        return None
+    uvw = p_cam @ camera.K.T
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        px = uvw[..., :2] / uvw[..., 2:3]
+        if not np.isfinite(px).all():
+            return None
+        # The spans as np.ptp takes them, max - min over the 8 corners of each turn; corner-major
+        # (8, K, 2) so that each reduction is 7 elementwise passes (max and min select, in any order).
+        by_corner = np.ascontiguousarray(px.transpose(1, 0, 2))
+        span = by_corner.max(axis=0) - by_corner.min(axis=0)
+        curve = span[:, 0] / np.maximum(span[:, 1], 1e-9)
+    return curve if np.isfinite(curve).all() else None
 
 
 @functools.lru_cache(maxsize=8)

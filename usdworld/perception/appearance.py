@@ -27,7 +27,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter
 
 from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
-from usdworld.perception.colour_space import linear_to_lab
+from usdworld.perception.colour_space import linear_to_lab, uint8_to_linear
 
 #: Rec. 709 luminance weights of linear RGB.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -126,8 +126,40 @@ def _inner_box(box_px: np.ndarray, margin: float, rows: tuple[float, float]) -> 
     return round(x0 + w * margin), round(y0 + h * top), round(x1 - w * margin), round(y0 + h * bottom)
 
 
+def nearer_cutting_boxes(
+    boxes_px: np.ndarray, depths_m: np.ndarray, i: int, window: tuple[int, int, int, int]
+) -> np.ndarray:
+    """The boxes nearer than object ``i`` that cover at least one pixel of a window.
+
+    These are exactly the occluders whose pixels :func:`object_colours` clears from a
+    box-only object's region: every other nearer box's slice of the window is empty, so
+    leaving them out changes nothing (and makes a crowd of N boxes cost less than N^2 slices).
+
+    Args:
+        boxes_px: (N, 4) int64 boxes ``xmin, ymin, xmax, ymax`` (max exclusive).
+        depths_m: (N,) float64 depths; smaller is nearer.
+        i: the object whose region is being cut.
+        window: ``(x0, y0, x1, y1)`` the object's box clipped to the image, x1 > x0, y1 > y0.
+
+    Returns:
+        (K, 4) int64 rows of ``boxes_px``, in input order.
+    """
+    x0, y0, x1, y1 = window
+    b = boxes_px
+    cuts = (
+        (depths_m < depths_m[i])
+        & (b[:, 0] < b[:, 2])
+        & (b[:, 1] < b[:, 3])
+        & (b[:, 0] < x1)
+        & (b[:, 2] > x0)
+        & (b[:, 1] < y1)
+        & (b[:, 3] > y0)
+    )
+    return b[cuts]
+
+
 def object_colours(
-    linear: np.ndarray,
+    rgb: np.ndarray,
     boxes_px: np.ndarray,
     masks: Sequence[np.ndarray | None],
     depths_m: np.ndarray,
@@ -137,7 +169,7 @@ def object_colours(
     """Each object's colour from its own pixels (module docstring).
 
     Args:
-        linear: (H, W, 3) float linear RGB photo.
+        rgb: (H, W, 3) uint8 sRGB photo; only the pixels measured are decoded to linear RGB.
         boxes_px: (N, 4) int boxes ``xmin, ymin, xmax, ymax`` (max exclusive).
         masks: per object its (ymax-ymin, xmax-xmin) bool mask crop, or None for a box-only
             object (its region is then the box minus the boxes of nearer objects).
@@ -149,7 +181,7 @@ def object_colours(
     Returns:
         Object index -> colour, for the objects with at least ``colour_min_pixels`` pixels.
     """
-    h, w = linear.shape[:2]
+    h, w = rgb.shape[:2]
     boxes = np.asarray(boxes_px, dtype=np.int64).reshape(-1, 4)
     depths = np.asarray(depths_m, dtype=np.float64)
     out: dict[int, MeasuredColour] = {}
@@ -167,8 +199,7 @@ def object_colours(
             kind = "mask"
         else:
             region = np.ones((y1 - y0, x1 - x0), dtype=bool)
-            for j in np.flatnonzero(depths < depths[i]):
-                a0, b0, a1, b1 = (int(v) for v in boxes[j])
+            for a0, b0, a1, b1 in nearer_cutting_boxes(boxes, depths, i, (x0, y0, x1, y1)).tolist():
                 region[max(b0 - y0, 0) : max(b1 - y0, 0), max(a0 - x0, 0) : max(a1 - x0, 0)] = False
             kind = "box"
         ix0, iy0, ix1, iy1 = _inner_box(
@@ -180,17 +211,17 @@ def object_colours(
             region = region & inner
         if np.count_nonzero(region) < params.colour_min_pixels:
             continue
-        out[i] = trimmed_colour(linear[y0:y1, x0:x1][region], kind, params)
+        out[i] = trimmed_colour(uint8_to_linear(rgb[y0:y1, x0:x1][region]), kind, params)
     return out
 
 
 def region_colour(
-    linear: np.ndarray, region: np.ndarray, kind: str, params: PerceptionParams = DEFAULT_PERCEPTION
+    rgb: np.ndarray, region: np.ndarray, kind: str, params: PerceptionParams = DEFAULT_PERCEPTION
 ) -> MeasuredColour | None:
     """The colour of an image region (road, sidewalk), or None when it has too few pixels.
 
     Args:
-        linear: (H, W, 3) float linear RGB photo.
+        rgb: (H, W, 3) uint8 sRGB photo; only the pixels measured are decoded to linear RGB.
         region: (H, W) bool pixels of the region.
         kind: what the region is (``labels`` or ``ground``, see :data:`REGIONS`).
         params: ``colour_*`` fields.
@@ -202,4 +233,4 @@ def region_colour(
     sub = region[::step, ::step]
     if np.count_nonzero(sub) < params.colour_min_pixels:
         sub, step = region, 1
-    return trimmed_colour(linear[::step, ::step][sub], kind, params)
+    return trimmed_colour(uint8_to_linear(rgb[::step, ::step][sub]), kind, params)

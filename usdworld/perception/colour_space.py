@@ -11,6 +11,8 @@ Example:
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 #: XYZ of the sRGB primaries (IEC 61966-2-1), rows X, Y, Z; applied as ``xyz = M @ rgb``.
@@ -60,8 +62,15 @@ def uint8_to_linear(rgb: np.ndarray) -> np.ndarray:
     Returns:
         (..., 3) float64 linear RGB in [0, 1].
     """
+    return _decode_table()[np.asarray(rgb, dtype=np.uint8)]
+
+
+@functools.lru_cache(maxsize=1)
+def _decode_table() -> np.ndarray:
+    """(256,) float64 linear value of each 8-bit sRGB code, made once (read-only)."""
     table = srgb_to_linear(np.arange(256) / 255.0)
-    return table[np.asarray(rgb, dtype=np.uint8)]
+    table.setflags(write=False)
+    return table
 
 
 def linear_to_lab(linear: np.ndarray) -> np.ndarray:

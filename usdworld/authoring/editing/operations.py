@@ -410,6 +410,10 @@ def replace(
                 prim.GetVariantSets().SetSelection(asset_library.VARIANT_SET, variant)
             if obj.color:
                 paint.apply_restyle(prim, obj.color)
+            elif same:
+                # The base layer colours the built variant's paint only: the photo's colour
+                # goes onto the new variant's paint here (a restyle, above, wins over it).
+                paint.apply_photo_colour(prim)
 
         args = {"name": obj.name, "with": with_class, "variant": variant}
         step = _commit(ed, "replace", args, [prim.GetPath()], v, author)

@@ -4,7 +4,9 @@
 (UsdPreviewSurface: usdworld's renderer, usdview/Storm, Omniverse, Blender, Unity and
 Unreal importers) and ``primvars:displayColor`` of the meshes bound to them (viewers that
 show display colours); the colour is recorded in the prim's customData
-:data:`COLOR_KEY` and re-applied after a replacement.
+:data:`COLOR_KEY` and re-applied after a replacement. Without a restyle, a replacement by
+another variant re-applies the photo's colour (:func:`apply_photo_colour`), which the base
+layer authors on the built variant's paint only.
 """
 
 from __future__ import annotations
@@ -99,6 +101,25 @@ def author_colour(
             shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*linear))
     for mesh in meshes:
         mesh.CreateDisplayColorAttr().Set(Vt.Vec3fArray([Gf.Vec3f(*linear)]))
+
+
+def apply_photo_colour(prim: Usd.Prim) -> bool:
+    """Author an object's photo colour (its ``usdworld:albedo``) on the paint materials of its
+    current variant, in the current edit target: what ``replace`` does after selecting
+    another variant, whose paint the base layer has no colour for.
+
+    Args:
+        prim: the object.
+
+    Returns:
+        True when the object has a photo colour (and it was authored).
+    """
+    attr = prim.GetAttribute("usdworld:albedo")
+    albedo = attr.Get() if attr and attr.HasAuthoredValue() else None
+    if albedo is None:
+        return False
+    author_colour(restyle_targets(prim)[0], [], (float(albedo[0]), float(albedo[1]), float(albedo[2])))
+    return True
 
 
 def clear_restyle(edits: Sdf.Layer, prim: Usd.Prim) -> None:

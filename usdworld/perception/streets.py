@@ -278,8 +278,9 @@ def _sidewalk(
         )
         out[v] = band & free[v]
     # Stop at the next long street edge beyond the kerb: keep what connects to the road's side.
-    # (the kerb's own edge, one pixel wide, is crossed: the road grown by two pixels seeds it).
-    return _grow(out & ~edges, cv2.dilate(road.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool))
+    # (the kerb itself, a dark line with an edge on either side, is crossed: the road grown by three
+    # pixels seeds it).
+    return _grow(out & ~edges, cv2.dilate(road.astype(np.uint8), np.ones((7, 7), np.uint8)).astype(bool))
 
 
 def _below_road(road: np.ndarray, free: np.ndarray) -> np.ndarray:

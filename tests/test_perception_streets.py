@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -162,3 +163,36 @@ def test_a_boxes_only_build_gets_inferred_streets(tmp_path):
     assert all(s in ("car", "inferred:building", "inferred:vegetation") for s in sources)
     regions = {a.target: a.measured.region for a in on.model.appearances if a.kind == "surface"}
     assert regions["road"] == "inferred"
+
+
+def test_cityscapes_from_boxes_reaches_the_targets(shared_data, tmp_path):
+    """Issue 18's target: the Cityscapes frame from its photo and instance boxes only renders
+    road IoU >= 0.7 and building IoU >= 0.4 (0, 0 before)."""
+    import importlib.util
+
+    tool_path = Path(__file__).parents[1] / "tools" / "eval_streets.py"
+    spec = importlib.util.spec_from_file_location("eval_streets", tool_path)
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    photo = shared_data / "cityscapes" / "frankfurt_000000_000294_leftImg8bit.png"
+    row = tool.evaluate_frame(photo, tmp_path, None)
+    assert row["iou"]["road"] >= 0.7 and row["iou"]["building"] >= 0.4
+
+
+@pytest.mark.parametrize("frame, calibrated", [("000003", True), ("000022", False)])
+def test_kitti_walls_at_the_image_corner_do_not_stop_the_build(shared_data, tmp_path, frame, calibrated):
+    """Inferred facades reach the image's bottom corners: a depth cue or a row point behind the
+    camera is dropped instead of stopping the build with a bad-input error."""
+    from usdworld.pipeline import BuildRequest, build
+
+    data = shared_data / "kitti" / "training"
+    result = build(
+        BuildRequest(
+            image=data / "image_2" / f"{frame}.png",
+            output=tmp_path / frame,
+            detections=data / "label_2" / f"{frame}.txt",
+            camera=data / "calib" / f"{frame}.txt" if calibrated else None,
+        )
+    )
+    assert any(p.obj.source_label == "inferred:building" for p in result.model.placements)
+    assert all(p.depth_m > 0 for p in result.model.placements)

@@ -59,7 +59,7 @@ def draft_object(
             its street row, or whose only clue is the object hiding it).
 
     Returns:
-        The draft; None when nothing gives its depth.
+        The draft; None when nothing gives its depth, or its centre would lie behind the camera.
     """
     front = front_depth(obj, ctx, forced)
     if not np.isfinite(front.depth_m):
@@ -78,8 +78,8 @@ def draft_object(
     yaw, yaw_source = heading.yaw, heading.source
     if obj.is_thing:
         ground = align_box_columns(ctx.camera, ground, yaw, sized.size, obj, ctx.params)
-    # A cue whose centre would lie behind the camera (a wall seen at the image's bottom corner, a few
-    # decimetres ahead) gives no centre depth.
+    if not depth > 0:  # a wall seen at the image's bottom corner, a few decimetres ahead: centre behind the camera
+        return None
     centre_cues = tuple(
         DepthCue(c.name, c.depth_m + back, c.sigma_m, c.note)
         if c.available and c.depth_m + back > 0

@@ -15,8 +15,8 @@ surfaces, street lines) uses it unchanged:
   ground (a pixel at row ``v`` below the horizon ``v_h`` lies ``X = (u - c_x) h / (v - v_h)``
   to the side of a camera ``h`` above the ground), stopped by the same long edges;
 * **sky**: the bright, smooth region reaching the top of the image;
-* **vegetation**: greener than the photo's own grey (the road's colour: roads are grey),
-  textured, above the ground;
+* **vegetation**: green by the excess-green-minus-excess-red index (Meyer and Neto 2008) of
+  the photo white-balanced on the road (roads are grey), textured, above the ground;
 * **building**: what is left above the ground: the vertical faces where the ground ends,
   up to the sky.
 
@@ -75,6 +75,28 @@ class StreetLabels:
     label_ids: np.ndarray
     seed: str
     seed_pixels: int
+
+
+def excess_green_red(rgb: np.ndarray, grey: np.ndarray, window: int) -> np.ndarray:
+    """The excess-green-minus-excess-red vegetation index (Meyer and Neto 2008) of a photo white-balanced
+    on a grey reference, less the index of grey, averaged over a window.
+
+    ``ExG - ExR = (2g - r - b) - (1.4r - g)`` on chromatic coordinates ``r, g, b`` (each channel over
+    their sum); grey scores ``-0.4 / 3``, so the result is 0 for grey and positive for green.
+
+    Args:
+        rgb: (H, W, 3) uint8 sRGB photo.
+        grey: (3,) sRGB of something grey in it (the road).
+        window: odd side of the averaging window, pixels.
+
+    Returns:
+        (H, W) float64.
+    """
+    x = rgb.astype(np.float64) / np.maximum(np.asarray(grey, dtype=np.float64), 1.0)
+    s = x.sum(axis=-1) + 1e-9
+    r, g, b = (x[..., k] / s for k in range(3))
+    index = (2 * g - r - b) - (1.4 * r - g) + 0.4 / 3.0
+    return cv2.blur(index, (window, window))
 
 
 def _odd(n: float) -> int:
@@ -249,11 +271,10 @@ def infer_street_labels(
     above = (rows <= lowest[None, :]) | (rows < vh)
     rest = above & ~ground & ~sky & ~boxed
     # The road is grey: its colour is the photo's neutral (white balance and tint included).
-    green = (lab[..., 1] - ref[1] < -params.streets_green_chroma) & (
+    green = (excess_green_red(rgb, np.median(rgb[seeds], axis=0), _odd(3 * window)) > params.streets_excess_green) & (
         texture > params.streets_vegetation_texture
     )
-    k = _odd(params.streets_texture_window * w)
-    green = cv2.morphologyEx(green.astype(np.uint8), cv2.MORPH_OPEN, np.ones((k, k), np.uint8)).astype(bool)
+    green = cv2.morphologyEx(green.astype(np.uint8), cv2.MORPH_OPEN, np.ones((window, window), np.uint8)).astype(bool)
     labels[rest & green] = VEGETATION_ID
     labels[rest & ~green] = BUILDING_ID
     return StreetLabels(labels, seed_kind, int(seeds.sum()))

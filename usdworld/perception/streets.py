@@ -222,39 +222,23 @@ def infer_street_labels(
     below = rows > vh + params.streets_horizon_margin * h
     boxed = _box_mask((h, w), boxes)
 
-    seeds = road_seeds((h, w), boxes, vh, params) & below
-    seed_kind = "vehicles"
-    if seeds.sum() < params.streets_min_seed_px:
-        # The camera stands on the road: the ground just ahead of it, at the bottom centre.
-        seeds = np.zeros((h, w), dtype=bool)
-        v0 = int(round(h * (1.0 - params.streets_camera_seed_rows)))
-        u0, u1 = int(round(w / 3)), int(round(2 * w / 3))
-        seeds[max(v0, 0) :, u0:u1] = True
-        seeds &= below & ~boxed
-        seed_kind = "camera"
-    if seeds.sum() < params.streets_min_seed_px:
-        raise NoStreetError("no ground under the vehicles or ahead of the camera below the horizon")
-
-    ref = np.median(lab[seeds], axis=0)
-    diff = lab - ref
-    dist = np.sqrt((diff[..., 0] / params.streets_lightness_weight) ** 2 + diff[..., 1] ** 2 + diff[..., 2] ** 2)
-    seed_tex = float(np.median(texture[seeds]))
     edges = street_edges(lab[..., 0], view, params)
-    candidate = (
-        below
-        & ~boxed
-        & ~edges
-        & (dist < params.streets_colour_tolerance)
-        & (texture < max(params.streets_texture_max, params.streets_texture_factor * seed_tex))
-    )
-    road = _grow(candidate, seeds)
-    k = _odd(params.streets_close_window * w)
-    road = cv2.morphologyEx(road.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8)).astype(bool)
-    road = _fill_holes(road | _below_road(road, below & ~boxed)) & below & ~boxed
-    if road.sum() < params.streets_min_road_fraction * h * w:
+    found = []
+    for seed_kind, seeds in (
+        ("vehicles", road_seeds((h, w), boxes, vh, params) & below),
+        ("camera", _camera_seeds((h, w), params) & below & ~boxed),
+    ):
+        if seeds.sum() < params.streets_min_seed_px:
+            found.append(f"{seed_kind}: {int(seeds.sum())} seed pixels")
+            continue
+        road = _road(lab, texture, seeds, below & ~boxed, edges, w, params)
+        if road.sum() >= params.streets_min_road_fraction * h * w:
+            break
+        found.append(f"{seed_kind}: road-like ground of {int(road.sum())} pixels")
+    else:
         raise NoStreetError(
-            f"the ground matching the road's colour ({seed_kind}) covers {road.sum()} pixels, "
-            f"under {params.streets_min_road_fraction:.1%} of the image"
+            f"no road below the horizon (at least {params.streets_min_road_fraction:.1%} of the image, grown from "
+            f"under the vehicles, else from just ahead of the camera): {'; '.join(found)}"
         )
 
     labels = np.zeros((h, w), dtype=np.uint8)
@@ -278,6 +262,46 @@ def infer_street_labels(
     labels[rest & green] = VEGETATION_ID
     labels[rest & ~green] = BUILDING_ID
     return StreetLabels(labels, seed_kind, int(seeds.sum()))
+
+
+def _camera_seeds(shape: tuple[int, int], params: PerceptionParams) -> np.ndarray:
+    """(H, W) bool the bottom rows of the middle third: the ground just ahead of the camera, which stands on the road."""
+    h, w = shape
+    seeds = np.zeros(shape, dtype=bool)
+    v0 = int(round(h * (1.0 - params.streets_camera_seed_rows)))
+    seeds[max(v0, 0) :, int(round(w / 3)) : int(round(2 * w / 3))] = True
+    return seeds
+
+
+def _road(
+    lab: np.ndarray,
+    texture: np.ndarray,
+    seeds: np.ndarray,
+    free: np.ndarray,
+    edges: np.ndarray,
+    width: int,
+    params: PerceptionParams,
+) -> np.ndarray:
+    """(H, W) bool the free ground grown from ``seeds`` through pixels of their colour and texture.
+
+    The colour difference weighs lightness by ``1 / streets_lightness_weight``; the growth stops at
+    ``edges``; the road is closed (lane markings), its holes filled, and every free pixel between it
+    and the image bottom joined (the camera stands on the road).
+    """
+    ref = np.median(lab[seeds], axis=0)
+    diff = lab - ref
+    dist = np.sqrt((diff[..., 0] / params.streets_lightness_weight) ** 2 + diff[..., 1] ** 2 + diff[..., 2] ** 2)
+    seed_tex = float(np.median(texture[seeds]))
+    candidate = (
+        free
+        & ~edges
+        & (dist < params.streets_colour_tolerance)
+        & (texture < max(params.streets_texture_max, params.streets_texture_factor * seed_tex))
+    )
+    road = _grow(candidate, seeds)
+    k = _odd(params.streets_close_window * width)
+    road = cv2.morphologyEx(road.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8)).astype(bool)
+    return _fill_holes(road | _below_road(road, free)) & free
 
 
 def _sidewalk(

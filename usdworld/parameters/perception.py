@@ -78,7 +78,7 @@ class PerceptionParams:
     )
     # --- crowns (perception/crowns.py) ---
     crown_prominence_fraction: float = param(
-        0.1,
+        0.07,
         "fraction",
         "A crown top must rise above its neighbouring dips by this fraction of the tree's height in its column.",
         f"{_SYNTH}: merged crowns cut at the dips between their tops (commit 0f9489c)",
@@ -90,7 +90,7 @@ class PerceptionParams:
         f"{_SYNTH} (commit 0f9489c)",
     )
     crown_foot_fraction: float = param(
-        0.1,
+        0.04,
         "fraction",
         "A foot (trunk) must reach below its neighbourhood by this fraction of its column's height "
         "(small: a trunk beside a nearer crown hanging almost to the ground shows only a few pixels).",

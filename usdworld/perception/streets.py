@@ -129,7 +129,18 @@ def _box_mask(shape: tuple[int, int], boxes: Sequence[StreetBox]) -> np.ndarray:
 
 
 def road_seeds(shape: tuple[int, int], boxes: Sequence[StreetBox], horizon_v: float, params: PerceptionParams) -> np.ndarray:
-    """(H, W) bool pixels just under the vehicles' contacts, below the horizon and outside every box."""
+    """Pixels just under the vehicles' contacts: the road they stand on.
+
+    Args:
+        shape: (H, W) of the image.
+        boxes: the detected things; only those ``on_road`` whose bottom is below the horizon and
+            above the image's last row seed.
+        horizon_v: the horizon's row.
+        params: ``streets_seed_band`` and ``streets_seed_inset``.
+
+    Returns:
+        (H, W) bool, outside every box.
+    """
     h, w = shape
     seeds = np.zeros(shape, dtype=bool)
     for b in boxes:
@@ -145,9 +156,17 @@ def road_seeds(shape: tuple[int, int], boxes: Sequence[StreetBox], horizon_v: fl
 
 
 def street_edges(lab_l: np.ndarray, view: StreetView, params: PerceptionParams) -> np.ndarray:
-    """(H, W) bool long straight edges below the horizon that run to the street's vanishing point.
+    """Long straight edges below the horizon that run to the street's vanishing point (kerbs, road edges).
 
     Without a vanishing point, every long edge below the horizon that is not near horizontal counts.
+
+    Args:
+        lab_l: (H, W) float64 CIELAB lightness of the photo.
+        view: the horizon row and the vanishing point's column.
+        params: ``streets_edge_min_length`` and ``streets_edge_angle_tol``.
+
+    Returns:
+        (H, W) bool, the segments (LSD) drawn one pixel wide.
     """
     h, w = lab_l.shape
     img = np.clip(lab_l * 2.55, 0, 255).astype(np.uint8)

@@ -39,6 +39,7 @@ def photo_appearances(
     camera: PinholeCamera,
     params: PerceptionParams,
     lighting: Lighting | None = None,
+    labels_inferred: bool = False,
 ) -> tuple[Appearance, ...]:
     """The measured colour and its albedo for every placed object and ground surface that has one.
 
@@ -51,6 +52,8 @@ def photo_appearances(
         camera: the source camera.
         params: ``colour_*`` fields.
         lighting: the lighting the albedo is chosen for (default: the renderer's).
+        labels_inferred: ``seg`` was inferred from the photo (:mod:`usdworld.perception.streets`),
+            not given: the surfaces' colour regions are recorded as ``inferred``.
 
     Returns:
         Objects first (in placement order), then surfaces.
@@ -69,7 +72,7 @@ def photo_appearances(
         out.append(_appearance(placements[i].name, "object", colour, towards_camera, light))
     for surface in surfaces:
         region = _surface_region(surface.name, seg, surface_label_ids, boxes, camera, image.rgb.shape[:2])
-        kind = "labels" if seg is not None else "ground"
+        kind = ("inferred" if labels_inferred else "labels") if seg is not None else "ground"
         colour = region_colour(image.rgb, region, kind, params) if region is not None else None
         if colour is not None:
             out.append(_appearance(surface.name, "surface", colour, UP_WORLD, light))

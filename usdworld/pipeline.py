@@ -20,7 +20,7 @@ import logging
 import math
 import shutil
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +61,7 @@ from usdworld.output_dir import swap_in as _swap_in
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.perception.dedupe import merge_duplicates
 from usdworld.perception.facades import StreetView
+from usdworld.perception.streets import NoStreetError, StreetBox, StreetLabels, infer_street_labels
 from usdworld.perception.objects import (
     ImageObject,
     objects_from_detections,
@@ -107,6 +108,9 @@ class BuildRequest:
             a rig: its known pose gives height, pitch and roll; :mod:`usdworld.views`).
         detection_items: detections already read, used instead of reading ``detections``
             (a nuScenes info's 2D boxes of one camera).
+        infer_streets: with detections but no labels, infer the road, sidewalks, buildings,
+            vegetation and sky from the photo (:mod:`usdworld.perception.streets`; ``--no-infer-streets``
+            turns it off).
     """
 
     image: Path
@@ -129,6 +133,7 @@ class BuildRequest:
     traffic: str = "right"
     camera_spec: CameraSpec | None = None
     detection_items: Detections | None = None
+    infer_streets: bool = True
 
     def __post_init__(self) -> None:
         check_traffic(self.traffic)
@@ -189,6 +194,9 @@ class SceneHead:
         objects: the image objects, sorted.
         catalogue: the asset catalogue of the objects' classes.
         camera: the camera (given, estimated, or both).
+        inferred: how the labels were inferred from the photo (then ``seg`` is that map),
+            or None when they were given or not inferred.
+        inference_warning: why inferring them was given up, or ''.
     """
 
     image: SourceImage
@@ -198,6 +206,8 @@ class SceneHead:
     objects: list[ImageObject]
     catalogue: AssetCatalogue
     camera: CameraEstimate
+    inferred: StreetLabels | None = None
+    inference_warning: str = ""
 
 
 # --- adapters -------------------------------------------------------------------------
@@ -307,6 +317,39 @@ def _camera(
     )
 
 
+def _infer_streets(
+    image: SourceImage,
+    objects: list[ImageObject],
+    camera: PinholeCamera,
+    vanishing: VanishingPoint | None,
+    table: ClassTable,
+    params: Parameters,
+) -> tuple[StreetLabels | None, str]:
+    """The stuff map inferred from the photo, the things and the camera's horizon; or None and why not."""
+    view = StreetView(
+        camera.horizon_v(),
+        float(camera.K[0, 0]),
+        float(camera.K[0, 2]),
+        float(camera.height_m),
+        float(vanishing.u) if vanishing is not None else None,
+    )
+    boxes = [
+        StreetBox(np.asarray(o.box_px, dtype=np.float64), table[o.class_name].yaw == "road")
+        for o in objects
+        if o.is_thing
+    ]
+    try:
+        return infer_street_labels(image.rgb, boxes, view, params.perception), ""
+    except NoStreetError as exc:
+        return None, f"{image.file.name}: no road, sidewalk or buildings inferred: {exc}"
+
+
+def _inferred_stuff(seg: Segmentation, view: StreetView | None, table: ClassTable, params: Parameters) -> list[ImageObject]:
+    """The stuff objects (facades, trees) of an inferred map, their source class marked ``inferred:``."""
+    stuff = objects_from_segmentation(seg, view, table, label_lookups(), params.perception)
+    return [replace(o, source_label=f"inferred:{o.source_label}") for o in stuff if not o.is_thing]
+
+
 def _ground_fit(request: BuildRequest, camera: PinholeCamera, params: Parameters) -> tuple[HomographyFit, str]:
     if request.correspondences is not None:
         pairs = read_correspondences(request.correspondences)
@@ -338,6 +381,8 @@ def _warnings(head: SceneHead, skipped: list[Skipped], max_range_m: float, param
     if not head.objects:
         warnings.append(f"{head.image.file.name}: no objects found; the world has ground and camera only")
     warnings.extend(skip_warnings(skipped, max_range_m, params.collision))
+    if head.inference_warning:
+        warnings.append(head.inference_warning)
     if head.camera.estimated:
         warnings.append(f"camera estimated ({', '.join(head.camera.estimated)}): {head.camera.method}")
     return tuple(warnings)
@@ -375,7 +420,16 @@ def read_scene_head(
         exif = read_exif_focal(request.image, image.width, image.height)
         focal = estimate_focal(image.width, image.height, objects, table, vanishing, segments, exif, params.camera)
     camera = _camera(spec, image, objects, seg, catalogue, vanishing, table, params, focal)
-    return SceneHead(image, seg, spec, vanishing, objects, catalogue, camera)
+    inferred, why = None, ""
+    boxes_given = request.detections is not None or request.detection_items is not None
+    if seg is None and boxes_given and request.infer_streets:
+        # Boxes only: the road, sidewalks and buildings from the photo, once the camera gives the horizon.
+        inferred, why = _infer_streets(image, objects, camera.camera, vanishing, table, params)
+        if inferred is not None:
+            seg = Segmentation(inferred.label_ids, None, ())
+            objects = sort_objects(objects + _inferred_stuff(seg, view, table, params))
+            catalogue = asset_catalogue((o.class_name for o in objects), libraries)
+    return SceneHead(image, seg, spec, vanishing, objects, catalogue, camera, inferred, why)
 
 
 def depth_for_image(request: BuildRequest) -> tuple[DepthOutcome, PinholeCamera]:
@@ -463,6 +517,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         {**surface_ids, "terrain": [label_lookups().id_of("terrain")]},
         camera,
         params.perception,
+        labels_inferred=head.inferred is not None,
     )
     return WorldModel(
         image_name=head.image.file.name,

@@ -41,6 +41,11 @@ def build(
     traffic: Traffic = typer.Option(
         Traffic.right, "--traffic", help="The side traffic keeps to: which way vehicles face."
     ),
+    infer_streets: bool = typer.Option(
+        True,
+        "--infer-streets/--no-infer-streets",
+        help="With --detections and no labels: infer the road, sidewalks, buildings, trees and sky from the photo.",
+    ),
     params: Optional[Path] = typer.Option(
         None, "--params", help="Parameters JSON {section: {field: value}} over the defaults (docs/parameters.md)."
     ),
@@ -120,6 +125,7 @@ def build(
         max_range_m=max_range,
         traffic=traffic.value,
         params=read_parameters(params) if params is not None else DEFAULT_PARAMETERS,
+        infer_streets=infer_streets,
     )
     with _log_held_until_success():
         result = run_build(request)

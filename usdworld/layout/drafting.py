@@ -59,7 +59,7 @@ def draft_object(
             its street row, or whose only clue is the object hiding it).
 
     Returns:
-        The draft; None when nothing gives its depth.
+        The draft; None when nothing gives its depth, or its centre would lie behind the camera.
     """
     front = front_depth(obj, ctx, forced)
     if not np.isfinite(front.depth_m):
@@ -78,8 +78,13 @@ def draft_object(
     yaw, yaw_source = heading.yaw, heading.source
     if obj.is_thing:
         ground = align_box_columns(ctx.camera, ground, yaw, sized.size, obj, ctx.params)
+    if not depth > 0:  # a wall seen at the image's bottom corner, a few decimetres ahead: centre behind the camera
+        return None
     centre_cues = tuple(
-        DepthCue(c.name, c.depth_m + back, c.sigma_m, c.note) if c.available else c for c in front.cues
+        DepthCue(c.name, c.depth_m + back, c.sigma_m, c.note)
+        if c.available and c.depth_m + back > 0
+        else (DepthCue(c.name, None, None, f"{c.note}; centre behind the camera") if c.available else c)
+        for c in front.cues
     )
     # Trees, poles and signs collide by their trunk or post: people stand under crowns,
     # lamp arms and sign plates.

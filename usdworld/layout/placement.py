@@ -315,7 +315,10 @@ def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> tuple[list
     piled = [d.name for d, ok in zip(drafts, resolved.placed) if not ok]
     placements = []
     for d, disp, center, ok in zip(drafts, resolved.displacement, resolved.centers, resolved.placed):
-        if not ok:
+        depth = depth_of_ground_point(ctx.camera, center) if np.any(disp) else d.depth_m
+        if not ok or not depth > 0:  # pushed behind the camera to clear the others: as good as piled
+            if ok:
+                piled.append(d.name)
             continue
         obj = d.obj
         z = params.curb_height_m if (ctx.sidewalk_lift and obj.standing_on == "sidewalk") else 0.0
@@ -332,7 +335,7 @@ def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> tuple[list
                 stretch=d.stretch,
                 scale_measured=d.scale_measured,
                 size_m=d.size,
-                depth_m=depth_of_ground_point(ctx.camera, center) if np.any(disp) else d.depth_m,
+                depth_m=depth,
                 method=d.method,
                 cues=d.cues,
                 collision_displacement=disp,

@@ -182,14 +182,14 @@ def onto_street_line(
     if hit is None:
         return None
     line, front = hit
-    if front > upper_m * (1.0 + params.line_bound_slack) + params.line_bound_slack_m:
+    if front <= 0 or front > upper_m * (1.0 + params.line_bound_slack) + params.line_bound_slack_m:
         return None
     occ = bounding_occluder(by_ref, obj, ctx)
     in_front_of_occluder = occ is not None and front < occ.depth_m - occ.back_m - params.line_bound_slack_m
     if in_front_of_occluder and not row_over_tree(obj, occ, ctx):  # type: ignore[arg-type]
         return None
     moved = draft_object(replace(obj, contact_px=pixel), name, ctx, Forced(front, DepthMethod.STREET_LINE))
-    if moved is None:
+    if moved is None or front + moved.back_m <= 0:  # the row meets the ray behind the camera
         return None
     return replace(
         moved, cues=(*moved.cues, _row_cue(line, front + moved.back_m, front, obj.class_name, ctx))

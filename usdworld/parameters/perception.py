@@ -262,6 +262,113 @@ class PerceptionParams:
         "median of 5000 samples is within about 1 % of the whole region's).",
         "convention: chosen with the code (issue 18)",
     )
+    # --- streets inferred from the photo without labels (perception/streets.py) ---
+    streets_seed_band: float = param(
+        0.15,
+        "fraction",
+        "The road's colour is taken from the band under a vehicle's box this fraction of the box's height deep "
+        "(at least 2 px): the road it stands on.",
+        "convention: chosen with the code, checked on Cityscapes frankfurt_000000_000294 (labels) and KITTI 000001/000003/000008 (by eye) (issue 18)",
+    )
+    streets_seed_inset: float = param(
+        0.25,
+        "fraction",
+        "The seed band leaves out this fraction of the box's width at each side (a box seen at an angle "
+        "covers the sidewalk at its ends).",
+        "convention: the middle half of the box (issue 18)",
+    )
+    streets_min_seed_px: int = param(
+        20, "px", "Fewest seed pixels the road's colour is taken from; fewer fall back to the bottom centre.",
+        "convention: a median of 20 samples (issue 18)",
+    )
+    streets_camera_seed_rows: float = param(
+        0.1,
+        "fraction",
+        "Without vehicles, the road's colour is taken from the lowest rows of the middle third of the image, "
+        "this fraction of its height (the ground just ahead of the camera, which stands on the road).",
+        "geometry: a 1.5 m camera with a 45 deg vertical field of view sees the ground 3.6 m to 5 m ahead there",
+    )
+    streets_horizon_margin: float = param(
+        0.01, "fraction", "Ground is taken from this fraction of the image height below the horizon on.",
+        "convention: a few pixels for the horizon's uncertainty (issue 18)",
+    )
+    streets_lightness_weight: float = param(
+        2.0,
+        "1",
+        "The CIELAB lightness difference is divided by this before it is added to the chroma difference "
+        "(shadows change lightness, not hue).",
+        "published: CMC l:c colour difference, l = 2 for acceptability (Clarke, McDonald and Rigg 1984)",
+    )
+    streets_colour_tolerance: float = param(
+        12.0,
+        "1",
+        "A ground pixel is road-like when its colour difference from the seeds' median (lightness weighted "
+        "as above) is below this, in CIELAB units.",
+        "convention: chosen with the code, checked on Cityscapes frankfurt_000000_000294 (labels) and KITTI 000001/000003/000008 (by eye) (issue 18)",
+    )
+    streets_texture_window: float = param(
+        0.012,
+        "fraction",
+        "Side of the window texture (the local spread of lightness) is measured over, as a fraction of the "
+        "image width (at least 3 px).",
+        "convention: about 3 px at 256 px, 15 px at 1242 px (issue 18)",
+    )
+    streets_texture_max: float = param(
+        6.0, "1", "Floor of the road's texture limit: local lightness spread, CIELAB L* units.",
+        "convention: chosen with the code, checked on Cityscapes frankfurt_000000_000294 (labels) and KITTI 000001/000003/000008 (by eye) (issue 18)",
+    )
+    streets_texture_factor: float = param(
+        3.0, "1", "The road's texture limit is at least this multiple of the seeds' median texture.",
+        "convention: chosen with the code, checked on Cityscapes frankfurt_000000_000294 (labels) and KITTI 000001/000003/000008 (by eye) (issue 18)",
+    )
+    streets_edge_min_length: float = param(
+        0.05,
+        "fraction",
+        "Edges at least this fraction of the image width long bound the road and the sidewalk.",
+        "convention: chosen with the code, checked on Cityscapes frankfurt_000000_000294 (labels) and KITTI 000001/000003/000008 (by eye) (issue 18)",
+    )
+    streets_edge_angle_tol: float = param(
+        0.0873,
+        "rad",
+        "An edge bounds the road when it points at the street's vanishing point within this angle (5 deg); "
+        "without a vanishing point, when it is steeper than this.",
+        "convention: the tolerance of the vanishing-point inliers (issue 18)",
+    )
+    streets_close_window: float = param(
+        0.02,
+        "fraction",
+        "The road is closed (lane markings, small gaps) with a square of this fraction of the image width.",
+        "convention: chosen with the code, checked on Cityscapes frankfurt_000000_000294 (labels) and KITTI 000001/000003/000008 (by eye) (issue 18)",
+    )
+    streets_min_road_fraction: float = param(
+        0.01, "fraction", "Less inferred road than this fraction of the image is refused (nothing inferred).",
+        "convention: 1 % of the image (issue 18)",
+    )
+    streets_sidewalk_width_m: float = param(
+        2.5,
+        "m",
+        "Width of the sidewalk band beside the road, on the ground.",
+        "published: RASt 06 (FGSV 2006), the standard side-space width of an urban street, 2.50 m",
+    )
+    streets_sky_lightness: float = param(
+        70.0, "1", "Sky pixels are brighter than this CIELAB L*.", "convention: chosen with the code, checked on Cityscapes frankfurt_000000_000294 (labels) and KITTI 000001/000003/000008 (by eye) (issue 18)",
+    )
+    streets_sky_texture: float = param(
+        4.0, "1", "Sky pixels have a local lightness spread below this, CIELAB L* units.", "convention: chosen with the code, checked on Cityscapes frankfurt_000000_000294 (labels) and KITTI 000001/000003/000008 (by eye) (issue 18)",
+    )
+    streets_excess_green: float = param(
+        0.1,
+        "1",
+        "Vegetation scores more than this on the excess-green-minus-excess-red index (Meyer and Neto 2008) "
+        "of the photo white-balanced on the road, measured from grey (0) and averaged over three texture "
+        "windows (dark leaves have noisy chromaticity).",
+        "tuned: the best of 0.04 / 0.07 / 0.10 / 0.13 / 0.16 by the inferred map's vegetation IoU on Cityscapes "
+        "frankfurt_000000_000294 (the one real frame with vegetation labels: 0.17 / 0.27 / 0.45 / 0.41 / 0.34), "
+        "checked by eye on KITTI 000001 and 000008 (issue 18)",
+    )
+    streets_vegetation_texture: float = param(
+        3.0, "1", "Vegetation has a local lightness spread above this (leaves), CIELAB L* units.", "convention: chosen with the code, checked on Cityscapes frankfurt_000000_000294 (labels) and KITTI 000001/000003/000008 (by eye) (issue 18)",
+    )
 
     @property
     def split_aspect_by_class(self) -> dict[str, float]:

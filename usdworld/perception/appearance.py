@@ -32,7 +32,7 @@ from usdworld.perception.colour_space import linear_to_lab, uint8_to_linear
 #: Rec. 709 luminance weights of linear RGB.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 #: Where a colour's pixels can come from (:attr:`MeasuredColour.region`).
-REGIONS = ("mask", "box", "labels", "ground")
+REGIONS = ("mask", "box", "labels", "inferred", "ground")
 #: Median absolute deviation -> standard deviation of a normal distribution.
 MAD_TO_SIGMA = 1.4826
 
@@ -223,7 +223,7 @@ def region_colour(
     Args:
         rgb: (H, W, 3) uint8 sRGB photo; only the pixels measured are decoded to linear RGB.
         region: (H, W) bool pixels of the region.
-        kind: what the region is (``labels`` or ``ground``, see :data:`REGIONS`).
+        kind: what the region is (``labels``, ``inferred`` or ``ground``, see :data:`REGIONS`).
         params: ``colour_*`` fields.
     """
     count = np.count_nonzero(region)

@@ -127,6 +127,9 @@ class ViewsRequest:
             traffic=self.traffic,
             camera_spec=spec,
             detection_items=view.detection_items,
+            # Each view would infer its own facades from boxes, and the fusion associates things only:
+            # the street inference is for single photos.
+            infer_streets=False,
         )
 
 

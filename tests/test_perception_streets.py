@@ -163,6 +163,10 @@ def test_a_boxes_only_build_gets_inferred_streets(tmp_path):
     assert all(s in ("car", "inferred:building", "inferred:vegetation") for s in sources)
     regions = {a.target: a.measured.region for a in on.model.appearances if a.kind == "surface"}
     assert regions["road"] == "inferred"
+    # The inferred road grew from the car's own contact: it does not give the traffic's centre
+    # line, so the car's heading comes from the vehicles (here the camera's car and this one).
+    car = next(p for p in on.model.placements if p.obj.source_label == "car")
+    assert "road_region" not in car.yaw_source and "vehicle_span" in car.yaw_source
 
 
 def test_cityscapes_from_boxes_reaches_the_targets(shared_data, tmp_path):

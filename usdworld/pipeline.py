@@ -479,8 +479,11 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     stride = params.scene.surface_stride_px
     road = _label_mask(head.seg, "road")
     sidewalk = _label_mask(head.seg, "sidewalk")
+    # An inferred road is grown from the vehicles' own contacts, so it says nothing about the
+    # road's direction or centre line that the vehicles do not: the axis reads given labels only.
+    axis_road = road if head.inferred is None else None
     axis = road_axis(
-        surface_points(road, fit.dst_from_src, camera, max_range_m, stride) if road is not None else None,
+        surface_points(axis_road, fit.dst_from_src, camera, max_range_m, stride) if axis_road is not None else None,
         vanishing_angle=vanishing_yaw(head.vanishing, camera),
         params=params.placement,
         traffic=request.traffic,

@@ -16,7 +16,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
-from usdworld.io.class_table import ClassTable
 from usdworld.io.label_table import label_lookups
 from usdworld.io.types import Segmentation, SourceImage
 from usdworld.layout.model import LightRig
@@ -40,22 +39,19 @@ def footprint_corners(placement: Placement) -> np.ndarray:
 
 
 def shadow_casters(
-    placements: Sequence[Placement], camera: PinholeCamera, table: ClassTable, params: LightParams
+    placements: Sequence[Placement], camera: PinholeCamera, params: LightParams
 ) -> list[ShadowCaster]:
     """The placed objects within ``max_caster_range_m`` of the camera, as prisms.
 
-    Objects cut by the image's sides or bottom are left out (their footprints are only
-    bounds), but for facades, whose frontage out of view is placed from the class's priors.
+    Objects cut by the image's sides count too: their footprints are only bounds, but their
+    shadows darken the ground around their neighbours, and left out they would pull the fit.
 
     A tree counts as the prism of its crown's outline: its shadow then runs from the trunk to
     the crown top's shadow, which holds the crown's own shadow.
     """
-    facades = set(table.with_role("facade"))
     out = []
     for p in placements:
-        o = p.obj
-        cut = o.left_truncated or o.right_truncated or o.bottom_truncated
-        if not p.size_m[2] > 0 or (cut and o.class_name not in facades):
+        if not p.size_m[2] > 0:
             continue
         if np.linalg.norm(p.position_world[:2] - camera.center_world[:2]) > params.max_caster_range_m:
             continue
@@ -97,7 +93,6 @@ def estimate_scene_light(
     placements: Sequence[Placement],
     camera: PinholeCamera,
     ground_from_px: np.ndarray,
-    table: ClassTable,
     params: LightParams,
 ) -> LightEstimate:
     """The light of the photo (see the module docstring); the default sun where none is seen."""
@@ -108,7 +103,7 @@ def estimate_scene_light(
         ground_ids,
         sky,
         source,
-        shadow_casters(placements, camera, table, params),
+        shadow_casters(placements, camera, params),
         ground_from_px,
         math.atan2(default[1], default[0]),
         math.asin(default[2]),

@@ -70,13 +70,12 @@ class LightParams:
         "left out (a kerb's face, an object's outline, anti-aliased edges).",
         "convention: the width of an anti-aliased edge plus one pixel",
     )
-    samples_per_caster: int = param(
-        1500,
+    samples_per_side: int = param(
+        24,
         "count",
-        "Most ground pixels sampled around one caster: the pixels of the square its reach "
-        "spans in the image are taken on a regular grid of this many (all of them when fewer).",
-        "convention: a near car's ring spans tens of thousands of pixels; 1500 resolve a "
-        "shadow a tenth of its reach long",
+        "Ground samples along each side of the square around a caster (its footprint plus the "
+        "reach on every side); those in the ring within the reach and outside every footprint are used.",
+        "convention: a few hundred samples in the ring around a car, under a metre apart",
     )
     min_shadow_share: float = param(
         0.005,
@@ -109,7 +108,7 @@ class LightParams:
             raise ValueError(f"light.elevation_range_deg must be 0 < lo < hi < 90, got {self.elevation_range_deg}")
         if not 0.0 < self.lit_percentile < 100.0:
             raise ValueError(f"light.lit_percentile must be in (0, 100), got {self.lit_percentile}")
-        if not (self.coarse_step_deg > 0 and self.reach_max_m > 0 and self.samples_per_caster >= 16):
-            raise ValueError("light: coarse_step_deg and reach_max_m must be > 0, samples_per_caster >= 16")
+        if not (self.coarse_step_deg > 0 and self.reach_max_m > 0 and self.samples_per_side >= 4):
+            raise ValueError("light: coarse_step_deg and reach_max_m must be > 0, samples_per_side >= 4")
         if not 0.0 < self.sky_top_fraction <= 0.5:
             raise ValueError(f"light.sky_top_fraction must be in (0, 0.5], got {self.sky_top_fraction}")

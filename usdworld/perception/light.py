@@ -247,40 +247,29 @@ def _ring_samples(
         reach = _reach(c, params)
         lo = c.footprint_ground.min(axis=0) - reach
         hi = c.footprint_ground.max(axis=0) + reach
-        corners = np.array([[lo[0], lo[1], 1.0], [hi[0], lo[1], 1.0], [hi[0], hi[1], 1.0], [lo[0], hi[1], 1.0]])
-        homog = corners @ px_from_ground.T
-        if np.all(homog[:, 2] <= 1e-9):
-            continue
-        if np.any(homog[:, 2] <= 1e-9):  # the square reaches behind the camera: every row below it may hold it
-            front = homog[homog[:, 2] > 1e-9]
-            uv = front[:, :2] / front[:, 2:3]
-            u0, u1, v0, v1 = 0.0, float(w), float(np.clip(uv[:, 1].min(), 0, h)), float(h)
-        else:
-            uv = homog[:, :2] / homog[:, 2:3]
-            u0, u1 = np.clip([uv[:, 0].min(), uv[:, 0].max()], 0, w)
-            v0, v1 = np.clip([uv[:, 1].min(), uv[:, 1].max()], 0, h)
-        if u1 - u0 < 1 or v1 - v0 < 1:
-            continue
-        stride = max(1.0, math.sqrt((u1 - u0) * (v1 - v0) / params.samples_per_caster))
-        us = np.arange(u0 + stride / 2, u1, stride)
-        vs = np.arange(v0 + stride / 2, v1, stride)
-        uu, vv = np.meshgrid(us, vs)
-        u, v = uu.ravel().astype(np.int64), vv.ravel().astype(np.int64)
-        sid = ground_ids[v, u]
-        keep = np.isin(sid, list(refs))
-        u, v, sid = u[keep], v[keep], sid[keep]
-        g = np.column_stack([u + 0.5, v + 0.5, np.ones(len(u))]) @ ground_from_px.T
-        front = g[:, 2] * np.sign(bottom[2]) > 1e-12  # below the horizon, like the bottom row
-        pts = g[front, :2] / g[front, 2:3]
-        u, v, sid = u[front], v[front], sid[front]
+        n = params.samples_per_side
+        gx, gy = np.meshgrid(np.linspace(lo[0], hi[0], n), np.linspace(lo[1], hi[1], n))
+        pts = np.column_stack([gx.ravel(), gy.ravel()])
         near = inside_convex(pts, footprints[i], reach)
         for other in footprints:  # ground under any footprint is not seen lit or shadowed
             near &= ~inside_convex(pts, other, params.footprint_margin_m)
-        if not np.any(near):
+        pts = pts[near]
+        if len(pts) == 0:
             continue
-        ref = np.array([refs[int(s)] for s in sid[near]])
-        pts_all.append(pts[near])
-        rel_all.append(lum[v[near], u[near]] / ref)
+        homog = np.column_stack([pts, np.ones(len(pts))]) @ px_from_ground.T
+        front = homog[:, 2] > 1e-9
+        uv = np.full((len(pts), 2), -1.0)
+        uv[front] = homog[front, :2] / homog[front, 2:3]
+        u, v = np.floor(uv[:, 0]).astype(np.int64), np.floor(uv[:, 1]).astype(np.int64)
+        ok = front & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+        sid = np.zeros(len(pts), dtype=np.int64)
+        sid[ok] = ground_ids[v[ok], u[ok]]
+        ok &= np.isin(sid, list(refs))
+        if not np.any(ok):
+            continue
+        ref = np.array([refs[int(s)] for s in sid[ok]])
+        pts_all.append(pts[ok])
+        rel_all.append(lum[v[ok], u[ok]] / ref)
         used.append(i)
     if not pts_all:
         return _Samples(np.zeros((0, 2)), np.zeros(0), ()), []

@@ -30,6 +30,7 @@ from usdworld.io.label_table import label_table
 from usdworld.render.outputs import view_camera, world_facts, world_image_size
 from usdworld.render.renderer import Renderer
 from usdworld.render.scene import RenderScene
+from usdworld.render.world_lights import lighting_from_stage
 
 log = logging.getLogger(__name__)
 
@@ -170,7 +171,8 @@ def evaluate_world(
         classes: label ids to compute IoU over; default the classes the world places
             (every class id its meshes carry).
         size: (width, height) of the render; default the labels' size, else the world's image size.
-        renderer: a renderer of that size to reuse (else one is created and closed).
+        renderer: a renderer of that size to reuse (else one is created, lit by the world's
+            authored lights, and closed).
         ids_match: whether ground-truth instance ids are the world's (default :func:`ids_match_world`).
 
     Raises:
@@ -190,7 +192,7 @@ def evaluate_world(
     camera = view_camera(stage, width, height)
     scene = RenderScene.from_stage(stage)
     own = renderer is None
-    r = renderer if renderer is not None else Renderer(width, height)
+    r = renderer if renderer is not None else Renderer(width, height, lighting=lighting_from_stage(stage))
     try:
         class_ids, _, object_ids, _ = r.render_labels(scene, camera.K, camera.world_from_cam)
         rgb = r.render_rgb(scene, camera.K, camera.world_from_cam) if photo is not None else None

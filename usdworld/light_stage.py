@@ -16,6 +16,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
+from usdworld.io.class_table import ClassTable
 from usdworld.io.label_table import label_lookups
 from usdworld.io.types import Segmentation, SourceImage
 from usdworld.layout.model import LightRig
@@ -39,19 +40,24 @@ def footprint_corners(placement: Placement) -> np.ndarray:
 
 
 def shadow_casters(
-    placements: Sequence[Placement], camera: PinholeCamera, params: LightParams
+    placements: Sequence[Placement], camera: PinholeCamera, table: ClassTable, params: LightParams
 ) -> list[ShadowCaster]:
     """The placed objects within ``max_caster_range_m`` of the camera, as prisms.
 
-    Objects cut by the image's sides count too: their footprints are only bounds, but their
-    shadows darken the ground around their neighbours, and left out they would pull the fit.
+    Objects cut by the image's sides or bottom are left out (their footprints are only
+    bounds: on the 50 synthetic scenes, counting them made the median azimuth error 23.4
+    degrees instead of 21), but for facades, whose frontage out of view is placed from the
+    class's priors.
 
     A tree counts as the prism of its crown's outline: its shadow then runs from the trunk to
     the crown top's shadow, which holds the crown's own shadow.
     """
+    facades = set(table.with_role("facade"))
     out = []
     for p in placements:
-        if not p.size_m[2] > 0:
+        o = p.obj
+        cut = o.left_truncated or o.right_truncated or o.bottom_truncated
+        if not p.size_m[2] > 0 or (cut and o.class_name not in facades):
             continue
         if np.linalg.norm(p.position_world[:2] - camera.center_world[:2]) > params.max_caster_range_m:
             continue
@@ -93,6 +99,7 @@ def estimate_scene_light(
     placements: Sequence[Placement],
     camera: PinholeCamera,
     ground_from_px: np.ndarray,
+    table: ClassTable,
     params: LightParams,
 ) -> LightEstimate:
     """The light of the photo (see the module docstring); the default sun where none is seen."""
@@ -103,7 +110,7 @@ def estimate_scene_light(
         ground_ids,
         sky,
         source,
-        shadow_casters(placements, camera, params),
+        shadow_casters(placements, camera, table, params),
         ground_from_px,
         math.atan2(default[1], default[0]),
         math.asin(default[2]),

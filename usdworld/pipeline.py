@@ -405,7 +405,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     surfaces = build_surfaces(
         filled, surface_ids, camera, fit.dst_from_src, params.placement.curb_height_m, max_range_m
     )
-    light = estimate_scene_light(head.image, head.seg, placements, camera, fit.dst_from_src, params.light)
+    light = estimate_scene_light(head.image, head.seg, placements, camera, fit.dst_from_src, table, params.light)
     lighting = world_lighting(light)
     appearances = photo_appearances(
         head.image,

@@ -103,3 +103,24 @@ def test_overcast_lighting_has_no_sun_and_lights_the_ground_like_the_default_sun
     sunny = Lighting()
     up = sunny.sky_ambient + sunny.sun_color * math.sin(math.radians(45.0))
     assert np.allclose(grey.sky_ambient, up)
+
+
+def test_evaluate_reports_the_sun_error_against_synth_truth() -> None:
+    from usdworld.evaluation.evaluate import light_errors
+    from usdworld.evaluation.ground_truth import GroundTruth
+    from usdworld.perception.light import LightEstimate
+
+    stage = _stage()
+    nan3 = np.full(3, np.nan)
+    fitted = LightEstimate(
+        "cast_shadows", False, math.radians(30.0), math.radians(40.0), 3.0, 0.1, 0.5, 5, 100, nan3, nan3, "none"
+    )
+    define_lights(stage, RIG, fitted)
+    truth = GroundTruth("synth", "world", (), "s_gt.json", "0" * 64, None, sun_direction(-20.0, 50.0), False)
+    errors = light_errors(stage, truth)
+    assert errors["azimuth_error_deg"] == pytest.approx(50.0, abs=1e-3)
+    assert errors["elevation_error_deg"] == pytest.approx(10.0, abs=1e-3)
+    overcast_truth = GroundTruth("synth", "world", (), "s_gt.json", "0" * 64, None, sun_direction(0.0, 50.0), True)
+    errors = light_errors(stage, overcast_truth)
+    assert (errors["true_overcast"], errors["overcast"], errors["azimuth_error_deg"]) == (True, False, None)
+    assert light_errors(_stage(), truth) is None  # an old world: no lights

@@ -282,23 +282,20 @@ def _ring_samples(
     return _Samples(points, np.concatenate(rel_all), tuple(neighbours)), used
 
 
-def half_planes(polygon: np.ndarray, pad_to: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def half_planes(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The half-planes ``a . x <= b`` whose intersection is a convex polygon.
 
     Args:
         polygon: (M, 2) float64 counter-clockwise vertices, M >= 3.
-        pad_to: pad with always-true rows (``0 . x <= 1``) up to this many.
 
     Returns:
-        (K, 2) outward normals ``a`` and (K,) offsets ``b``.
+        (K, 2) outward normals ``a`` and (K,) offsets ``b`` (one per edge of non-zero length).
     """
     edges = np.roll(polygon, -1, axis=0) - polygon
     keep = np.linalg.norm(edges, axis=1) > 1e-12
     edges, starts = edges[keep], polygon[keep]
     normals = np.column_stack([edges[:, 1], -edges[:, 0]])  # right of a ccw edge: outwards
-    offsets = np.einsum("ij,ij->i", normals, starts)
-    extra = max(pad_to - len(normals), 0)
-    return np.vstack([normals, np.zeros((extra, 2))]), np.concatenate([offsets, np.ones(extra)])
+    return normals, np.einsum("ij,ij->i", normals, starts)
 
 
 def in_swept(slack: np.ndarray, rate: np.ndarray) -> np.ndarray:
@@ -344,6 +341,7 @@ def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
     k = max(len(a) for a, _ in planes)
     normals, slack, height = [], [], []
     for c, (a, b), near in zip(casters, planes, samples.neighbours, strict=True):
+        # pad to k half-planes with always-true rows (0 . x <= 1)
         a = np.vstack([a, np.zeros((k - len(a), 2))])
         b = np.concatenate([b, np.ones(k - len(b))])
         normals.append(np.broadcast_to(a, (len(near), k, 2)))

@@ -43,7 +43,7 @@ def test_a_file_changes_only_the_fields_it_names(tmp_path):
         ([1], "p.json: must be an object {section: {field: value}}, got array"),
         (
             {"scenery": {}},
-            "p.json -> scenery: unknown parameter section; known: perception, camera, placement, collision, scene",
+            "p.json -> scenery: unknown parameter section; known: perception, camera, placement, collision, scene, light",
         ),
         ({"scene": 3}, "p.json -> scene: must be an object, got number"),
         ({"scene": {"range_m": 60}}, f"p.json -> scene -> range_m: unknown parameter; known: {SCENE_FIELDS}"),

@@ -9,7 +9,8 @@ so batch runners can call it in worker processes.
 Stages, in order: read the image, labels and camera (io); the street's vanishing point;
 image objects (perception); the asset catalogue of their classes; the camera estimate;
 dense depth; the ground homography; the road axis; placement; the ground surfaces; the
-colours of objects and surfaces measured in the photo (appearance); the
+sun and sky (light, from the shadows the placed objects cast and the sky's pixels); the
+colours of objects and surfaces measured in the photo (appearance, for that light); the
 world's layers and ``report.json``.
 """
 
@@ -56,6 +57,7 @@ from usdworld.layout.model import WorldModel
 from usdworld.layout.placement import Skipped, place_objects, skip_warnings
 from usdworld.layout.surfaces import SURFACE_CLASSES, build_surfaces, fill_hidden_ground, surface_points
 from usdworld.layout.yaw import road_axis
+from usdworld.light_stage import estimate_scene_light, light_rig, world_lighting
 from usdworld.output_dir import prepare_output as _prepare_output
 from usdworld.output_dir import swap_in as _swap_in
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
@@ -512,6 +514,8 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
     surfaces = build_surfaces(
         filled, surface_ids, camera, fit.dst_from_src, params.placement.curb_height_m, max_range_m
     )
+    light = estimate_scene_light(head.image, head.seg, placements, camera, fit.dst_from_src, table, params.light)
+    lighting = world_lighting(light)
     appearances = photo_appearances(
         head.image,
         head.seg,
@@ -520,6 +524,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         {**surface_ids, "terrain": [label_lookups().id_of("terrain")]},
         camera,
         params.perception,
+        lighting,
         labels_inferred=head.inferred is not None,
     )
     return WorldModel(
@@ -537,6 +542,8 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         depth_fit=dense.fit,
         warnings=_warnings(head, skipped, max_range_m, params),
         appearances=appearances,
+        light=light,
+        lights=light_rig(lighting),
     )
 
 

@@ -54,6 +54,26 @@ def _num(x: float | None) -> float | None:
     return round(x, 6) + 0.0 if np.isfinite(x) else None
 
 
+def _light_entry(light) -> dict | None:
+    """The sun and sky estimated from the photo, or None when not estimated."""
+    if light is None:
+        return None
+    return {
+        "method": light.method,
+        "overcast": light.overcast,
+        "sun_azimuth_deg": _num(np.degrees(light.sun_azimuth)),
+        "sun_elevation_deg": _num(np.degrees(light.sun_elevation)),
+        "shadow_contrast": _num(light.shadow_contrast),
+        "shadow_share": _num(light.shadow_share),
+        "fit_iou": _num(light.fit_iou),
+        "casters": light.casters,
+        "shadow_samples": light.shadow_samples,
+        "sky_zenith_linear": [_num(v) for v in light.sky_zenith_linear],
+        "sky_horizon_linear": [_num(v) for v in light.sky_horizon_linear],
+        "sky_source": light.sky_source,
+    }
+
+
 def make_report(model: WorldModel, params: Parameters) -> dict[str, Any]:
     """The ``report.json`` content: the same numbers as the USD provenance.
 
@@ -130,6 +150,7 @@ def make_report(model: WorldModel, params: Parameters) -> dict[str, Any]:
         },
         "inputs": [{"role": f.role, "name": f.name, "sha256": f.sha256} for f in model.inputs],
         "surfaces": [{"name": s.name, "area_m2": _num(s.area_m2)} for s in model.surfaces],
+        "light": _light_entry(model.light),
         "objects": objects,
         "parameters": params.to_dict(),
         "warnings": list(model.warnings),

@@ -27,3 +27,9 @@ OBJECTS_PATH = "/World/Objects"
 GROUND_PATH = "/World/Ground"
 #: The camera the photo was taken with.
 CAMERA_PATH = "/World/SourceCamera"
+#: Parent of the world's lights (with their provenance).
+LIGHTS_PATH = "/World/Lights"
+#: The sun: a DistantLight.
+SUN_PATH = "/World/Lights/Sun"
+#: The sky: a DomeLight.
+SKY_PATH = "/World/Lights/Sky"

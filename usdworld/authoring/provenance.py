@@ -9,6 +9,7 @@ from pxr import Sdf, Usd
 PROVENANCE_API = "UsdWorldProvenanceAPI"
 SCENE_API = "UsdWorldSceneAPI"
 APPEARANCE_API = "UsdWorldAppearanceAPI"
+LIGHT_API = "UsdWorldLightAPI"
 
 #: Attribute name -> value type, for the API schemas (mirrors schemas/schema.usda).
 ATTRIBUTE_TYPES: dict[str, Sdf.ValueTypeName] = {
@@ -56,6 +57,18 @@ ATTRIBUTE_TYPES: dict[str, Sdf.ValueTypeName] = {
     "usdworld:measuredColorPixels": Sdf.ValueTypeNames.Int,
     "usdworld:measuredColorRegion": Sdf.ValueTypeNames.Token,
     "usdworld:albedo": Sdf.ValueTypeNames.Color3f,
+    "usdworld:lightMethod": Sdf.ValueTypeNames.Token,
+    "usdworld:overcast": Sdf.ValueTypeNames.Bool,
+    "usdworld:sunAzimuth": Sdf.ValueTypeNames.Float,
+    "usdworld:sunElevation": Sdf.ValueTypeNames.Float,
+    "usdworld:shadowContrast": Sdf.ValueTypeNames.Float,
+    "usdworld:shadowShare": Sdf.ValueTypeNames.Float,
+    "usdworld:shadowFitIoU": Sdf.ValueTypeNames.Float,
+    "usdworld:shadowCasters": Sdf.ValueTypeNames.Int,
+    "usdworld:groundAmbient": Sdf.ValueTypeNames.Color3f,
+    "usdworld:skyZenithColor": Sdf.ValueTypeNames.Color3f,
+    "usdworld:skyHorizonColor": Sdf.ValueTypeNames.Color3f,
+    "usdworld:skySource": Sdf.ValueTypeNames.Token,
 }
 
 

@@ -3,7 +3,8 @@
 Layout of the folder::
 
     world.usda          root: subLayers = [layers/edits.usda, layers/base.usda], Z up, metres
-    layers/base.usda    /World (assembly) with Objects, Ground (a reference) and SourceCamera
+    layers/base.usda    /World (assembly) with Objects, Ground (a reference), SourceCamera and
+                        Lights (a DistantLight sun and a DomeLight sky, from the photo)
     layers/ground.usdc  /Ground: road and sidewalk meshes with their materials (binary:
                         long arrays in text layers are a performance error for Omniverse)
     layers/edits.usda   the user's edits (empty until edited)
@@ -28,6 +29,7 @@ import usdworld
 from usdworld.authoring.appearance import define_appearances
 from usdworld.authoring.asset_cards import card_path
 from usdworld.authoring.camera import define_camera
+from usdworld.authoring.lights import define_lights
 from usdworld.authoring.provenance import (
     PROVENANCE_API,
     SCENE_API,
@@ -256,6 +258,8 @@ def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) 
         ground = UsdGeom.Xform.Define(stage, GROUND_PATH)
         ground.GetPrim().GetReferences().AddReference(f"./{Path(GROUND_LAYER).name}")
     define_camera(stage, CAMERA_PATH, model.camera.camera)
+    if model.lights is not None:
+        define_lights(stage, model.lights, model.light)
     del stage  # the objects go straight into the layer; no stage composes them
     define_objects(layer, model.placements, asset_refs, model.image_name)
     if model.appearances:

@@ -49,7 +49,7 @@ def render(
 
     from usdworld.authoring.inspect import open_world
     from usdworld.errors import InputError, OutputError
-    from usdworld.render import Lighting, Renderer, RenderScene, ViewCull
+    from usdworld.render import Renderer, RenderScene, ViewCull
     from usdworld.render.outputs import (
         COMPARISONS,
         find_beside_world,
@@ -98,9 +98,12 @@ def render(
     photo_rgb = read_photo(photo_path) if comparisons and photo_path is not None else None
     t0 = time.perf_counter()
     # Objects whose boxes and shadows lie outside the view are not read (same pixels).
-    cull = ViewCull(pose.K, pose.world_from_cam, width, height, Lighting().sun_direction_world)
+    from usdworld.render.world_lights import lighting_from_stage
+
+    lighting = lighting_from_stage(stage)  # the world's own sun and sky (the default for an old world)
+    cull = ViewCull(pose.K, pose.world_from_cam, width, height, lighting.sun_direction_world)
     scene = RenderScene.from_stage(stage, cull=cull)
-    with Renderer(width, height) as renderer:
+    with Renderer(width, height, lighting=lighting) as renderer:
         result = renderer.render(scene, pose.K, pose.world_from_cam)
     seconds = time.perf_counter() - t0
     paths = write_render_outputs(output, result, photo_rgb, outputs)

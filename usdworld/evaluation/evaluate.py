@@ -9,6 +9,7 @@ Example:
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,6 +31,8 @@ from usdworld.io.label_table import label_table
 from usdworld.render.outputs import view_camera, world_facts, world_image_size
 from usdworld.render.renderer import Renderer
 from usdworld.render.scene import RenderScene
+from usdworld.render.world_lights import lighting_from_stage
+from usdworld.world_files import LIGHTS_PATH
 
 log = logging.getLogger(__name__)
 
@@ -108,6 +111,8 @@ class Evaluation:
         colour: median CIE76 and CIEDE2000 colour error per object, photo vs render (None
             without a photo; see :mod:`usdworld.evaluation.colour_errors`).
         colour_rows: one row per object compared.
+        light: the world's sun against the true one (None without a true sun or without
+            authored lights; :func:`light_errors`).
     """
 
     size: tuple[int, int]
@@ -124,6 +129,7 @@ class Evaluation:
     scene_warnings: tuple[str, ...] = ()
     colour: dict[str, Any] | None = None
     colour_rows: list[dict[str, Any]] = field(default_factory=list)
+    light: dict[str, Any] | None = None
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dictionary (NaN written as null)."""
@@ -147,6 +153,8 @@ class Evaluation:
             out["objects"] = self.objects
             out["object_rows"] = self.object_rows
             out["scene_warnings"] = list(self.scene_warnings)
+        if self.light is not None:
+            out["light"] = self.light
         return out
 
 
@@ -170,7 +178,8 @@ def evaluate_world(
         classes: label ids to compute IoU over; default the classes the world places
             (every class id its meshes carry).
         size: (width, height) of the render; default the labels' size, else the world's image size.
-        renderer: a renderer of that size to reuse (else one is created and closed).
+        renderer: a renderer of that size to reuse (else one is created, lit by the world's
+            authored lights, and closed).
         ids_match: whether ground-truth instance ids are the world's (default :func:`ids_match_world`).
 
     Raises:
@@ -190,7 +199,7 @@ def evaluate_world(
     camera = view_camera(stage, width, height)
     scene = RenderScene.from_stage(stage)
     own = renderer is None
-    r = renderer if renderer is not None else Renderer(width, height)
+    r = renderer if renderer is not None else Renderer(width, height, lighting=lighting_from_stage(stage))
     try:
         class_ids, _, object_ids, _ = r.render_labels(scene, camera.K, camera.world_from_cam)
         rgb = r.render_rgb(scene, camera.K, camera.world_from_cam) if photo is not None else None
@@ -248,4 +257,34 @@ def evaluate_world(
         scene_warnings=warnings,
         colour=colour,
         colour_rows=[r.to_json() for r in colour_rows],
+        light=light_errors(stage, gt) if gt is not None else None,
     )
+
+
+def light_errors(stage: Usd.Stage, gt: GroundTruth) -> dict[str, Any] | None:
+    """The world's sun against the true one: azimuth and elevation errors, overcast or not.
+
+    The errors are measured when both are sunny (the world's ``usdworld:lightMethod`` is
+    ``cast_shadows`` and the truth is not overcast); the azimuth error wraps at 360 degrees.
+
+    Returns:
+        ``{true_overcast, overcast, method, azimuth_error_deg, elevation_error_deg}`` (errors
+        None when not both sunny), or None when the truth has no sun or the world no lights.
+    """
+    lights = stage.GetPrimAtPath(LIGHTS_PATH)
+    if gt.sun_direction_world is None or not lights or not lights.GetAttribute("usdworld:lightMethod"):
+        return None
+    method = str(lights.GetAttribute("usdworld:lightMethod").Get())
+    sun = lighting_from_stage(stage).sun_direction_world
+    truth = gt.sun_direction_world
+    both_sunny = method == "cast_shadows" and not gt.overcast
+    az = math.degrees(math.atan2(sun[1], sun[0]) - math.atan2(truth[1], truth[0]))
+    az = abs((az + 180.0) % 360.0 - 180.0)
+    el = abs(math.degrees(math.asin(min(sun[2], 1.0)) - math.asin(min(truth[2], 1.0))))
+    return {
+        "true_overcast": bool(gt.overcast),
+        "overcast": bool(lights.GetAttribute("usdworld:overcast").Get()),
+        "method": method,
+        "azimuth_error_deg": round(az, 3) if both_sunny else None,
+        "elevation_error_deg": round(el, 3) if both_sunny else None,
+    }

@@ -102,6 +102,9 @@ class GroundTruth:
         file_name: the ground-truth file's name.
         sha256: hex digest of the file's bytes.
         camera: the true camera (synth only), else None.
+        sun_direction_world: (3,) float64 unit vector towards the true sun (synth only), else None.
+        overcast: the scene is lit by the sky only (synth only; False in ground truth written
+            before synth made overcast scenes), else None.
     """
 
     kind: str
@@ -110,6 +113,8 @@ class GroundTruth:
     file_name: str
     sha256: str
     camera: PinholeCamera | None = None
+    sun_direction_world: np.ndarray | None = None
+    overcast: bool | None = None
 
     def __post_init__(self) -> None:
         if self.frame not in ("world", "cam"):
@@ -160,11 +165,18 @@ def _synth(doc: dict[str, Any], name: str, digest: str) -> GroundTruth:
                     visible_px=int(o["visible_pixels"]),
                 )
             )
+        sun = None
+        if "sun_direction_world" in doc:
+            sun = np.array(doc["sun_direction_world"], dtype=np.float64)
+            if sun.shape != (3,) or not np.all(np.isfinite(sun)) or not np.linalg.norm(sun) > 0:
+                raise ValueError(f"sun_direction_world: 3 finite numbers, not all 0, got {doc['sun_direction_world']}")
+            sun = sun / np.linalg.norm(sun)
+        overcast = bool(doc.get("overcast", False))
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         raise InputError(
             f"{name}: malformed synth ground truth ({type(exc).__name__}: {exc}); regenerate it with usdworld synth"
         ) from None
-    return GroundTruth("synth", "world", tuple(objects), name, digest, camera)
+    return GroundTruth("synth", "world", tuple(objects), name, digest, camera, sun, overcast)
 
 
 def _heading_cam(ry: float) -> np.ndarray:

@@ -15,8 +15,14 @@ What the file holds:
   (taxonomy -> labels), ``variants`` (set -> selection) and ``usdworld`` (every ``usdworld:*``
   attribute, NaN written as null). The scene's ``extras`` say where the file came from.
 
-Deactivated (deleted) prims, invisible prims, guides and proxies are left out; cameras and
-lights are not exported.
+- the sun (``/World/Lights/Sun``, a ``UsdLux.DistantLight``) as a ``KHR_lights_punctual``
+  directional light on a top node ``Sun`` turned so its -Z shines away from the sun; its
+  ``color`` is the light's colour and its ``intensity`` the USD ``intensity * 2**exposure``
+  (the renderer's units: 1 lights a white surface facing the sun to white). glTF has no
+  ambient light: the sky (the DomeLight) is left out.
+
+Deactivated (deleted) prims, invisible prims, guides and proxies are left out; cameras are
+not exported.
 """
 
 from __future__ import annotations
@@ -33,12 +39,13 @@ from typing import Any
 
 import numpy as np
 import trimesh
-from pxr import Gf, Usd, UsdGeom, UsdSemantics
+from pxr import Gf, Usd, UsdGeom, UsdLux, UsdSemantics
 
 import usdworld
 from usdworld.authoring.usd_geometry import Look, read_look, read_mesh, renderable_meshes, weld_corners
 from usdworld.errors import InputError, OutputError
 from usdworld.export.usd_formats import open_world
+from usdworld.world_files import SUN_PATH
 
 log = logging.getLogger(__name__)
 
@@ -258,6 +265,44 @@ def _postprocess(tree: dict[str, Any], extras: dict[str, dict[str, Any]], looks:
     }
 
 
+def sun_light(stage: Usd.Stage) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """The world's sun as a ``KHR_lights_punctual`` light and the node that holds it.
+
+    Returns:
+        (light, node) in glTF's frame (the node's rotation quaternion is x, y, z, w), or
+        None when the world has no active sun.
+    """
+    prim = stage.GetPrimAtPath(SUN_PATH)
+    if not (prim and prim.IsActive() and prim.IsA(UsdLux.DistantLight)):
+        return None
+    light = UsdLux.LightAPI(prim)
+    colour = [float(c) for c in (light.GetColorAttr().Get() or (1.0, 1.0, 1.0))]
+    intensity = float(light.GetIntensityAttr().Get() or 0.0) * 2.0 ** float(light.GetExposureAttr().Get() or 0.0)
+    world = np.asarray(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode.Default()), dtype=np.float64).T
+    towards_sun = _stage_root_matrix(stage)[:3, :3] @ world[:3, 2]
+    towards_sun /= np.linalg.norm(towards_sun)
+    q = Gf.Rotation(Gf.Vec3d(0.0, 0.0, 1.0), Gf.Vec3d(*towards_sun.tolist())).GetQuat()
+    rotation = [*(float(v) for v in q.GetImaginary()), float(q.GetReal())]
+    return (
+        {"type": "directional", "name": "Sun", "color": colour, "intensity": intensity},
+        {"name": "Sun", "rotation": rotation, "extras": {"usdPath": SUN_PATH}},
+    )
+
+
+def add_sun(tree: dict[str, Any], sun: tuple[dict[str, Any], dict[str, Any]] | None) -> None:
+    """Add the sun light (:func:`sun_light`) to a glTF tree as ``KHR_lights_punctual``."""
+    if sun is None:
+        return
+    light, node = sun
+    tree.setdefault("extensions", {})["KHR_lights_punctual"] = {"lights": [light]}
+    used = tree.setdefault("extensionsUsed", [])
+    if "KHR_lights_punctual" not in used:
+        used.append("KHR_lights_punctual")
+    nodes = tree.setdefault("nodes", [])
+    nodes.append({**node, "extensions": {"KHR_lights_punctual": {"light": 0}}})
+    tree["scenes"][0].setdefault("nodes", []).append(len(nodes) - 1)
+
+
 def write_glb(root: Path, out: Path) -> tuple[list[Path], GlbSummary]:
     """Write the composed world as a ``.glb``.
 
@@ -280,9 +325,11 @@ def write_glb(root: Path, out: Path) -> tuple[list[Path], GlbSummary]:
     source = root.name
     up = str(UsdGeom.GetStageUpAxis(stage))
     summary: dict[str, int] = {}
+    sun = sun_light(stage)
 
     def post(tree: dict[str, Any]) -> None:
         _postprocess(tree, extras, looks, source)
+        add_sun(tree, sun)
         tree["scenes"][0]["extras"]["usdworld"]["sourceUpAxis"] = up
         summary["nodes"] = len(tree.get("nodes", []))
         summary["mesh_nodes"] = sum(1 for n in tree.get("nodes", []) if "mesh" in n)
@@ -320,4 +367,4 @@ def read_glb_json(path: Path) -> dict[str, Any]:
     return json.loads(data[20 : 20 + length])
 
 
-__all__ = ["GlbSummary", "build_scene", "node_extras", "read_glb_json", "write_glb"]
+__all__ = ["GlbSummary", "add_sun", "build_scene", "node_extras", "read_glb_json", "sun_light", "write_glb"]

@@ -12,6 +12,7 @@ from usdworld.io.types import InputFile
 from usdworld.layout.placement import Placement
 from usdworld.layout.surfaces import SurfaceMesh
 from usdworld.perception.appearance import MeasuredColour
+from usdworld.perception.light import LightEstimate
 
 
 @dataclass(frozen=True)
@@ -41,6 +42,37 @@ class Appearance:
 
 
 @dataclass(frozen=True)
+class LightRig:
+    """The world's lights as authored: a sun and a sky dome (renderer units, linear RGB).
+
+    Attributes:
+        sun_direction_world: (3,) float64 unit vector towards the sun.
+        sun_color: (3,) float64 the sun's light (zeros when overcast).
+        sky_ambient: (3,) float64 the sky's ambient light from above.
+        ground_ambient: (3,) float64 the ambient light from below.
+        sky_zenith_srgb: (3,) float64 sRGB sky colour straight up.
+        sky_horizon_srgb: (3,) float64 sRGB sky colour at the horizon.
+    """
+
+    sun_direction_world: np.ndarray
+    sun_color: np.ndarray
+    sky_ambient: np.ndarray
+    ground_ambient: np.ndarray
+    sky_zenith_srgb: np.ndarray
+    sky_horizon_srgb: np.ndarray
+
+    def __post_init__(self) -> None:
+        for name in ("sun_direction_world", "sun_color", "sky_ambient", "ground_ambient", "sky_zenith_srgb", "sky_horizon_srgb"):
+            a = np.array(getattr(self, name), dtype=np.float64)
+            if a.shape != (3,) or not np.all(np.isfinite(a)):
+                raise ValueError(f"LightRig.{name}: 3 finite numbers, got {a}")
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+        if not self.sun_direction_world[2] > 0:
+            raise ValueError(f"LightRig.sun_direction_world: the sun must be above the horizon, got {self.sun_direction_world}")
+
+
+@dataclass(frozen=True)
 class WorldModel:
     """Everything a world's USD layers are written from.
 
@@ -59,6 +91,8 @@ class WorldModel:
         depth_fit: (scale, shift, inlier ratio, residual) of the ground fit; NaNs when none.
         warnings: things the user should know (one line each).
         appearances: colours measured in the photo, per object and surface (those measured).
+        light: the sun and sky estimated from the photo (None: not estimated, the default sun).
+        lights: the lights authored (None: none authored; renderers use their default).
     """
 
     image_name: str
@@ -75,3 +109,5 @@ class WorldModel:
     depth_fit: tuple[float, float, float, float] = (float("nan"),) * 4
     warnings: tuple[str, ...] = ()
     appearances: tuple[Appearance, ...] = ()
+    light: LightEstimate | None = None
+    lights: LightRig | None = None

@@ -23,6 +23,7 @@ from typing import Any
 _EXPORTS = {
     "CameraParams": "camera",
     "CollisionParams": "collision",
+    "LightParams": "light",
     "PerceptionParams": "perception",
     "PlacementParams": "placement",
     "SceneParams": "scene",

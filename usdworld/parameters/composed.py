@@ -9,6 +9,7 @@ from typing import Any
 from usdworld.parameters.base import plain, section_rows
 from usdworld.parameters.camera import CameraParams
 from usdworld.parameters.collision import CollisionParams
+from usdworld.parameters.light import LightParams
 from usdworld.parameters.perception import PerceptionParams
 from usdworld.parameters.placement import PlacementParams
 from usdworld.parameters.scene import SceneParams
@@ -24,6 +25,7 @@ class Parameters:
         placement: depth cues, street rows, occlusion order, scale and position.
         collision: footprint collision resolution.
         scene: ground surfaces, range, the DLT grid and what the pipeline derives.
+        light: the sun and sky estimated from the photo's shadows and sky.
     """
 
     perception: PerceptionParams = field(default_factory=PerceptionParams)
@@ -31,6 +33,7 @@ class Parameters:
     placement: PlacementParams = field(default_factory=PlacementParams)
     collision: CollisionParams = field(default_factory=CollisionParams)
     scene: SceneParams = field(default_factory=SceneParams)
+    light: LightParams = field(default_factory=LightParams)
 
     def sections(self) -> dict[str, object]:
         """The sections by name, in declaration order."""

@@ -27,6 +27,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
 from usdworld.errors import InputError
 from usdworld.render.lighting import Lighting
+from usdworld.render.world_lights import lighting_from_stage
 from usdworld.render.outputs import view_camera, world_image_size
 from usdworld.render.renderer import Renderer
 from usdworld.render.scene import RenderScene
@@ -312,7 +313,7 @@ def render_flythrough(
         fps: frames per second.
         camera_path: the start camera (default ``/World/SourceCamera``).
         path: the shape of the camera path.
-        lighting: sun and sky (default :class:`Lighting`).
+        lighting: sun and sky (default: the world's authored lights, else :class:`Lighting`).
         car_asset: the source vehicle's asset (default :func:`car_asset_for` the stage's root layer).
         progress: called with (frames done, frames total) after every frame.
 
@@ -332,6 +333,8 @@ def render_flythrough(
         car_asset = car_asset_for(Path(root) if root else None)
     add_source_vehicle(stage, car_asset)
     scene = RenderScene.from_stage(stage)
+    if lighting is None:
+        lighting = lighting_from_stage(stage)
     path = clear_path(path or FlythroughPath(), scene, source.world_from_cam)
     poses = flythrough_poses(source.world_from_cam, n_frames, path)
     render_s = 0.0

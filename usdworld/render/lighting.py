@@ -136,6 +136,33 @@ def albedo_for_photo(shown_linear: np.ndarray, normal_world: np.ndarray, lightin
     return np.clip(shown**lighting.gamma / irradiance(lighting, normal_world), 0.0, 1.0)
 
 
+def overcast_lighting(sun_direction_world: np.ndarray | None = None) -> Lighting:
+    """The lighting of an overcast day: no direct sun, a bright grey sky all round.
+
+    The sun's light is spread over the sky dome: the upward ambient is the default sun's
+    irradiance on the ground (45 degrees high) plus the default sky's, so a camera exposed
+    for the ground sees it about as bright as on a sunny day, and nothing casts a shadow
+    (the sun term is zero; the direction only places the unused shadow map).
+
+    Args:
+        sun_direction_world: (3,) where the hidden sun stands (default: the default sun's).
+
+    Returns:
+        The lighting.
+    """
+    sunny = Lighting()
+    up = sunny.sky_ambient + sunny.sun_color * np.sin(np.radians(45.0))
+    return Lighting(
+        sun_direction_world=sunny.sun_direction_world if sun_direction_world is None else sun_direction_world,
+        sun_color=np.zeros(3),
+        sky_ambient=up,
+        ground_ambient=sunny.ground_ambient * float(np.mean(up / sunny.sky_ambient)),
+        specular=0.0,
+        sky_zenith_srgb=np.array([0.72, 0.74, 0.77]),
+        sky_horizon_srgb=np.array([0.86, 0.87, 0.88]),
+    )
+
+
 def _box_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
 

@@ -30,6 +30,7 @@ from usdworld.evaluation import (
 )
 from usdworld.evaluation.world_objects import world_objects
 from usdworld.render import Renderer, RenderError, RenderScene
+from usdworld.render.world_lights import lighting_from_stage
 from usdworld.render.outputs import (
     colorize_labels,
     label_ids_image,
@@ -214,7 +215,7 @@ def collect(
     try:
         scene = RenderScene.from_stage(stage)
         pose = view_camera(stage, width, height)
-        with Renderer(width, height) as renderer:
+        with Renderer(width, height, lighting=lighting_from_stage(stage)) as renderer:
             result = renderer.render(scene, pose.K, pose.world_from_cam)
             # labels of another size: evaluate_world renders at their size with a renderer of its own
             same_size = label_ids is None or label_ids.shape == (height, width)

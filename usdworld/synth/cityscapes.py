@@ -8,7 +8,8 @@ Files written for ``name`` into ``out_dir``:
   for stuff (sky 23), 0 for void.
 * ``<name>_camera.json``: Cityscapes camera JSON; ``extrinsic`` x = y = 0 (the world origin is
   below the camera), z = camera height, pitch / roll / yaw in radians, baseline 0 (mono).
-* ``<name>_gt.json``: camera, street and per object ``name, class, label_id, instance_id,
+* ``<name>_gt.json``: camera, ``sun_direction_world`` (towards the sun) and ``overcast``
+  (lit by the sky only: no direct sun, no shadows), street and per object ``name, class, label_id, instance_id,
   variant, centre_world [x, y, z_bottom], yaw_rad, size_m [l, w, h]`` (after scaling), the
   scale, the role and ``visible_pixels`` (0: hidden or outside the view), read from the same
   render as the label images, so instance ids match the instance map.
@@ -28,6 +29,7 @@ import numpy as np
 from usdworld.atomic import write_bytes_atomic
 from usdworld.errors import OutputError
 from usdworld.render import Lighting, Renderer, RenderResult, RenderScene, label_id_for_class
+from usdworld.render.lighting import overcast_lighting
 from usdworld.synth.scene import SynthScene
 from usdworld.synth.stage import OBJECTS, author_stage
 
@@ -112,18 +114,24 @@ def ground_truth(scene: SynthScene, render_scene: RenderScene, result: RenderRes
             "yaw": _r(cam.yaw, 9),
         },
         "sun_direction_world": [_r(v) for v in scene.sun_direction_world],
+        "overcast": scene.overcast,
         "street": scene.street.to_json(),
         "objects": objects,
     }
+
+
+def scene_lighting(scene: SynthScene) -> Lighting:
+    """The lighting ``scene`` is rendered with: its sun, or the overcast sky when overcast."""
+    if scene.overcast:
+        return overcast_lighting(scene.sun_direction_world)
+    return Lighting(sun_direction_world=scene.sun_direction_world)
 
 
 def render_scene(scene: SynthScene) -> tuple[RenderScene, RenderResult]:
     """Author ``scene`` in memory and render every pass from its camera."""
     render_input = RenderScene.from_stage(author_stage(scene))
     cam = scene.camera
-    with Renderer(
-        cam.width, cam.height, lighting=Lighting(sun_direction_world=scene.sun_direction_world)
-    ) as r:
+    with Renderer(cam.width, cam.height, lighting=scene_lighting(scene)) as r:
         result = r.render(render_input, cam.K, cam.world_from_cam())
     return render_input, result
 

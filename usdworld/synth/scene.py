@@ -8,7 +8,11 @@ Camera (sampled, in realistic ranges for a car-mounted camera): height 1.2-1.7 m
 pitch -2..+5 degrees (positive looks down), roll +-1 degree, yaw +-2 degrees, horizontal
 field of view 50-90 degrees with square pixels, principal point within about 1 % of the
 image centre. The sun stands 40-65 degrees high, behind the camera and 25-70 degrees to
-one side, so cars and people cast visible shadows on the road.
+one side, so cars and people cast visible shadows on the road. A fraction
+``OVERCAST_FRACTION`` of the scenes is overcast: rendered without direct sun (ambient light
+only, no shadows). Whether a scene is overcast is drawn from a generator spawned from
+``rng`` (:meth:`numpy.random.Generator.spawn`), which leaves ``rng``'s own draws alone, so
+every scene's camera, street, objects and sun are the same as before overcast scenes existed.
 """
 
 from __future__ import annotations
@@ -33,6 +37,9 @@ PITCH_RANGE_DEG = (-2.0, 5.0)
 ROLL_RANGE_DEG = (-1.0, 1.0)
 YAW_RANGE_DEG = (-2.0, 2.0)
 HFOV_RANGE_DEG = (50.0, 90.0)
+#: Share of overcast scenes: about 15 in a 50-scene evaluation, enough to measure how often
+#: overcast is recognised.
+OVERCAST_FRACTION = 0.3
 
 
 @dataclass(frozen=True)
@@ -45,6 +52,7 @@ class SynthScene:
         objects: the placed assets, in stage order.
         sun_direction_world: (3,) float64 unit vector towards the sun.
         asset_paths: class -> asset layer the objects of that class reference.
+        overcast: True when the scene is lit by the sky only (no direct sun, no shadows).
     """
 
     camera: PinholeCamera
@@ -52,6 +60,7 @@ class SynthScene:
     objects: tuple[SynthObject, ...]
     sun_direction_world: np.ndarray
     asset_paths: Mapping[str, Path]
+    overcast: bool = False
 
     def __post_init__(self) -> None:
         sun = np.array(self.sun_direction_world, dtype=np.float64)
@@ -101,10 +110,13 @@ def make_street_scene(
     side = 1.0 if rng.random() < 0.5 else -1.0
     sun = sun_direction(180.0 + side * float(rng.uniform(25.0, 70.0)), float(rng.uniform(40.0, 65.0)))
     objects = place_objects(rng, street, library)
+    weather = rng.spawn(1)[0]  # an independent stream: the draws above stay what they were
+    overcast = bool(weather.random() < OVERCAST_FRACTION)
     return SynthScene(
         camera=camera,
         street=street,
         objects=objects,
         sun_direction_world=sun,
         asset_paths={c: a.path for c, a in library.items()},
+        overcast=overcast,
     )

@@ -1,0 +1,140 @@
+"""The sun and sky from a photo: swept footprints, the fit on a drawn street, sunny or overcast, sky colours."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from usdworld.geometry.camera import PinholeCamera
+from usdworld.parameters.light import LightParams
+from usdworld.perception.colour_space import linear_to_srgb
+from usdworld.perception.light import (
+    ShadowCaster,
+    _hull,
+    estimate_light,
+    half_planes,
+    in_swept,
+    inside_convex,
+    sky_colours,
+)
+
+PARAMS = LightParams()
+SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+
+
+def _swept(points: np.ndarray, footprint: np.ndarray, sweep: np.ndarray) -> np.ndarray:
+    a, b = half_planes(_hull(footprint))
+    slack = points @ a.T - b
+    rate = np.broadcast_to(a @ sweep, slack.shape)
+    return in_swept(slack, rate)
+
+
+def test_swept_square_known_answer() -> None:
+    points = np.array([[2.5, 0.5], [3.5, 0.5], [0.5, 1.5], [0.5, 0.5], [2.9, 0.99], [-0.1, 0.5]])
+    assert _swept(points, SQUARE, np.array([2.0, 0.0])).tolist() == [True, False, False, True, True, False]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.floats(-3, 3),
+    st.floats(-3, 3),
+    st.floats(0.3, 3),
+    st.floats(0.3, 2),
+    st.floats(-math.pi, math.pi),
+    st.lists(st.tuples(st.floats(-6, 6), st.floats(-6, 6)), min_size=1, max_size=20),
+)
+def test_swept_footprint_is_the_hull_of_the_footprint_and_its_shadow_end(
+    sx: float, sy: float, length: float, width: float, yaw: float, pts: list
+) -> None:
+    c, s = math.cos(yaw), math.sin(yaw)
+    footprint = (np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * [length / 2, width / 2]) @ np.array([[c, -s], [s, c]]).T
+    sweep = np.array([sx, sy])
+    points = np.array(pts, dtype=np.float64)
+    hull = _hull(np.concatenate([footprint, footprint + sweep]))
+    expected = inside_convex(points, hull)
+    # points within a micrometre of the outline may go either way
+    near_edge = inside_convex(points, hull, 1e-6) & ~inside_convex(points, hull, -1e-6)
+    got = _swept(points, footprint, sweep)
+    assert np.array_equal(got[~near_edge], expected[~near_edge])
+
+
+W, H = 640, 360
+CAMERA = PinholeCamera(
+    width=W, height=H, K=np.array([[400.0, 0, 320], [0, 400.0, 180], [0, 0, 1]]), height_m=1.5, pitch=0.06, roll=0.0, yaw=0.0
+)
+#: Cars and posts ahead of the camera, both sides of the road.
+CASTERS = [
+    ShadowCaster(f"car_{i}", np.array([[x - 2, y - 0.9], [x + 2, y - 0.9], [x + 2, y + 0.9], [x - 2, y + 0.9]]), 1.5)
+    for i, (x, y) in enumerate([(10.0, 3.0), (14.0, -3.5), (20.0, 2.0), (25.0, -2.5), (8.0, -4.0)])
+] + [
+    ShadowCaster(f"pole_{i}", np.array([[x - 0.1, y - 0.1], [x + 0.1, y - 0.1], [x + 0.1, y + 0.1], [x - 0.1, y + 0.1]]), 5.0)
+    for i, (x, y) in enumerate([(12.0, 6.0), (18.0, -6.5)])
+]
+
+
+def _street(sun_azimuth_deg: float | None, sun_elevation_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A flat grey street seen by CAMERA: (H, W, 3) photo, (H, W) ground ids, ground_from_px.
+
+    The casters' footprints are not ground (the objects stand there); their shadows, drawn
+    as the hull of each footprint and the footprint moved away from the sun, are 4 times
+    darker than the lit ground. ``sun_azimuth_deg`` None: no shadows (overcast).
+    """
+    ground_from_px = np.linalg.inv(CAMERA.px_from_ground())
+    v, u = np.mgrid[0:H, 0:W]
+    px = np.column_stack([u.ravel() + 0.5, v.ravel() + 0.5, np.ones(u.size)])
+    g = px @ ground_from_px.T
+    below = (v.ravel() > CAMERA.horizon_v() + 2) & (g[:, 2] * np.sign(g[:, 2]).max() > 0)
+    ground = np.zeros(u.size, dtype=np.int32)
+    ground[below] = 1
+    pts = np.zeros((u.size, 2))
+    pts[below] = g[below, :2] / g[below, 2:3]
+    linear = np.full(u.size, 0.3)
+    for c in CASTERS:
+        ground[below & inside_convex(pts, _hull(c.footprint_ground))] = 0
+        if sun_azimuth_deg is not None:
+            length = c.height_m / math.tan(math.radians(sun_elevation_deg))
+            away = -length * np.array([math.cos(math.radians(sun_azimuth_deg)), math.sin(math.radians(sun_azimuth_deg))])
+            shadow = _hull(np.concatenate([c.footprint_ground, c.footprint_ground + away]))
+            linear[below & inside_convex(pts, shadow)] = 0.3 / 4.0
+    srgb = np.round(linear_to_srgb(linear) * 255).astype(np.uint8).reshape(H, W)
+    rgb = np.repeat(srgb[:, :, None], 3, axis=2)
+    return rgb, ground.reshape(H, W), ground_from_px
+
+
+@pytest.mark.parametrize(("azimuth", "elevation"), [(140.0, 45.0), (-150.0, 30.0), (120.0, 52.0)])
+def test_sun_is_found_from_drawn_shadows(azimuth: float, elevation: float) -> None:
+    rgb, ground, ground_from_px = _street(azimuth, elevation)
+    est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", CASTERS, ground_from_px, 0.5, 0.5, PARAMS)
+    assert est.method == "cast_shadows" and not est.overcast
+    # the ring around a car is sampled under a metre apart: a 1.2 m shadow turns a few degrees within it
+    error = (math.degrees(est.sun_azimuth) - azimuth + 180.0) % 360.0 - 180.0
+    assert abs(error) <= 5.0
+    assert abs(math.degrees(est.sun_elevation) - elevation) <= 5.0
+    assert est.shadow_contrast == pytest.approx(4.0, rel=0.1)
+    assert est.sun_direction_world[2] == pytest.approx(math.sin(est.sun_elevation))
+
+
+def test_no_shadows_means_overcast_and_no_casters_means_no_evidence() -> None:
+    rgb, ground, ground_from_px = _street(None, 45.0)
+    est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", CASTERS, ground_from_px, 0.5, 0.6, PARAMS)
+    assert (est.method, est.overcast, est.shadow_share) == ("overcast", True, 0.0)
+    assert (est.sun_azimuth, est.sun_elevation) == (0.5, 0.6)  # the caller's default
+    est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", [], ground_from_px, 0.5, 0.6, PARAMS)
+    assert (est.method, est.overcast, est.casters) == ("no_evidence", False, 0)
+    assert est.sky_source == "none" and np.all(np.isnan(est.sky_zenith_linear))
+
+
+def test_sky_colours_are_the_medians_of_its_top_and_bottom_rows() -> None:
+    rgb = np.zeros((40, 10, 3), dtype=np.uint8)
+    rgb[:10] = (60, 120, 240)
+    rgb[10:30] = (150, 170, 200)
+    rgb[30:] = (200, 200, 210)
+    sky = np.zeros((40, 10), bool)
+    sky[:40] = True
+    zenith, horizon = sky_colours(rgb, sky, LightParams(sky_top_fraction=0.25))
+    assert np.allclose(linear_to_srgb(zenith) * 255, (60, 120, 240), atol=0.5)
+    assert np.allclose(linear_to_srgb(horizon) * 255, (200, 200, 210), atol=0.5)

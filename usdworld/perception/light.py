@@ -1,0 +1,516 @@
+"""The sun and the sky from the photo: cast shadows at the objects' feet, and the sky's pixels.
+
+Every placed object stands on the ground and, in sunshine, casts a shadow there: its
+footprint swept away from the sun by ``height / tan(elevation)`` (exact for a prism on
+flat ground: the shadow is the convex hull of the footprint and the footprint moved along
+the shadow direction). Ground samples in a ring around each footprint are projected into
+the photo with the ground homography; a sample counts as shadowed when its pixel is
+darker than the lit ground of its own surface (road, sidewalk, terrain) by
+``sunny_min_contrast``. The sun's azimuth and elevation are the ones whose predicted
+shadows (the union over all casters) overlap the shadowed samples best (intersection over
+union, a coarse grid and then one degree). Samples hidden in the photo (under another
+object, or not ground) are left out, so a shadow hidden behind its own caster costs nothing.
+
+Sunny or overcast: direct sun makes a lit surface 3 to 10 times brighter than one in
+shadow; under an overcast sky nothing casts a shadow, so the share of shadowed samples
+around the casters (each caster's ring weighing the same) decides; the fit runs only
+for a sunny photo.
+
+The sky's colour: the median linear RGB of the top and the bottom rows of its pixels
+(the sky labels when given, else the smooth bright part of the image above the horizon).
+
+Everything is in pixel and ground coordinates; nothing here reads files or knows about USD.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from usdworld.parameters.light import LightParams
+from usdworld.perception.colour_space import uint8_to_linear
+
+#: Rec. 709 luminance weights of linear RGB.
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+
+#: How the sun was found: cast shadows fitted, overcast (no shadows), or no evidence at all.
+METHODS = ("cast_shadows", "overcast", "no_evidence")
+
+
+@dataclass(frozen=True)
+class ShadowCaster:
+    """An object standing on the ground, as the light estimate sees it.
+
+    Attributes:
+        name: the placed object's name (for reports).
+        footprint_ground: (N, 2) float64 corners of its convex footprint on the ground, metres.
+        height_m: its height above the ground, metres (> 0).
+    """
+
+    name: str
+    footprint_ground: np.ndarray
+    height_m: float
+
+    def __post_init__(self) -> None:
+        f = np.array(self.footprint_ground, dtype=np.float64)
+        if f.ndim != 2 or f.shape[1] != 2 or len(f) < 1 or not np.all(np.isfinite(f)):
+            raise ValueError(f"ShadowCaster.footprint_ground: (N, 2) finite, got shape {f.shape}")
+        if not (math.isfinite(self.height_m) and self.height_m > 0):
+            raise ValueError(f"ShadowCaster.height_m: must be > 0, got {self.height_m}")
+        f.setflags(write=False)
+        object.__setattr__(self, "footprint_ground", f)
+
+
+@dataclass(frozen=True)
+class LightEstimate:
+    """The sun and sky found in a photo.
+
+    Attributes:
+        method: ``cast_shadows`` (the sun fitted to shadows), ``overcast`` (too few shadowed
+            samples around the casters) or ``no_evidence`` (no caster with visible ground
+            around it; the sun is the caller's default).
+        overcast: True when the photo shows no direct sun.
+        sun_azimuth: radians from world +X towards +Y of the direction towards the sun
+            (meaningful only for ``cast_shadows``; the default otherwise).
+        sun_elevation: radians above the horizon (as above).
+        shadow_contrast: lit ground luminance over the median of the shadowed samples' (1
+            when none is shadowed, NaN when unmeasured).
+        shadow_share: share of the ground samples around the casters that is shadowed (each
+            caster's ring weighing the same; NaN when unmeasured).
+        fit_iou: overlap of the predicted and the observed shadows at the fit (NaN unless fitted).
+        casters: how many casters had visible ground around them.
+        shadow_samples: ground samples inside the fitted shadows (0 unless fitted).
+        sky_zenith_linear: (3,) float64 linear RGB of the top of the sky (NaN when no sky is seen).
+        sky_horizon_linear: (3,) float64 linear RGB of the sky near the horizon (NaN when none).
+        sky_source: ``labels``, ``image`` (the bright smooth region above the horizon) or ``none``.
+    """
+
+    method: str
+    overcast: bool
+    sun_azimuth: float
+    sun_elevation: float
+    shadow_contrast: float
+    shadow_share: float
+    fit_iou: float
+    casters: int
+    shadow_samples: int
+    sky_zenith_linear: np.ndarray
+    sky_horizon_linear: np.ndarray
+    sky_source: str
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"LightEstimate.method: one of {METHODS}, got {self.method!r}")
+        if not 0.0 < self.sun_elevation < math.pi / 2:
+            raise ValueError(f"LightEstimate.sun_elevation: in (0, pi/2), got {self.sun_elevation}")
+        for name in ("sky_zenith_linear", "sky_horizon_linear"):
+            a = np.array(getattr(self, name), dtype=np.float64)
+            if a.shape != (3,):
+                raise ValueError(f"LightEstimate.{name}: 3 numbers, got shape {a.shape}")
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+
+    @property
+    def sun_direction_world(self) -> np.ndarray:
+        """(3,) float64 unit vector towards the sun."""
+        az, el = self.sun_azimuth, self.sun_elevation
+        return np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+
+
+def luminance(rgb: np.ndarray) -> np.ndarray:
+    """(H, W) float64 linear luminance of an (H, W, 3) uint8 sRGB image."""
+    return uint8_to_linear(rgb) @ LUMA
+
+
+def inner_ground(ground_ids: np.ndarray, edge_px: int) -> np.ndarray:
+    """(H, W) int32 surface ids with ``edge_px`` pixels taken off every surface's outline.
+
+    Pixels at a surface's edge mix it with what borders it (a kerb's face, an object's
+    outline), so they say nothing about its light.
+
+    Args:
+        ground_ids: (H, W) int surface id per pixel, 0 where not ground.
+        edge_px: pixels taken off (0: none).
+    """
+    ids = np.asarray(ground_ids).astype(np.int32)
+    if edge_px <= 0:
+        return ids
+    kernel = np.ones((2 * edge_px + 1, 2 * edge_px + 1), dtype=np.uint8)
+    out = np.zeros_like(ids)
+    for sid in np.unique(ids):
+        if sid == 0:
+            continue
+        inner = cv2.erode((ids == sid).astype(np.uint8), kernel, borderType=cv2.BORDER_REPLICATE).astype(bool)
+        out[inner] = sid
+    return out
+
+
+def lit_references(lum: np.ndarray, ground_ids: np.ndarray, percentile: float) -> dict[int, float]:
+    """The lit luminance of each ground surface.
+
+    Args:
+        lum: (H, W) float64 linear luminance.
+        ground_ids: (H, W) int surface id per pixel, 0 where not ground.
+        percentile: the percentile of a surface's pixels taken as lit.
+
+    Returns:
+        surface id -> lit luminance (surfaces with a positive one only).
+    """
+    refs = {}
+    for sid in np.unique(ground_ids):
+        if sid == 0:
+            continue
+        ref = float(np.percentile(lum[ground_ids == sid], percentile))
+        if ref > 0:
+            refs[int(sid)] = ref
+    return refs
+
+
+def _hull(points: np.ndarray) -> np.ndarray:
+    """(M, 2) counter-clockwise convex hull of (N, 2) points (monotone chain)."""
+    pts = sorted(map(tuple, np.round(points, 9)))
+    if len(pts) <= 2:
+        return np.array(pts, dtype=np.float64)
+
+    def half(seq: list) -> list:
+        out: list = []
+        for p in seq:
+            while len(out) >= 2 and (
+                (out[-1][0] - out[-2][0]) * (p[1] - out[-2][1]) - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])
+            ) <= 0:
+                out.pop()
+            out.append(p)
+        return out
+
+    lower, upper = half(pts), half(pts[::-1])
+    return np.array(lower[:-1] + upper[:-1], dtype=np.float64)
+
+
+def inside_convex(points: np.ndarray, hull: np.ndarray, margin: float = 0.0) -> np.ndarray:
+    """(N,) bool: the points within ``margin`` metres inside a counter-clockwise convex polygon.
+
+    Args:
+        points: (N, 2) float64.
+        hull: (M, 2) float64 counter-clockwise vertices, M >= 3 (fewer: a segment or a
+            point, grown by ``margin``).
+        margin: grows the polygon by this distance along each edge's normal.
+    """
+    if len(hull) < 3:
+        if len(hull) == 1:
+            return np.linalg.norm(points - hull[0], axis=1) <= margin
+        a, b = hull[0], hull[-1]
+        ab = b - a
+        t = np.clip(((points - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
+        return np.linalg.norm(points - (a + t[:, None] * ab), axis=1) <= margin
+    edges = np.roll(hull, -1, axis=0) - hull
+    lengths = np.linalg.norm(edges, axis=1)
+    keep = lengths > 1e-12
+    edges, starts, lengths = edges[keep], hull[keep], lengths[keep]
+    rel = points[:, None, :] - starts[None, :, :]
+    cross = edges[None, :, 0] * rel[:, :, 1] - edges[None, :, 1] * rel[:, :, 0]
+    return np.all(cross >= -margin * lengths[None, :], axis=1)
+
+
+@dataclass(frozen=True)
+class _Samples:
+    points_ground: np.ndarray  # (N, 2)
+    relative: np.ndarray  # (N,) luminance / lit luminance of the surface
+    neighbours: tuple[np.ndarray, ...]  # per caster: indices of samples within its reach
+
+
+def _reach(caster: ShadowCaster, params: LightParams) -> float:
+    return min(caster.height_m / math.tan(math.radians(params.elevation_range_deg[0])), params.reach_max_m)
+
+
+def _ring_samples(
+    casters: Sequence[ShadowCaster],
+    lum: np.ndarray,
+    ground_ids: np.ndarray,
+    refs: dict[int, float],
+    ground_from_px: np.ndarray,
+    params: LightParams,
+) -> tuple[_Samples, list[int]]:
+    """Visible ground samples around every caster, and the casters that have some."""
+    h, w = lum.shape
+    px_from_ground = np.linalg.inv(ground_from_px)
+    bottom = ground_from_px @ np.array([w / 2.0, h - 0.5, 1.0])  # seen ground: in front of the camera
+    if (px_from_ground @ bottom)[2] * bottom[2] < 0:  # a homography is defined up to sign
+        px_from_ground = -px_from_ground
+    pts_all, rel_all = [], []
+    used = []
+    footprints = [_hull(c.footprint_ground) for c in casters]
+    for i, c in enumerate(casters):
+        reach = _reach(c, params)
+        lo = c.footprint_ground.min(axis=0) - reach
+        hi = c.footprint_ground.max(axis=0) + reach
+        n = params.samples_per_side
+        gx, gy = np.meshgrid(np.linspace(lo[0], hi[0], n), np.linspace(lo[1], hi[1], n))
+        pts = np.column_stack([gx.ravel(), gy.ravel()])
+        near = inside_convex(pts, footprints[i], reach)
+        for other in footprints:  # ground under any footprint is not seen lit or shadowed
+            near &= ~inside_convex(pts, other, params.footprint_margin_m)
+        pts = pts[near]
+        if len(pts) == 0:
+            continue
+        homog = np.column_stack([pts, np.ones(len(pts))]) @ px_from_ground.T
+        front = homog[:, 2] > 1e-9
+        uv = np.full((len(pts), 2), -1.0)
+        uv[front] = homog[front, :2] / homog[front, 2:3]
+        u, v = np.floor(uv[:, 0]).astype(np.int64), np.floor(uv[:, 1]).astype(np.int64)
+        ok = front & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+        sid = np.zeros(len(pts), dtype=np.int64)
+        sid[ok] = ground_ids[v[ok], u[ok]]
+        ok &= np.isin(sid, list(refs))
+        if not np.any(ok):
+            continue
+        ref = np.array([refs[int(s)] for s in sid[ok]])
+        pts_all.append(pts[ok])
+        rel_all.append(lum[v[ok], u[ok]] / ref)
+        used.append(i)
+    if not pts_all:
+        return _Samples(np.zeros((0, 2)), np.zeros(0), ()), []
+    points = np.concatenate(pts_all)
+    neighbours = []
+    for i in used:
+        c, reach = casters[i], _reach(casters[i], params)
+        near = inside_convex(points, footprints[i], reach) if len(footprints[i]) >= 3 else np.ones(len(points), bool)
+        neighbours.append(np.flatnonzero(near))
+    return _Samples(points, np.concatenate(rel_all), tuple(neighbours)), used
+
+
+def half_planes(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The half-planes ``a . x <= b`` whose intersection is a convex polygon.
+
+    Args:
+        polygon: (M, 2) float64 counter-clockwise vertices, M >= 3.
+
+    Returns:
+        (K, 2) outward normals ``a`` and (K,) offsets ``b`` (one per edge of non-zero length).
+    """
+    edges = np.roll(polygon, -1, axis=0) - polygon
+    keep = np.linalg.norm(edges, axis=1) > 1e-12
+    edges, starts = edges[keep], polygon[keep]
+    normals = np.column_stack([edges[:, 1], -edges[:, 0]])  # right of a ccw edge: outwards
+    return normals, np.einsum("ij,ij->i", normals, starts)
+
+
+def in_swept(slack: np.ndarray, rate: np.ndarray) -> np.ndarray:
+    """(P,) bool: each point lies in its convex footprint swept along a vector.
+
+    A point ``p`` is in the footprint ``{x: a . x <= b}`` moved by ``t * v`` for some ``t``
+    in [0, 1] when the bounds ``a . p - b <= t * (a . v)`` of all the half-planes leave an
+    interval of ``t`` inside [0, 1].
+
+    Args:
+        slack: (P, K) float64 ``a . p - b`` per point and half-plane (<= 0: inside it).
+        rate: (P, K) float64 ``a . v``, the sweep vector along each half-plane's normal.
+    """
+    moving = np.abs(rate) > 1e-12
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = np.where(moving, slack / np.where(moving, rate, 1.0), 0.0)
+    fixed_out = ~moving & (slack > 0)  # a half-plane the sweep runs along, and the point outside it
+    lower = np.where(rate > 1e-12, bound, -np.inf).max(axis=1)
+    upper = np.where(rate < -1e-12, bound, np.inf).min(axis=1)
+    return (np.maximum(lower, 0.0) <= np.minimum(upper, 1.0)) & ~fixed_out.any(axis=1)
+
+
+@dataclass(frozen=True)
+class _Pairs:
+    """Every (sample, caster) pair within the caster's reach, flattened for vectorised tests."""
+
+    sample: np.ndarray  # (P,) sample index
+    normals: np.ndarray  # (P, K, 2) the caster's footprint half-planes
+    slack: np.ndarray  # (P, K) a . p - b
+    height: np.ndarray  # (P,) the caster's height, m
+
+
+def _footprint_planes(caster: ShadowCaster) -> tuple[np.ndarray, np.ndarray]:
+    """The footprint's half-planes; a footprint of fewer than 3 corners counts as a 10 cm square."""
+    hull = _hull(caster.footprint_ground)
+    if len(hull) < 3:
+        hull = hull.mean(axis=0) + np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * 0.05
+    return half_planes(hull)
+
+
+def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
+    planes = [_footprint_planes(c) for c in casters]
+    k = max(len(a) for a, _ in planes)
+    normals, slack, height = [], [], []
+    for c, (a, b), near in zip(casters, planes, samples.neighbours, strict=True):
+        # pad to k half-planes with always-true rows (0 . x <= 1)
+        a = np.vstack([a, np.zeros((k - len(a), 2))])
+        b = np.concatenate([b, np.ones(k - len(b))])
+        normals.append(np.broadcast_to(a, (len(near), k, 2)))
+        slack.append(samples.points_ground[near] @ a.T - b)
+        height.append(np.full(len(near), c.height_m))
+    return _Pairs(
+        np.concatenate(samples.neighbours), np.concatenate(normals), np.concatenate(slack), np.concatenate(height)
+    )
+
+
+def _predicted(pairs: _Pairs, n_samples: int, azimuth: float, elevation: float, reach_max_m: float) -> np.ndarray:
+    """(N,) bool samples in some caster's shadow for a sun at (azimuth, elevation)."""
+    length = np.minimum(pairs.height / math.tan(elevation), reach_max_m)
+    away = -np.array([math.cos(azimuth), math.sin(azimuth)])
+    inside = in_swept(pairs.slack, (pairs.normals @ away) * length[:, None])
+    return np.bincount(pairs.sample, weights=inside, minlength=n_samples) > 0
+
+
+def _overlap(pred: np.ndarray, observed: np.ndarray, weight: np.ndarray) -> float:
+    """Weighted intersection over union of two (N,) bool sets."""
+    union = float(weight[pred | observed].sum())
+    return float(weight[pred & observed].sum()) / union if union > 0 else 0.0
+
+
+def sample_weights(samples: _Samples) -> np.ndarray:
+    """(N,) float64 weight of each sample: one over the sample count of the smallest ring holding it.
+
+    Every caster's ring then weighs about the same in the fit, so a building's wide shadow
+    (whose placement and height are the least sure) does not outvote the cars and people.
+    """
+    weight = np.zeros(len(samples.points_ground))
+    for near in samples.neighbours:
+        if len(near):
+            weight[near] = np.maximum(weight[near], 1.0 / len(near))
+    return weight
+
+
+def fit_sun(
+    casters: Sequence[ShadowCaster], samples: _Samples, params: LightParams
+) -> tuple[float, float, float, np.ndarray]:
+    """The azimuth and elevation whose predicted shadows overlap the observed ones best.
+
+    A grid of ``coarse_step_deg`` over all azimuths and the elevation range, then a grid a
+    third as fine around the best cell, then one of one degree.
+
+    Returns:
+        azimuth (rad), elevation (rad), the overlap (weighted IoU) and the (N,) bool predicted shadow.
+    """
+    observed = samples.relative < 1.0 / params.sunny_min_contrast
+    weight = sample_weights(samples)
+    pairs = _pairs(casters, samples)
+    n = len(samples.points_ground)
+    lo, hi = params.elevation_range_deg
+
+    def score(az: float, el: float) -> tuple[float, float, float]:
+        el = float(np.clip(el, lo, hi))
+        pred = _predicted(pairs, n, math.radians(az), math.radians(el), params.reach_max_m)
+        return _overlap(pred, observed, weight), az % 360.0, el
+
+    step = params.coarse_step_deg
+    best = max(score(az, el) for az in np.arange(0.0, 360.0, step) for el in np.arange(lo, hi + 1e-9, step))
+    for fine in (step / 3.0, 1.0):
+        _, az0, el0 = best
+        offsets = np.arange(-3, 4) * fine
+        best = max([best] + [score(az0 + da, el0 + de) for da in offsets for de in offsets])
+    overlap, az, el = best
+    pred = _predicted(pairs, n, math.radians(az), math.radians(el), params.reach_max_m)
+    return math.radians(az), math.radians(el), overlap, pred
+
+
+def sky_colours(
+    rgb: np.ndarray, sky_mask: np.ndarray, params: LightParams
+) -> tuple[np.ndarray, np.ndarray]:
+    """The sky's linear RGB at its top rows and at its bottom rows.
+
+    Args:
+        rgb: (H, W, 3) uint8 sRGB photo.
+        sky_mask: (H, W) bool sky pixels (at least one).
+        params: ``sky_top_fraction``.
+
+    Returns:
+        (3,) zenith and (3,) horizon linear RGB (medians).
+    """
+    rows, cols = np.nonzero(sky_mask)
+    order = np.argsort(rows, kind="stable")
+    k = max(1, int(round(len(order) * params.sky_top_fraction)))
+    linear = uint8_to_linear(rgb)
+    top = linear[rows[order[:k]], cols[order[:k]]]
+    bottom = linear[rows[order[-k:]], cols[order[-k:]]]
+    return np.median(top, axis=0), np.median(bottom, axis=0)
+
+
+def sky_from_image(rgb: np.ndarray, horizon_v: float, blocked: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the bright, smooth part of the photo above the horizon (the sky, without labels).
+
+    A pixel is sky when it lies above the horizon and outside every object, its luminance
+    is at least the median of those pixels and its gradient at most theirs: the sky is the
+    brightest and smoothest thing above a street.
+
+    Args:
+        rgb: (H, W, 3) uint8 sRGB photo.
+        horizon_v: the horizon's row (may lie outside the image).
+        blocked: (H, W) bool pixels of objects.
+    """
+    h, w = rgb.shape[:2]
+    lum = luminance(rgb)
+    above = np.zeros((h, w), dtype=bool)
+    above[: int(np.clip(math.floor(horizon_v), 0, h))] = True
+    above &= ~blocked
+    if not np.any(above):
+        return above
+    gy, gx = np.gradient(lum)
+    grad = np.hypot(gx, gy)
+    return above & (lum >= np.median(lum[above])) & (grad <= np.median(grad[above]))
+
+
+def estimate_light(
+    rgb: np.ndarray,
+    ground_ids: np.ndarray,
+    sky_mask: np.ndarray,
+    sky_source: str,
+    casters: Sequence[ShadowCaster],
+    ground_from_px: np.ndarray,
+    default_azimuth: float,
+    default_elevation: float,
+    params: LightParams,
+) -> LightEstimate:
+    """The sun and sky of a photo (see the module docstring).
+
+    Args:
+        rgb: (H, W, 3) uint8 sRGB photo.
+        ground_ids: (H, W) int surface id per pixel (road, sidewalk, terrain ... each its
+            own id > 0), 0 where the ground is not seen.
+        sky_mask: (H, W) bool sky pixels (may be empty).
+        sky_source: how ``sky_mask`` was found: ``labels`` or ``image``.
+        casters: the objects standing on the ground.
+        ground_from_px: (3, 3) float64 homography from pixels to ground metres.
+        default_azimuth: radians, the sun's azimuth when the photo shows none.
+        default_elevation: radians, its elevation then.
+        params: the light parameters.
+
+    Returns:
+        The estimate.
+    """
+    lum = luminance(rgb)
+    ids = inner_ground(np.asarray(ground_ids), params.edge_px)
+    refs = lit_references(lum, ids, params.lit_percentile)
+    samples, used = _ring_samples(casters, lum, ids, refs, ground_from_px, params)
+    if np.any(sky_mask):
+        zenith, horizon = sky_colours(rgb, sky_mask, params)
+        source = sky_source
+    else:
+        zenith = horizon = np.full(3, np.nan)
+        source = "none"
+    common = {"sky_zenith_linear": zenith, "sky_horizon_linear": horizon, "sky_source": source}
+    if not used:
+        return LightEstimate(
+            "no_evidence", False, default_azimuth, default_elevation, math.nan, math.nan, math.nan, 0, 0, **common
+        )
+    users = [casters[i] for i in used]
+    dark = samples.relative < 1.0 / params.sunny_min_contrast
+    weight = sample_weights(samples)
+    share = float(weight[dark].sum() / weight.sum())
+    contrast = float(1.0 / max(np.median(samples.relative[dark]), 1e-6)) if np.any(dark) else 1.0
+    if share < params.min_shadow_share:
+        return LightEstimate(
+            "overcast", True, default_azimuth, default_elevation, contrast, share, math.nan, len(used), 0, **common
+        )
+    az, el, score, pred = fit_sun(users, samples, params)
+    n_shadow = int(np.count_nonzero(pred))
+    return LightEstimate("cast_shadows", False, az, el, contrast, share, score, len(used), n_shadow, **common)
+

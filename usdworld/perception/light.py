@@ -326,37 +326,74 @@ class _Pairs:
     normals: np.ndarray  # (P, K, 2) the caster's footprint half-planes
     slack: np.ndarray  # (P, K) a . p - b
     height: np.ndarray  # (P,) the caster's height, m
+    offset: np.ndarray  # (P, 2) the sample's position from the footprint's centre, m
+    radius: np.ndarray  # (P,) the footprint's radius about that centre, m
 
 
-def _footprint_planes(caster: ShadowCaster) -> tuple[np.ndarray, np.ndarray]:
-    """The footprint's half-planes; a footprint of fewer than 3 corners counts as a 10 cm square."""
+def _footprint_hull(caster: ShadowCaster) -> np.ndarray:
+    """(M, 2) the footprint's convex hull; a footprint of fewer than 3 corners counts as a 10 cm square."""
     hull = _hull(caster.footprint_ground)
     if len(hull) < 3:
         hull = hull.mean(axis=0) + np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * 0.05
-    return half_planes(hull)
+    return hull
 
 
 def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
-    planes = [_footprint_planes(c) for c in casters]
+    hulls = [_footprint_hull(c) for c in casters]
+    planes = [half_planes(h) for h in hulls]
     k = max(len(a) for a, _ in planes)
-    normals, slack, height = [], [], []
-    for c, (a, b), near in zip(casters, planes, samples.neighbours, strict=True):
+    normals, slack, height, offset, radius = [], [], [], [], []
+    for c, hull, (a, b), near in zip(casters, hulls, planes, samples.neighbours, strict=True):
         # pad to k half-planes with always-true rows (0 . x <= 1)
         a = np.vstack([a, np.zeros((k - len(a), 2))])
         b = np.concatenate([b, np.ones(k - len(b))])
         normals.append(np.broadcast_to(a, (len(near), k, 2)))
         slack.append(samples.points_ground[near] @ a.T - b)
         height.append(np.full(len(near), c.height_m))
+        centre = hull.mean(axis=0)
+        offset.append(samples.points_ground[near] - centre)
+        radius.append(np.full(len(near), float(np.max(np.linalg.norm(hull - centre, axis=1)))))
     return _Pairs(
-        np.concatenate(samples.neighbours), np.concatenate(normals), np.concatenate(slack), np.concatenate(height)
+        np.concatenate(samples.neighbours),
+        np.concatenate(normals),
+        np.concatenate(slack),
+        np.concatenate(height),
+        np.concatenate(offset),
+        np.concatenate(radius),
     )
 
 
-def _predicted(pairs: _Pairs, n_samples: int, azimuth: float, elevation: float, reach_max_m: float) -> np.ndarray:
-    """(N,) bool samples in some caster's shadow for a sun at (azimuth, elevation)."""
+def _predicted(
+    pairs: _Pairs,
+    n_samples: int,
+    azimuth: float,
+    elevation: float,
+    reach_max_m: float,
+    strips: dict[float, tuple[np.ndarray, np.ndarray]] | None = None,
+) -> np.ndarray:
+    """(N,) bool samples in some caster's shadow for a sun at (azimuth, elevation).
+
+    ``strips`` caches, per azimuth, the pairs across the shadow's strip and their distance
+    along it (the same for every elevation).
+    """
     length = np.minimum(pairs.height / math.tan(elevation), reach_max_m)
     away = -np.array([math.cos(azimuth), math.sin(azimuth)])
-    inside = in_swept(pairs.slack, (pairs.normals @ away) * length[:, None])
+    # The swept footprint lies inside its bounding disc swept along the shadow, a stadium:
+    # only the pairs inside that stadium's bounding strip need the exact test (a necessary
+    # condition, so the result is exact; it skips most of each caster's ring).
+    margin = pairs.radius + 1e-9
+    strip = strips.get(azimuth) if strips is not None else None
+    if strip is None:
+        along = pairs.offset @ away
+        across = pairs.offset @ np.array([-away[1], away[0]])
+        band = np.flatnonzero((np.abs(across) <= margin) & (along >= -margin))
+        strip = (band, along[band])
+        if strips is not None:
+            strips[azimuth] = strip
+    band, along_band = strip
+    near = band[along_band <= length[band] + margin[band]]
+    inside = np.zeros(len(pairs.sample), dtype=bool)
+    inside[near] = in_swept(pairs.slack[near], (pairs.normals[near] @ away) * length[near, None])
     return np.bincount(pairs.sample, weights=inside, minlength=n_samples) > 0
 
 
@@ -396,9 +433,11 @@ def fit_sun(
     n = len(samples.points_ground)
     lo, hi = params.elevation_range_deg
 
+    strips: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
     def score(az: float, el: float) -> tuple[float, float, float]:
         el = float(np.clip(el, lo, hi))
-        pred = _predicted(pairs, n, math.radians(az), math.radians(el), params.reach_max_m)
+        pred = _predicted(pairs, n, math.radians(az), math.radians(el), params.reach_max_m, strips)
         return _overlap(pred, observed, weight), az % 360.0, el
 
     step = params.coarse_step_deg

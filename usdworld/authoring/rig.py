@@ -10,7 +10,12 @@ wrote from the fused model (whose objects and ground are already in the rig's wo
   (primary first) ``usdworld:views``, ``usdworld:viewImages``, ``usdworld:viewBBoxes``
   (pixels), ``usdworld:viewDepths``, ``usdworld:viewDepthSigmas`` (metres, along the ray),
   ``usdworld:viewDepthMethods`` and ``usdworld:viewCues`` (``view:cue=depth+-sigma``), with
-  ``usdworld:fusionMethod`` (``single``, ``fused`` or ``triangulated``).
+  ``usdworld:fusionMethod`` (``single``, ``fused``, ``triangulated`` or, for a moving object
+  of a drive, ``tracked``).
+
+:func:`write_drive` adds a drive's time: the stage's time codes, the ego's time-sampled
+trajectory ``/World/Ego`` (its camera ``/World/Ego/Camera``), and the moving objects'
+time-sampled transforms (:mod:`usdworld.views.drive` says how they are decided).
 """
 
 from __future__ import annotations
@@ -23,11 +28,12 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 from usdworld.authoring.camera import define_camera, world_from_usdcam
-from usdworld.world_files import BASE_LAYER, CAMERA_PATH, OBJECTS_PATH, WORLD_PATH
+from usdworld.world_files import BASE_LAYER, CAMERA_PATH, DRIVE_LAYER, OBJECTS_PATH, ROOT_LAYER, WORLD_PATH
 
 if TYPE_CHECKING:  # annotations only: ``render --camera`` imports this module, and layout's imports cost it
     from usdworld.geometry.camera import PinholeCamera
     from usdworld.layout.model import WorldModel
+    from usdworld.views.drive import DriveObject
     from usdworld.views.fusion import FusedObject
     from usdworld.views.types import ViewSet
 
@@ -142,3 +148,91 @@ def rig_view(stage: Usd.Stage, camera: str | None) -> tuple[str | None, str | No
     if names and images and camera in list(names):
         return f"{CAMERAS_PATH}/{camera}", str(images[list(names).index(camera)])
     return f"{CAMERAS_PATH}/{camera}", None
+
+
+#: The ego vehicle of a drive: a time-sampled Xform; its camera is a child.
+EGO_PATH = f"{WORLD_PATH}/Ego"
+EGO_CAMERA_PATH = f"{EGO_PATH}/Camera"
+
+
+def drive_timing(frame_times: Sequence[float]) -> tuple[float, float]:
+    """(time codes per second, first time in seconds) of a drive's stage.
+
+    One time code per median frame interval, so frames at a steady rate fall on whole time
+    codes; time code 0 is the first frame.
+
+    Args:
+        frame_times: (F,) the distinct frame timestamps, increasing, seconds (F >= 2).
+    """
+    t = np.asarray(frame_times, dtype=np.float64)
+    return float(1.0 / np.median(np.diff(t))), float(t[0])
+
+
+def write_drive(
+    out_dir: Path,
+    views: ViewSet,
+    view_models: Sequence[WorldModel],
+    world_from_ground: Sequence[np.ndarray],
+    drive: Sequence[DriveObject],
+) -> None:
+    """Add a drive's time to a written rig world, in its own crate layer ``layers/drive.usdc``.
+
+    The layer sits between the edits and the base layer (time samples in ASCII are slow to
+    read, and the base layer stays what a rig of one moment has). It holds:
+
+    * ``timeCodesPerSecond`` = ``framesPerSecond`` (one code per median frame interval),
+      ``startTimeCode`` 0 (the first frame) and ``endTimeCode`` (the last), also on ``world.usda``;
+    * ``/World/Ego``: Xform whose ``xformOp:transform`` is time-sampled at every frame with
+      the ego frame in the world (the ground frame of the frame's first camera: on the
+      ground below it, X along its heading); its default value is the first frame's.
+      ``/World/Ego/Camera`` is that camera, fixed on the ego (the first view's intrinsics);
+    * each moving object: ``xformOp:translate`` and ``xformOp:rotateZ`` time-sampled at the
+      frames where it is seen (their default values in the base layer, the first of them,
+      stay), and on every object ``usdworld:moving``, ``usdworld:velocity`` (m/s) and
+      ``usdworld:trackTimes`` (s).
+
+    Args:
+        out_dir: the world folder (:func:`write_rig` completed it).
+        views: the views, in order, every one with a timestamp.
+        view_models: each view's own world.
+        world_from_ground: each view's (4, 4) float64 ground frame in the world.
+        drive: the objects' tracks, named as the world's objects.
+    """
+    times = sorted({float(v.timestamp) for v in views.views if v.timestamp is not None})
+    tcps, t0 = drive_timing(times)
+    code = lambda t: Usd.TimeCode((float(t) - t0) * tcps)  # noqa: E731
+    out = Path(out_dir)
+    drive_layer = Sdf.Layer.CreateNew(str(out / DRIVE_LAYER))
+    root = Sdf.Layer.FindOrOpen(str(out / ROOT_LAYER))
+    root.subLayerPaths.insert(1, f"./{DRIVE_LAYER}")
+    for layer in (root, drive_layer, Sdf.Layer.FindOrOpen(str(out / BASE_LAYER))):
+        layer.timeCodesPerSecond = tcps
+        layer.framesPerSecond = tcps
+        layer.startTimeCode = 0.0
+        layer.endTimeCode = (times[-1] - t0) * tcps
+        layer.Save()
+    stage = Usd.Stage.Open(root, Usd.Stage.LoadNone)
+    stage.SetEditTarget(Usd.EditTarget(drive_layer))
+    ego = UsdGeom.Xform.Define(stage, EGO_PATH)
+    op = ego.AddTransformOp()
+    first: dict[float, int] = {}
+    for i, v in enumerate(views.views):
+        if v.timestamp is not None:
+            first.setdefault(float(v.timestamp), i)
+    op.Set(_matrix(world_from_ground[first[times[0]]]))
+    for t in times:
+        op.Set(_matrix(world_from_ground[first[t]]), code(t))
+    define_rig_camera(stage, EGO_CAMERA_PATH, view_models[0].camera.camera, np.eye(4))
+    for obj in drive:
+        prim = stage.GetPrimAtPath(f"{OBJECTS_PATH}/{obj.fused.placement.name}")
+        _set(prim, "usdworld:moving", Sdf.ValueTypeNames.Bool, bool(obj.moving))
+        _set(prim, "usdworld:velocity", Sdf.ValueTypeNames.Float2, Gf.Vec2f(*(float(v) for v in obj.velocity)))
+        _set(prim, "usdworld:trackTimes", Sdf.ValueTypeNames.DoubleArray, [float(t) for t in obj.times])
+        if not obj.moving:
+            continue
+        translate = prim.GetAttribute("xformOp:translate")
+        rotate = prim.GetAttribute("xformOp:rotateZ")
+        for t, p, yaw in zip(obj.times, obj.positions, obj.yaws):
+            translate.Set(Gf.Vec3d(*(float(c) for c in p)), code(t))
+            rotate.Set(float(round(np.degrees(yaw), 6)), code(t))
+    drive_layer.Save()

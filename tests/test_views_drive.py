@@ -121,3 +121,18 @@ def test_fit_motion_recovers_exact_constant_velocity(p0: list[float], v: list[fl
     assert fit.velocity == pytest.approx(v, abs=1e-3)
     assert fit.predict(0.0)[0] == pytest.approx(p0, abs=1e-3)
 
+
+def test_flythrough_follow_ego_rides_the_ego_camera(drive: tuple[dict, Path], tmp_path: Path) -> None:
+    from usdworld.render.flythrough import ego_poses
+    from usdworld.views.manifest import read_views_manifest
+
+    gt, world = drive
+    stage = Usd.Stage.Open(str(world / "world.usda"))
+    poses = ego_poses(stage, 9, 64, 32)  # two video frames per drive frame
+    views = read_views_manifest(world.parent / f"drive_{SEED:06d}_views.json").views
+    for k, view in enumerate(views):
+        assert poses[2 * k] == pytest.approx(view.world_from_cam, abs=1e-6)
+    assert poses[1][:3, 3] == pytest.approx(0.5 * (poses[0][:3, 3] + poses[2][:3, 3]), abs=1e-6)
+    video = tmp_path / "ego.mp4"
+    assert main(["flythrough", str(world), "-o", str(video), "--follow-ego", "--frames", "3", "--size", "64x32"]) == 0
+    assert video.stat().st_size > 0

@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from usdworld.parameters.views import ViewsParams
-from usdworld.views.fusion import FusedObject, Observation, _combine, _method, fuse
+from usdworld.views.fusion import FusedObject, Observation, combine, fuse, fusion_method
 
 #: Classes that can move in a drive, with the parameter that bounds their speed.
 VEHICLE_CLASSES = ("car", "truck", "bus", "motorcycle", "bicycle")
@@ -272,10 +272,10 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
         cov = fit.predict(float(times[0]))[1]
         fused = FusedObject(placement, tuple(members), "tracked", cov)
         return DriveObject(fused, True, times, positions, np.full(len(times), yaw), fit.velocity.copy())
-    xy, cov = _combine(members)
+    xy, cov = combine(members)
     position = np.array([xy[0], xy[1], z])
     placement = dataclasses.replace(primary, name=name, position_world=position)
-    fused = FusedObject(placement, tuple(members), _method(members, cov, params), cov)
+    fused = FusedObject(placement, tuple(members), fusion_method(members, cov, params), cov)
     velocity = fit.velocity.copy()
     return DriveObject(
         fused, False, times, np.tile(position, (len(times), 1)), np.full(len(times), primary.yaw), velocity

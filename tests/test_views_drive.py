@@ -136,3 +136,14 @@ def test_flythrough_follow_ego_rides_the_ego_camera(drive: tuple[dict, Path], tm
     video = tmp_path / "ego.mp4"
     assert main(["flythrough", str(world), "-o", str(video), "--follow-ego", "--frames", "3", "--size", "64x32"]) == 0
     assert video.stat().st_size > 0
+
+
+def test_frame_times_group_a_rigs_cameras_into_one_frame() -> None:
+    from usdworld.parameters.views import ViewsParams
+    from usdworld.views.drive import frame_times
+
+    params = ViewsParams()
+    nuscenes_sample = [27.612460, 27.620339, 27.604844, 27.637525, 27.647423, 27.627893]  # one sample's cameras
+    assert frame_times(nuscenes_sample, params) is None
+    assert frame_times([0.0, 0.1, None], params) is None
+    assert frame_times([0.2, 0.0, 0.105, 0.01], params) == [0.2, 0.0, 0.105, 0.0]

@@ -170,10 +170,10 @@ def drive_timing(frame_times: Sequence[float]) -> tuple[float, float]:
 
 def write_drive(
     out_dir: Path,
-    views: ViewSet,
     view_models: Sequence[WorldModel],
     world_from_ground: Sequence[np.ndarray],
     drive: Sequence[DriveObject],
+    view_times: Sequence[float],
 ) -> None:
     """Add a drive's time to a written rig world, in its own crate layer ``layers/drive.usdc``.
 
@@ -193,12 +193,12 @@ def write_drive(
 
     Args:
         out_dir: the world folder (:func:`write_rig` completed it).
-        views: the views, in order, every one with a timestamp.
-        view_models: each view's own world.
+        view_models: each view's own world, views in order.
         world_from_ground: each view's (4, 4) float64 ground frame in the world.
         drive: the objects' tracks, named as the world's objects.
+        view_times: (V,) each view's frame time, seconds (:func:`usdworld.views.drive.frame_times`).
     """
-    times = sorted({float(v.timestamp) for v in views.views if v.timestamp is not None})
+    times = sorted({float(t) for t in view_times})
     tcps, t0 = drive_timing(times)
     code = lambda t: Usd.TimeCode((float(t) - t0) * tcps)  # noqa: E731
     out = Path(out_dir)
@@ -216,9 +216,8 @@ def write_drive(
     ego = UsdGeom.Xform.Define(stage, EGO_PATH)
     op = ego.AddTransformOp()
     first: dict[float, int] = {}
-    for i, v in enumerate(views.views):
-        if v.timestamp is not None:
-            first.setdefault(float(v.timestamp), i)
+    for i, t in enumerate(view_times):
+        first.setdefault(float(t), i)
     op.Set(_matrix(world_from_ground[first[times[0]]]))
     for t in times:
         op.Set(_matrix(world_from_ground[first[t]]), code(t))

@@ -60,6 +60,14 @@ class ViewsParams:
         "inverse-variance fusion of its depths alone would leave.",
         "convention: the rays halve the along-ray variance",
     )
+    frame_gap_s: float = param(
+        0.025,
+        "s",
+        "Views whose timestamps, in order, follow each other within this are one frame of a drive (one "
+        "moment of a camera rig); a longer gap starts the next frame.",
+        "published: half the 50 ms sweep of nuScenes' 20 Hz LiDAR, which triggers its six cameras one "
+        "after another (one sample's images span about 43 ms, 5-20 ms apart)",
+    )
     vehicle_speed_max_mps: float = param(
         14.0,
         "m/s",

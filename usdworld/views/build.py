@@ -144,6 +144,7 @@ class RigModel:
         world_from_ground: each view's (4, 4) float64 ground frame in the world.
         drive: for a drive (:func:`usdworld.views.drive.frame_times`), each object's track, in
             the order of ``objects``; None for a rig of one moment.
+        frame_times: for a drive, each view's frame time, seconds; else None.
     """
 
     model: WorldModel
@@ -152,6 +153,7 @@ class RigModel:
     view_models: tuple[WorldModel, ...] = field(repr=False)
     world_from_ground: tuple[np.ndarray, ...] = field(repr=False)
     drive: tuple[DriveObject, ...] | None = field(default=None, repr=False)
+    frame_times: list[float] | None = field(default=None, repr=False)
 
 
 def view_camera_spec(view: ViewSpec, source: InputFile) -> CameraSpec:
@@ -202,10 +204,10 @@ def build_rig_model(request: ViewsRequest) -> RigModel:
     obs = []
     for i, (v, m, pose) in enumerate(zip(views, view_models, poses)):
         obs.extend(observations(i, v.name, m.image_name, m.placements, pose, request.views_params))
-    timestamps = [v.timestamp for v in views]
+    times = frame_times([v.timestamp for v in views], request.views_params)
     drive = None
-    if frame_times(timestamps) is not None:  # a drive: frames tracked in time order
-        drive = tuple(track_drive(obs, [float(t) for t in timestamps if t is not None], request.views_params))
+    if times is not None:  # a drive: frames tracked in time order
+        drive = tuple(track_drive(obs, times, request.views_params))
         objects = [d.fused for d in drive]
     else:
         objects = fuse(obs, request.views_params)
@@ -226,7 +228,7 @@ def build_rig_model(request: ViewsRequest) -> RigModel:
         inputs=tuple(inputs),
         warnings=tuple(warnings),
     )
-    return RigModel(model, tuple(objects), request.views, tuple(view_models), tuple(poses), drive)
+    return RigModel(model, tuple(objects), request.views, tuple(view_models), tuple(poses), drive, times)
 
 
 def rig_report(rig: RigModel, request: ViewsRequest) -> dict[str, Any]:
@@ -312,8 +314,8 @@ def build_views(request: ViewsRequest) -> BuildResult:
     try:
         write_world(rig.model, tmp, asset_files, keep_edits)
         write_rig(tmp, rig.views, rig.view_models, rig.world_from_ground, rig.objects)
-        if rig.drive is not None:
-            write_drive(tmp, rig.views, rig.view_models, rig.world_from_ground, rig.drive)
+        if rig.drive is not None and rig.frame_times is not None:
+            write_drive(tmp, rig.view_models, rig.world_from_ground, rig.drive, rig.frame_times)
         (tmp / "report.json").write_text(json.dumps(report, indent=2, sort_keys=True) + "\n")
         swap_in(tmp, out)
     except BaseException:

@@ -1,7 +1,9 @@
 """A drive's frames placed into one world: standing objects once, moving ones as tracks (layout level: pure numpy).
 
-A view set is a *drive* when its views carry timestamps and there are at least two
-distinct ones; each distinct timestamp is a *frame* (one or several cameras). Fusing
+A view set is a *drive* when all its views carry timestamps and they fall into two or
+more *frames*: in time order, a view within ``frame_gap_s`` of the one before is of the
+same frame (a rig's cameras fire a few milliseconds apart: a nuScenes sample is one
+frame), a longer gap starts the next one. A frame's time is its first timestamp. Fusing
 every observation of a drive at once (:func:`usdworld.views.fusion.fuse`) would compare
 each with all others, and would average a moving car's positions into one; instead the
 frames are tracked in time order, so the work grows with the number of frames:
@@ -170,12 +172,35 @@ class DriveObject:
     velocity: np.ndarray
 
 
-def frame_times(timestamps: Sequence[float | None]) -> list[float] | None:
-    """The distinct timestamps of a view set when it is a drive (all given, two or more distinct), else None."""
-    if any(t is None for t in timestamps):
+def frame_times(timestamps: Sequence[float | None], params: ViewsParams) -> list[float] | None:
+    """Each view's frame time when the views are a drive (see the module docstring), else None.
+
+    Args:
+        timestamps: (V,) each view's timestamp, seconds, or None.
+        params: ``frame_gap_s``.
+
+    Returns:
+        (V,) the time of each view's frame (its first timestamp), or None when a timestamp
+        is missing or all views are one frame.
+
+    Example:
+        >>> frame_times([0.0, 0.01, 0.1, 0.11], ViewsParams())
+        [0.0, 0.0, 0.1, 0.1]
+    """
+    if not timestamps or any(t is None for t in timestamps):
         return None
-    distinct = sorted({float(t) for t in timestamps if t is not None})
-    return distinct if len(distinct) >= 2 else None
+    values = [float(t) for t in timestamps if t is not None]
+    order = sorted(range(len(values)), key=lambda i: values[i])
+    out = [0.0] * len(values)
+    start = previous = values[order[0]]
+    frames = 1
+    for i in order:
+        if values[i] - previous > params.frame_gap_s:
+            start = values[i]
+            frames += 1
+        out[i] = start
+        previous = values[i]
+    return out if frames >= 2 else None
 
 
 def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params: ViewsParams) -> list[int | None]:
@@ -215,7 +240,7 @@ def track_drive(
 
     Args:
         obs: every view's observations in the world, views in order.
-        view_times: (V,) each view's timestamp, seconds.
+        view_times: (V,) each view's frame time (:func:`frame_times`), seconds.
         params: the thresholds.
 
     Returns:

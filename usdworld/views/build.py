@@ -313,7 +313,9 @@ def build_views(request: ViewsRequest) -> BuildResult:
         raise OutputError(f"{out.parent}: cannot write there ({exc.strerror}); choose another -o") from exc
     try:
         write_world(rig.model, tmp, asset_files, keep_edits)
-        write_rig(tmp, rig.views, rig.view_models, rig.world_from_ground, rig.objects)
+        write_rig(
+            tmp, rig.views, rig.view_models, rig.world_from_ground, rig.objects, object_provenance=rig.drive is None
+        )
         if rig.drive is not None and rig.frame_times is not None:
             write_drive(tmp, rig.view_models, rig.world_from_ground, rig.drive, rig.frame_times)
         (tmp / "report.json").write_text(json.dumps(report, indent=2, sort_keys=True) + "\n")

@@ -15,8 +15,14 @@ depth error, which fusion can only average where two views overlap.
 Usage::
 
     python tools/eval_views.py [INFO] [--sample TOKEN] [--out DIR] [--jobs N] [--json]
+    python tools/eval_views.py --drive DRIVE_views.json [--out DIR] [--jobs N] [--json]
 
 ``INFO`` defaults to ``$USDWORLD_DATA/nuscenes/demo/*.pkl.DERIVED.json``.
+
+``--drive`` builds a synthetic drive (``usdworld synth --sequence N``) from its views
+manifest and compares the world with the drive's ground truth
+(:mod:`usdworld.evaluation.drive`): standing objects placed once and their ground (BEV)
+error, moving objects' track error, objects wrongly moving, and the build time per frame.
 """
 
 from __future__ import annotations
@@ -87,6 +93,63 @@ def _table(title: str, result: dict) -> str:
     return "\n".join(lines)
 
 
+#: Classes a synthetic drive's build places as objects (the synthetic street's buildings are stuff).
+DRIVE_CLASSES = ("car", "person", "tree", "pole", "traffic_sign", "traffic_light")
+
+
+def _drive_objects(world: Path) -> list:
+    from pxr import Usd, UsdGeom
+
+    from usdworld.evaluation.drive import TrackedWorldObject
+    from usdworld.evaluation.world_objects import world_objects
+
+    stage = Usd.Stage.Open(str(world / "world.usda"))
+    tcps = stage.GetTimeCodesPerSecond()
+    out = []
+    for o in world_objects(stage):
+        prim = stage.GetPrimAtPath(f"/World/Objects/{o.name}")
+        moving = prim.GetAttribute("usdworld:moving")
+        is_moving = bool(moving.Get()) if moving and moving.HasAuthoredValue() else False
+        samples = {}
+        if is_moving:
+            translate = UsdGeom.Xformable(prim).GetPrim().GetAttribute("xformOp:translate")
+            for code in translate.GetTimeSamples():
+                samples[code / tcps] = np.array(translate.Get(code))[:2]
+        out.append(TrackedWorldObject(o.name, o.class_name, o.bottom_centre_world[:2].copy(), is_moving, samples))
+    return out
+
+
+def _drive_main(manifest: Path, out_arg: Path | None, jobs: int | None, as_json: bool) -> int:
+    from usdworld.evaluation.drive import evaluate_drive
+    from usdworld.views.build import ViewsRequest, build_views
+    from usdworld.views.manifest import read_views_manifest
+
+    gt_path = manifest.with_name(manifest.name.replace("_views.json", "_drive_gt.json"))
+    gt = json.loads(gt_path.read_text())
+    with tempfile.TemporaryDirectory() as tmp:
+        out = out_arg or Path(tmp) / "world"
+        views = read_views_manifest(manifest)
+        start = time.perf_counter()
+        build_views(ViewsRequest(views, out, jobs=jobs))
+        seconds = time.perf_counter() - start
+        objects = _drive_objects(out)
+    result = evaluate_drive(objects, gt, DRIVE_CLASSES)
+    n = len(views.views)
+    print(f"{manifest.name}: {n} frames built in {seconds:.1f} s ({seconds / n:.2f} s per frame)")
+    print(_table("standing objects (seen in some frame)", result["standing"]))
+    m = result["moving"]
+    med = "-" if m["median_track_error_m"] is None else f"{m['median_track_error_m']:.2f} m"
+    p90 = "-" if m["p90_track_error_m"] is None else f"{m['p90_track_error_m']:.2f} m"
+    print(
+        f"moving objects: {m['seen']} seen, {m['paired']} paired, {m['paired_moving']} of them moving in the world; "
+        f"track error median {med}, p90 {p90}"
+    )
+    print(f"world objects moving but paired with no moving object: {len(result['false_moving'])}")
+    if as_json:
+        print(json.dumps({"seconds": seconds, "frames": n, **result}))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Build and evaluate; print the tables (and one JSON line with ``--json``)."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -97,7 +160,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--jobs", type=int, default=None, help="worker processes for the views")
     parser.add_argument("--json", action="store_true", help="print the results as one JSON line at the end")
+    parser.add_argument(
+        "--drive", type=Path, default=None, help="a synthetic drive's views manifest (usdworld synth --sequence)"
+    )
     args = parser.parse_args(argv)
+    if args.drive is not None:
+        return _drive_main(args.drive, args.out, args.jobs, args.json)
 
     from usdworld.views.build import ViewsRequest, build_views
     from usdworld.views.nuscenes import read_nuscenes_views

@@ -15,6 +15,8 @@ ROOT_LAYER = "world.usda"
 BASE_LAYER = "layers/base.usda"
 #: The layer every edit goes to (the root's first sublayer).
 EDITS_LAYER = "layers/edits.usda"
+#: A drive's time (ego trajectory, moving objects' samples) as a crate layer, between edits and base.
+DRIVE_LAYER = "layers/drive.usdc"
 #: The ground meshes' crate layer.
 GROUND_LAYER = "layers/ground.usdc"
 #: The folder the class assets are copied into.

@@ -10,7 +10,12 @@ wrote from the fused model (whose objects and ground are already in the rig's wo
   (primary first) ``usdworld:views``, ``usdworld:viewImages``, ``usdworld:viewBBoxes``
   (pixels), ``usdworld:viewDepths``, ``usdworld:viewDepthSigmas`` (metres, along the ray),
   ``usdworld:viewDepthMethods`` and ``usdworld:viewCues`` (``view:cue=depth+-sigma``), with
-  ``usdworld:fusionMethod`` (``single``, ``fused`` or ``triangulated``).
+  ``usdworld:fusionMethod`` (``single``, ``fused``, ``triangulated`` or, for a moving object
+  of a drive, ``tracked``).
+
+:func:`write_drive` adds a drive's time: the stage's time codes, the ego's time-sampled
+trajectory ``/World/Ego`` (its camera ``/World/Ego/Camera``), and the moving objects'
+time-sampled transforms (:mod:`usdworld.views.drive` says how they are decided).
 """
 
 from __future__ import annotations
@@ -23,11 +28,12 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 from usdworld.authoring.camera import define_camera, world_from_usdcam
-from usdworld.world_files import BASE_LAYER, CAMERA_PATH, OBJECTS_PATH, WORLD_PATH
+from usdworld.world_files import BASE_LAYER, CAMERA_PATH, DRIVE_LAYER, OBJECTS_PATH, ROOT_LAYER, WORLD_PATH
 
 if TYPE_CHECKING:  # annotations only: ``render --camera`` imports this module, and layout's imports cost it
     from usdworld.geometry.camera import PinholeCamera
     from usdworld.layout.model import WorldModel
+    from usdworld.views.drive import DriveObject
     from usdworld.views.fusion import FusedObject
     from usdworld.views.types import ViewSet
 
@@ -97,6 +103,7 @@ def write_rig(
     view_models: Sequence[WorldModel],
     world_from_ground: Sequence[np.ndarray],
     objects: Sequence[FusedObject],
+    object_provenance: bool = True,
 ) -> None:
     """Add the rig's cameras and the multi-view provenance to a written world's base layer.
 
@@ -106,6 +113,8 @@ def write_rig(
         view_models: each view's own world (its camera, in its ground frame).
         world_from_ground: each view's (4, 4) float64 ground frame in the world.
         objects: the fused objects, named as the world's objects.
+        object_provenance: whether to write the objects' provenance here; a drive's world has
+            it in its crate layer (:func:`write_drive`), as its arrays grow with the frames.
     """
     stage = Usd.Stage.Open(str(Path(out_dir) / BASE_LAYER), Usd.Stage.LoadNone)
     first = view_models[0].camera.camera
@@ -118,7 +127,7 @@ def write_rig(
     _set(world, "usdworld:views", Sdf.ValueTypeNames.StringArray, [v.name for v in views.views])
     _set(world, "usdworld:viewImages", Sdf.ValueTypeNames.StringArray, [m.image_name for m in view_models])
     _set(world, "usdworld:worldFrame", Sdf.ValueTypeNames.String, views.frame)
-    for obj in objects:
+    for obj in objects if object_provenance else ():
         _object_provenance(stage.GetPrimAtPath(f"{OBJECTS_PATH}/{obj.placement.name}"), obj)
     stage.GetRootLayer().Save()
 
@@ -142,3 +151,118 @@ def rig_view(stage: Usd.Stage, camera: str | None) -> tuple[str | None, str | No
     if names and images and camera in list(names):
         return f"{CAMERAS_PATH}/{camera}", str(images[list(names).index(camera)])
     return f"{CAMERAS_PATH}/{camera}", None
+
+
+#: The ego vehicle of a drive: a time-sampled Xform; its camera is a child.
+EGO_PATH = f"{WORLD_PATH}/Ego"
+EGO_CAMERA_PATH = f"{EGO_PATH}/Camera"
+
+
+#: The world's attributes with an entry per view (or per view's input file): a drive's
+#: world keeps them in its crate layer, as ASCII is slow for long arrays.
+PER_VIEW_WORLD_ATTRIBUTES = ("usdworld:inputFiles", "usdworld:inputHashes", "usdworld:views", "usdworld:viewImages")
+
+
+def _take_attributes(
+    layer: Sdf.Layer, prim_path: str, names: Sequence[str]
+) -> dict[str, tuple[Sdf.ValueTypeName, object]]:
+    """Remove attributes from a prim spec of ``layer``; return name -> (type, default value) of those it had."""
+    spec = layer.GetPrimAtPath(prim_path)
+    out: dict[str, tuple[Sdf.ValueTypeName, object]] = {}
+    for name in names:
+        attr = spec.attributes.get(name) if spec else None
+        if attr is not None:
+            out[name] = (attr.typeName, attr.default)
+            spec.RemoveProperty(attr)
+    return out
+
+
+def drive_timing(frame_times: Sequence[float]) -> tuple[float, float]:
+    """(time codes per second, first time in seconds) of a drive's stage.
+
+    One time code per median frame interval (rounded to 1e-6 per second), so frames at a
+    steady rate fall on whole time codes; time code 0 is the first frame.
+
+    Args:
+        frame_times: (F,) the distinct frame timestamps, increasing, seconds (F >= 2).
+    """
+    t = np.asarray(frame_times, dtype=np.float64)
+    return float(round(1.0 / float(np.median(np.diff(t))), 6)), float(t[0])
+
+
+def write_drive(
+    out_dir: Path,
+    view_models: Sequence[WorldModel],
+    world_from_ground: Sequence[np.ndarray],
+    drive: Sequence[DriveObject],
+    view_times: Sequence[float],
+) -> None:
+    """Add a drive's time to a written rig world, in its own crate layer ``layers/drive.usdc``.
+
+    The layer sits between the edits and the base layer (time samples and long arrays in
+    ASCII are slow to read). It holds:
+
+    * ``timeCodesPerSecond`` = ``framesPerSecond`` (one code per median frame interval),
+      ``startTimeCode`` 0 (the first frame) and ``endTimeCode`` (the last), also on ``world.usda``;
+    * ``/World/Ego``: Xform whose ``xformOp:transform`` is time-sampled at every frame with
+      the ego frame in the world (the ground frame of the frame's first camera: on the
+      ground below it, X along its heading); its default value is the first frame's.
+      ``/World/Ego/Camera`` is that camera, fixed on the ego (the first view's intrinsics);
+    * each moving object: ``xformOp:translate`` and ``xformOp:rotateZ`` time-sampled at the
+      frames where it is seen (their default values in the base layer, the first of them,
+      stay), and on every object ``usdworld:moving``, ``usdworld:velocity`` (m/s) and
+      ``usdworld:trackTimes`` (s), with the per-observation provenance :func:`write_rig`
+      writes for a rig of one moment (called with ``object_provenance=False``);
+    * ``/World``'s attributes with an entry per view (:data:`PER_VIEW_WORLD_ATTRIBUTES`),
+      moved here from the base layer.
+
+    Args:
+        out_dir: the world folder (:func:`write_rig` completed it).
+        view_models: each view's own world, views in order.
+        world_from_ground: each view's (4, 4) float64 ground frame in the world.
+        drive: the objects' tracks, named as the world's objects.
+        view_times: (V,) each view's frame time, seconds (:func:`usdworld.views.drive.frame_times`).
+    """
+    times = sorted({float(t) for t in view_times})
+    tcps, t0 = drive_timing(times)
+    code = lambda t: Usd.TimeCode(round((float(t) - t0) * tcps, 6))  # noqa: E731
+    out = Path(out_dir)
+    drive_layer = Sdf.Layer.CreateNew(str(out / DRIVE_LAYER))
+    root = Sdf.Layer.FindOrOpen(str(out / ROOT_LAYER))
+    root.subLayerPaths.insert(1, f"./{DRIVE_LAYER}")
+    base = Sdf.Layer.FindOrOpen(str(out / BASE_LAYER))
+    moved = _take_attributes(base, WORLD_PATH, PER_VIEW_WORLD_ATTRIBUTES)
+    for layer in (root, drive_layer, base):
+        layer.timeCodesPerSecond = tcps
+        layer.framesPerSecond = tcps
+        layer.startTimeCode = 0.0
+        layer.endTimeCode = round((times[-1] - t0) * tcps, 6)
+        layer.Save()
+    stage = Usd.Stage.Open(root, Usd.Stage.LoadNone)
+    stage.SetEditTarget(Usd.EditTarget(drive_layer))
+    world = stage.GetPrimAtPath(WORLD_PATH)
+    for name, (type_name, value) in moved.items():
+        _set(world, name, type_name, value)
+    ego = UsdGeom.Xform.Define(stage, EGO_PATH)
+    op = ego.AddTransformOp()
+    first: dict[float, int] = {}
+    for i, t in enumerate(view_times):
+        first.setdefault(float(t), i)
+    op.Set(_matrix(world_from_ground[first[times[0]]]))
+    for t in times:
+        op.Set(_matrix(world_from_ground[first[t]]), code(t))
+    define_rig_camera(stage, EGO_CAMERA_PATH, view_models[0].camera.camera, np.eye(4))
+    for obj in drive:
+        prim = stage.GetPrimAtPath(f"{OBJECTS_PATH}/{obj.fused.placement.name}")
+        _object_provenance(prim, obj.fused)
+        _set(prim, "usdworld:moving", Sdf.ValueTypeNames.Bool, bool(obj.moving))
+        _set(prim, "usdworld:velocity", Sdf.ValueTypeNames.Float2, Gf.Vec2f(*(float(v) for v in obj.velocity)))
+        _set(prim, "usdworld:trackTimes", Sdf.ValueTypeNames.DoubleArray, [float(t) for t in obj.times])
+        if not obj.moving:
+            continue
+        translate = prim.GetAttribute("xformOp:translate")
+        rotate = prim.GetAttribute("xformOp:rotateZ")
+        for t, p, yaw in zip(obj.times, obj.positions, obj.yaws):
+            translate.Set(Gf.Vec3d(*(float(c) for c in p)), code(t))
+            rotate.Set(float(round(np.degrees(yaw), 6)), code(t))
+    drive_layer.Save()

@@ -18,6 +18,11 @@ def flythrough(
     camera: str | None = typer.Option(
         None, "--camera", help="Start camera prim; default /World/SourceCamera."
     ),
+    follow_ego: bool = typer.Option(
+        False,
+        "--follow-ego",
+        help="Ride a drive's ego camera (/World/Ego/Camera) along its time-sampled trajectory instead.",
+    ),
 ) -> None:
     """Fly from the source camera forward into the scene and up to an aerial view (MP4, H.264)."""
     from rich.console import Console
@@ -34,7 +39,7 @@ def flythrough(
     from usdworld.cli.output import quiet, say
     from usdworld.cli.render_cmd import parse_size
     from usdworld.errors import InputError
-    from usdworld.render.flythrough import default_video_size, render_flythrough
+    from usdworld.render.flythrough import EGO_CAMERA_PATH, default_video_size, render_flythrough
     from usdworld.render.outputs import view_camera, world_image_size
     from usdworld.render.video import check_video_size
 
@@ -46,6 +51,10 @@ def flythrough(
     width, height = parse_size(size) if size else default_video_size(stage)
     check_video_size(width, height)
     view_camera(stage, *world_image_size(stage), camera_path=camera)  # fail before the progress bar starts
+    if follow_ego and not stage.GetPrimAtPath(EGO_CAMERA_PATH):
+        raise InputError(
+            f"--follow-ego: the world has no {EGO_CAMERA_PATH}; build a drive (build --views with timestamped views)"
+        )
     console = Console(stderr=True)
     columns = (
         TextColumn("[bold]fly-through"),
@@ -65,6 +74,7 @@ def flythrough(
             height=height,
             fps=fps,
             camera_path=camera,
+            follow_ego=follow_ego,
             progress=lambda done, total: progress.update(task, completed=done),
         )
     say(

@@ -43,12 +43,19 @@ class BevBox:
         class_name: the placed class.
         centre_ego: (2,) float64 BEV centre (x forward, y left), metres.
         seen_by: the cameras whose boxes hold it.
+        range_m: its range for the matching gate, or None for its distance from the ego origin.
     """
 
     index: int
     class_name: str
     centre_ego: np.ndarray
     seen_by: tuple[str, ...]
+    range_m: float | None = None
+
+    @property
+    def gate_range_m(self) -> float:
+        """The range the matching gate grows with, metres."""
+        return float(np.linalg.norm(self.centre_ego)) if self.range_m is None else self.range_m
 
 
 def _sample(doc: dict[str, Any], token: str | None) -> dict[str, Any]:
@@ -107,7 +114,7 @@ def evaluate_bev(
     """
     from scipy.optimize import linear_sum_assignment  # lazy: only the evaluation needs it
 
-    gates = np.array([max(gate_min_m, gate_rel * float(np.linalg.norm(b.centre_ego))) for b in boxes])
+    gates = np.array([max(gate_min_m, gate_rel * b.gate_range_m) for b in boxes])
     dist = np.full((len(objects), len(boxes)), np.inf)
     for i, (_, cls, xy) in enumerate(objects):
         for j, b in enumerate(boxes):
@@ -140,7 +147,7 @@ def evaluate_bev(
                 "index": b.index,
                 "class": b.class_name,
                 "views": list(b.seen_by),
-                "range_m": float(np.linalg.norm(b.centre_ego)),
+                "range_m": b.gate_range_m,
                 "count": len(hits),
                 "error_m": hits[0][1] if hits else None,
                 "objects": [n for n, _ in hits],

@@ -60,3 +60,46 @@ class ViewsParams:
         "inverse-variance fusion of its depths alone would leave.",
         "convention: the rays halve the along-ray variance",
     )
+    frame_gap_s: float = param(
+        0.025,
+        "s",
+        "Views whose timestamps, in order, follow each other within this are one frame of a drive (one "
+        "moment of a camera rig); a longer gap starts the next frame.",
+        "published: half the 50 ms sweep of nuScenes' 20 Hz LiDAR, which triggers its six cameras one "
+        "after another (one sample's images span about 43 ms, 5-20 ms apart)",
+    )
+    vehicle_speed_max_mps: float = param(
+        14.0,
+        "m/s",
+        "Standard deviation of the prior on a vehicle's ground speed when a drive's frames are tracked: "
+        "how far a car, truck, bus, bicycle or motorcycle may have moved between frames before its "
+        "own observations say how fast it goes.",
+        "published: the 50 km/h (13.9 m/s) urban speed limit of most European countries",
+    )
+    person_speed_max_mps: float = param(
+        2.6,
+        "m/s",
+        "Standard deviation of the prior on a person's (or rider's, when no vehicle class applies) "
+        "ground speed when a drive's frames are tracked.",
+        "published: twice the 1.3 m/s comfortable walking speed of adults (Bohannon 1997)",
+    )
+    moving_speed_min_mps: float = param(
+        0.5,
+        "m/s",
+        "A tracked vehicle or person is moving only when its fitted ground speed is at least this "
+        "(and the speed is significant at association_gate_chi2): slower drifts are what depth errors "
+        "that change with range make of a standing object.",
+        "published: under half the slowest comfortable walking speed, 1.27 m/s (Bohannon 1997)",
+    )
+    moving_min_frames: int = param(
+        3,
+        "count",
+        "Fewest frames a track needs before it can be moving: two fix a constant velocity, a third checks it.",
+        "geometry: a constant-velocity fit has no residual with two frames",
+    )
+    track_gap_s: float = param(
+        1.0,
+        "s",
+        "A track not observed for longer than this is closed; a later observation of its class starts a new one.",
+        "convention: ten frames at KITTI's 10 Hz, about as long as a passing car hides what stands behind it",
+    )

@@ -88,13 +88,16 @@ def gl_view(world_from_cam: np.ndarray) -> np.ndarray:
     return GL_FROM_CV @ np.linalg.inv(np.asarray(world_from_cam, dtype=np.float64))
 
 
-def camera_from_usd(prim: Usd.Prim, width: int, height: int) -> CameraPose:
+def camera_from_usd(
+    prim: Usd.Prim, width: int, height: int, time: Usd.TimeCode | None = None
+) -> CameraPose:
     """Intrinsics and pose of a ``UsdGeom.Camera`` prim for a ``width`` x ``height`` image.
 
     Args:
         prim: a Camera prim of a composed stage.
         width: image width in pixels.
         height: image height in pixels.
+        time: the time code of the pose (a camera on a time-sampled Xform); default the default time.
 
     Raises:
         CalibrationError: the prim is not a camera or its apertures / focal length are not > 0.
@@ -120,7 +123,7 @@ def camera_from_usd(prim: Usd.Prim, width: int, height: int) -> CameraPose:
         ]
     )
     world_from_usdcam = world_from_stage(prim.GetStage()) @ matrix_from_gf(
-        UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(t)
+        UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(t if time is None else time)
     )
     usdcam_from_cam = np.eye(4)
     usdcam_from_cam[:3, :3] = USDCAM_FROM_CAM

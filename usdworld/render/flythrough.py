@@ -289,6 +289,38 @@ class FlythroughResult:
     total_s: float
 
 
+#: A drive's ego camera (``build --views`` of timestamped views), which ``--follow-ego`` rides.
+EGO_CAMERA_PATH = "/World/Ego/Camera"
+
+
+def ego_poses(stage: Usd.Stage, n_frames: int, width: int, height: int) -> np.ndarray:
+    """Poses of the ego camera of a drive's world, evenly spaced over the stage's time range.
+
+    USD interpolates the ego's time-sampled transform linearly between its frames.
+
+    Args:
+        stage: a drive's composed world (it has :data:`EGO_CAMERA_PATH`).
+        n_frames: number of poses (>= 2).
+        width: image width of the video.
+        height: image height of the video.
+
+    Returns:
+        (n_frames, 4, 4) float64 world_from_cam (OpenCV) poses.
+
+    Raises:
+        InputError: the world is not a drive's.
+    """
+    from usdworld.render.camera import camera_from_usd
+
+    prim = stage.GetPrimAtPath(EGO_CAMERA_PATH)
+    if not prim:
+        raise InputError(
+            f"--follow-ego: the world has no {EGO_CAMERA_PATH}; build a drive (build --views with timestamped views)"
+        )
+    codes = np.linspace(stage.GetStartTimeCode(), stage.GetEndTimeCode(), n_frames)
+    return np.array([camera_from_usd(prim, width, height, Usd.TimeCode(float(c))).world_from_cam for c in codes])
+
+
 def render_flythrough(
     stage: Usd.Stage,
     output: str | Path,
@@ -301,6 +333,7 @@ def render_flythrough(
     lighting: Lighting | None = None,
     car_asset: str | Path | None = None,
     progress: ProgressCallback | None = None,
+    follow_ego: bool = False,
 ) -> FlythroughResult:
     """Render the fly-through of a world to an H.264 MP4.
 
@@ -316,6 +349,8 @@ def render_flythrough(
         lighting: sun and sky (default: the world's authored lights, else :class:`Lighting`).
         car_asset: the source vehicle's asset (default :func:`car_asset_for` the stage's root layer).
         progress: called with (frames done, frames total) after every frame.
+        follow_ego: ride a drive's ego camera over the stage's time range (:func:`ego_poses`)
+            instead of the fly-through path; no source vehicle is added (the ego is the camera).
 
     Raises:
         InputError: bad size, frame count, camera path or car asset.
@@ -328,15 +363,19 @@ def render_flythrough(
     source_size = world_image_size(stage)
     source = view_camera(stage, *source_size, camera_path=camera_path)
     K = video_intrinsics(source.K, source_size, (width, height))
-    if car_asset is None:
-        root = stage.GetRootLayer().realPath
-        car_asset = car_asset_for(Path(root) if root else None)
-    add_source_vehicle(stage, car_asset)
-    scene = RenderScene.from_stage(stage)
+    if follow_ego:
+        poses = ego_poses(stage, n_frames, width, height)
+        scene = RenderScene.from_stage(stage)
+    else:
+        if car_asset is None:
+            root = stage.GetRootLayer().realPath
+            car_asset = car_asset_for(Path(root) if root else None)
+        add_source_vehicle(stage, car_asset)
+        scene = RenderScene.from_stage(stage)
+        path = clear_path(path or FlythroughPath(), scene, source.world_from_cam)
+        poses = flythrough_poses(source.world_from_cam, n_frames, path)
     if lighting is None:
         lighting = lighting_from_stage(stage)
-    path = clear_path(path or FlythroughPath(), scene, source.world_from_cam)
-    poses = flythrough_poses(source.world_from_cam, n_frames, path)
     render_s = 0.0
     with (
         Renderer(width, height, lighting=lighting) as renderer,

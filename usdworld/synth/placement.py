@@ -143,9 +143,9 @@ def _sides(street: StreetLayout) -> tuple[tuple[float, float, float], ...]:
     )
 
 
-def _street_furniture(p: _Placer, street: StreetLayout) -> None:
+def _street_furniture(p: _Placer, street: StreetLayout, things: tuple[float, float]) -> None:
     rng = p.rng
-    x0, x1 = THING_X_RANGE_M
+    x0, x1 = things
     if street.crossing_x is not None:  # traffic lights before the crossing, facing the camera
         for kerb, away, _ in _sides(street):
             v = p.variant("traffic_light")
@@ -175,7 +175,7 @@ def _street_furniture(p: _Placer, street: StreetLayout) -> None:
     for _ in range(int(rng.integers(1, 4))):  # signs, mostly on the right
         kerb, away, _ = _sides(street)[0 if rng.random() < 0.75 else 1]
         v = p.variant("traffic_sign")
-        x = float(rng.uniform(x0 + 2.0, 45.0))
+        x = float(rng.uniform(x0 + 2.0, x1 - 15.0))
         p.place(
             "traffic_sign",
             v,
@@ -205,12 +205,12 @@ def _street_furniture(p: _Placer, street: StreetLayout) -> None:
             x += float(rng.uniform(7.0, 13.0))
 
 
-def _buildings(p: _Placer, street: StreetLayout) -> None:
+def _buildings(p: _Placer, street: StreetLayout, extent: tuple[float, float]) -> None:
     rng = p.rng
     for kerb, away, width in _sides(street):
         outer = kerb + away * width
-        x = BUILDING_X_RANGE_M[0] + float(rng.uniform(0.0, 5.0))
-        while x < BUILDING_X_RANGE_M[1]:
+        x = extent[0] + float(rng.uniform(0.0, 5.0))
+        while x < extent[1]:
             v = p.variant("building")
             size = p.size("building", v)
             frontage = float(rng.uniform(9.0, 24.0))
@@ -226,15 +226,15 @@ def _buildings(p: _Placer, street: StreetLayout) -> None:
             x += frontage + gap
 
 
-def _parked_cars(p: _Placer, street: StreetLayout) -> None:
+def _parked_cars(p: _Placer, street: StreetLayout, things: tuple[float, float]) -> None:
     rng = p.rng
     for kerb, away, _ in _sides(street):
         strip = street.parking_right_m if away < 0 else street.parking_left_m
         if strip <= 0:
             continue
         heading = 0.0 if away < 0 else math.pi
-        x = float(rng.uniform(THING_X_RANGE_M[0] - 1.0, THING_X_RANGE_M[0] + 4.0))
-        while x < THING_X_RANGE_M[1]:
+        x = float(rng.uniform(things[0] - 1.0, things[0] + 4.0))
+        while x < things[1]:
             v = p.variant("car")
             s = float(rng.uniform(0.95, 1.05))
             length = float(p.size("car", v)[0]) * s
@@ -255,14 +255,14 @@ def _parked_cars(p: _Placer, street: StreetLayout) -> None:
             x += float(rng.uniform(2.0, 6.0))
 
 
-def _driving_cars(p: _Placer, street: StreetLayout) -> None:
+def _driving_cars(p: _Placer, street: StreetLayout, things: tuple[float, float]) -> None:
     rng = p.rng
     right, left = street.lane_centres_y()
     for lanes, heading in ((right, 0.0), (left, math.pi)):
         for y in lanes:
             for _ in range(int(rng.choice([0, 1, 1, 2]))):
                 ego_lane = abs(y) < 0.5 * street.lane_width_m
-                x = float(rng.uniform(14.0 if ego_lane else 8.0, THING_X_RANGE_M[1]))
+                x = float(rng.uniform(14.0 if ego_lane else 8.0, things[1]))
                 v = p.variant("car")
                 p.place(
                     "car",
@@ -280,7 +280,7 @@ def _person_scale(p: _Placer, variant: str) -> float:
     return height / float(p.size("person", variant)[2])
 
 
-def _people(p: _Placer, street: StreetLayout) -> None:
+def _people(p: _Placer, street: StreetLayout, things: tuple[float, float]) -> None:
     rng = p.rng
     if street.crossing_x is not None:
         for _ in range(int(rng.integers(0, 4))):
@@ -294,7 +294,7 @@ def _people(p: _Placer, street: StreetLayout) -> None:
         v = p.variant("person")
         s = _person_scale(p, v)
         for _attempt in range(6):
-            x = float(rng.uniform(THING_X_RANGE_M[0] + 1.0, 50.0))
+            x = float(rng.uniform(things[0] + 1.0, things[1] - 10.0))
             y = kerb + away * float(rng.uniform(0.6, width - 0.6))
             heading = (0.0 if rng.random() < 0.5 else math.pi) + float(rng.normal(0, 0.3))
             if p.place("person", v, (x, y, KERB_HEIGHT_M), heading, s, "walking", margin=0.15):
@@ -302,7 +302,10 @@ def _people(p: _Placer, street: StreetLayout) -> None:
 
 
 def place_objects(
-    rng: np.random.Generator, street: StreetLayout, assets: dict[str, ClassAsset]
+    rng: np.random.Generator,
+    street: StreetLayout,
+    assets: dict[str, ClassAsset],
+    extend_m: float = 0.0,
 ) -> tuple[SynthObject, ...]:
     """Sample every object of a street scene.
 
@@ -310,14 +313,17 @@ def place_objects(
         rng: the random generator (consumed in a fixed order).
         street: the street cross-section.
         assets: class -> asset info, for every class of :data:`SYNTH_CLASSES`.
+        extend_m: how much farther along +X things and buildings reach (a drive's length;
+            0 for a single photo, whose draws it leaves unchanged).
 
     Returns:
         The objects in placement order (which is also their order on the stage).
     """
     placer = _Placer(rng, assets)
-    _buildings(placer, street)
-    _street_furniture(placer, street)
-    _parked_cars(placer, street)
-    _driving_cars(placer, street)
-    _people(placer, street)
+    things = (THING_X_RANGE_M[0], THING_X_RANGE_M[1] + extend_m)
+    _buildings(placer, street, (BUILDING_X_RANGE_M[0], BUILDING_X_RANGE_M[1] + extend_m))
+    _street_furniture(placer, street, things)
+    _parked_cars(placer, street, things)
+    _driving_cars(placer, street, things)
+    _people(placer, street, things)
     return tuple(placer.objects)

@@ -40,6 +40,7 @@ from usdworld.parameters.base import plain, section_rows
 from usdworld.parameters.views import ViewsParams
 from usdworld.pipeline import BuildRequest, BuildResult, build_model
 from usdworld.report import make_report
+from usdworld.views.drive import DriveObject, frame_times, track_drive
 from usdworld.views.fusion import FusedObject, fuse, observations
 from usdworld.views.ground import rig_surfaces
 from usdworld.views.rig import ground_pose, world_from_ground
@@ -144,6 +145,9 @@ class RigModel:
         views: the views.
         view_models: each view's own world, in its ground frame.
         world_from_ground: each view's (4, 4) float64 ground frame in the world.
+        drive: for a drive (:func:`usdworld.views.drive.frame_times`), each object's track, in
+            the order of ``objects``; None for a rig of one moment.
+        frame_times: for a drive, each view's frame time, seconds; else None.
     """
 
     model: WorldModel
@@ -151,6 +155,8 @@ class RigModel:
     views: ViewSet
     view_models: tuple[WorldModel, ...] = field(repr=False)
     world_from_ground: tuple[np.ndarray, ...] = field(repr=False)
+    drive: tuple[DriveObject, ...] | None = field(default=None, repr=False)
+    frame_times: list[float] | None = field(default=None, repr=False)
 
 
 def view_camera_spec(view: ViewSpec, source: InputFile) -> CameraSpec:
@@ -201,7 +207,13 @@ def build_rig_model(request: ViewsRequest) -> RigModel:
     obs = []
     for i, (v, m, pose) in enumerate(zip(views, view_models, poses)):
         obs.extend(observations(i, v.name, m.image_name, m.placements, pose, request.views_params))
-    objects = fuse(obs, request.views_params)
+    times = frame_times([v.timestamp for v in views], request.views_params)
+    drive = None
+    if times is not None:  # a drive: frames tracked in time order
+        drive = tuple(track_drive(obs, times, request.views_params))
+        objects = [d.fused for d in drive]
+    else:
+        objects = fuse(obs, request.views_params)
     params = request.parameters
     surfaces = rig_surfaces(
         [(m.surfaces, pose) for m, pose in zip(view_models, poses)],
@@ -219,7 +231,7 @@ def build_rig_model(request: ViewsRequest) -> RigModel:
         inputs=tuple(inputs),
         warnings=tuple(warnings),
     )
-    return RigModel(model, tuple(objects), request.views, tuple(view_models), tuple(poses))
+    return RigModel(model, tuple(objects), request.views, tuple(view_models), tuple(poses), drive, times)
 
 
 def rig_report(rig: RigModel, request: ViewsRequest) -> dict[str, Any]:
@@ -258,10 +270,28 @@ def rig_report(rig: RigModel, request: ViewsRequest) -> dict[str, Any]:
             }
             for o in rig.objects
         },
-        "fusion": {m: methods.count(m) for m in ("single", "fused", "triangulated")},
+        "fusion": {m: methods.count(m) for m in ("single", "fused", "triangulated", "tracked")},
+        **({"drive": _drive_report(rig.drive)} if rig.drive is not None else {}),
         "parameters": {row["name"]: plain(row["value"]) for row in section_rows(request.views_params)},
     }
     return report
+
+
+def _drive_report(drive: tuple[DriveObject, ...]) -> dict[str, Any]:
+    """``views -> drive`` of a drive's report: per object whether it moves, its velocity and frames."""
+    return {
+        "moving": sum(d.moving for d in drive),
+        "standing": sum(not d.moving for d in drive),
+        "objects": {
+            d.fused.placement.name: {
+                "moving": bool(d.moving),
+                "velocity_mps": [float(v) for v in d.velocity],
+                "times": [float(t) for t in d.times],
+                "positions_world": [[float(c) for c in p] for p in d.positions],
+            }
+            for d in drive
+        },
+    }
 
 
 def build_views(request: ViewsRequest) -> BuildResult:
@@ -270,7 +300,7 @@ def build_views(request: ViewsRequest) -> BuildResult:
     Raises:
         UsdWorldError: any bad input or an unwritable output.
     """
-    from usdworld.authoring.rig import write_rig  # lazy: pxr
+    from usdworld.authoring.rig import write_drive, write_rig  # lazy: pxr
     from usdworld.authoring.world import ROOT_LAYER, write_world
 
     out = Path(request.output)
@@ -286,7 +316,11 @@ def build_views(request: ViewsRequest) -> BuildResult:
         raise OutputError(f"{out.parent}: cannot write there ({exc.strerror}); choose another -o") from exc
     try:
         write_world(rig.model, tmp, asset_files, keep_edits)
-        write_rig(tmp, rig.views, rig.view_models, rig.world_from_ground, rig.objects)
+        write_rig(
+            tmp, rig.views, rig.view_models, rig.world_from_ground, rig.objects, object_provenance=rig.drive is None
+        )
+        if rig.drive is not None and rig.frame_times is not None:
+            write_drive(tmp, rig.view_models, rig.world_from_ground, rig.drive, rig.frame_times)
         (tmp / "report.json").write_text(json.dumps(report, indent=2, sort_keys=True) + "\n")
         swap_in(tmp, out)
     except BaseException:

@@ -63,7 +63,8 @@ class FusedObject:
     Attributes:
         placement: the fused placement (world frame), named ``<class>_<NNNN>``.
         observations: the views' placements, the primary one (smallest depth spread) first.
-        method: ``single`` (one view), ``triangulated`` (the rays decided) or ``fused`` (the depths decided).
+        method: ``single`` (one view), ``triangulated`` (the rays decided), ``fused`` (the depths
+            decided) or, for a moving object of a drive, ``tracked`` (:mod:`usdworld.views.drive`).
         covariance: (2, 2) float64 ground-plane covariance of the position, metres squared.
     """
 
@@ -128,7 +129,7 @@ def observations(
     return out
 
 
-def _combine(group: Sequence[Observation]) -> tuple[np.ndarray, np.ndarray]:
+def combine(group: Sequence[Observation]) -> tuple[np.ndarray, np.ndarray]:
     """Information-weighted mean (2,) and covariance (2, 2) of a group's ground positions."""
     info = np.zeros((2, 2))
     vec = np.zeros(2)
@@ -140,7 +141,7 @@ def _combine(group: Sequence[Observation]) -> tuple[np.ndarray, np.ndarray]:
     return cov @ vec, cov
 
 
-def _method(group: Sequence[Observation], cov: np.ndarray, params: ViewsParams) -> str:
+def fusion_method(group: Sequence[Observation], cov: np.ndarray, params: ViewsParams) -> str:
     if len(group) == 1:
         return "single"
     depth_only = 1.0 / sum(1.0 / o.sigma_range_m**2 for o in group)
@@ -163,7 +164,7 @@ def associate(obs: Sequence[Observation], params: ViewsParams) -> list[list[int]
         The groups, each sorted, ordered by their first index.
     """
     groups = [[i] for i in range(len(obs))]
-    fused = [_combine([o]) for o in obs]
+    fused = [combine([o]) for o in obs]
     views = [{o.view} for o in obs]
     classes = [o.placement.obj.class_name for o in obs]
     while True:
@@ -181,7 +182,7 @@ def associate(obs: Sequence[Observation], params: ViewsParams) -> list[list[int]
         _, a, b = best
         groups[a] = sorted(groups[a] + groups[b])
         views[a] |= views[b]
-        fused[a] = _combine([obs[i] for i in groups[a]])
+        fused[a] = combine([obs[i] for i in groups[a]])
         for items in (groups, views, classes, fused):
             del items[b]
     return sorted(groups, key=lambda g: g[0])
@@ -207,10 +208,10 @@ def fuse(obs: Sequence[Observation], params: ViewsParams) -> list[FusedObject]:
     for group in associate(obs, params):
         members = sorted((obs[i] for i in group), key=lambda o: (o.sigma_range_m, o.view))
         primary = members[0].placement
-        xy, cov = _combine(members)
+        xy, cov = combine(members)
         cls = primary.obj.class_name
         counters[cls] = counters.get(cls, 0) + 1
         position = np.array([xy[0], xy[1], primary.position_world[2]])
         placement = dataclasses.replace(primary, name=f"{cls}_{counters[cls]:04d}", position_world=position)
-        out.append(FusedObject(placement, tuple(members), _method(members, cov, params), cov))
+        out.append(FusedObject(placement, tuple(members), fusion_method(members, cov, params), cov))
     return out

@@ -1,0 +1,147 @@
+"""A drive's world against the synthetic drive's ground truth (``usdworld synth --sequence``), in bird's-eye view.
+
+Ground truth (``<name>_drive_gt.json``): every object's class, whether it moves, its
+position per frame and its visible pixels per frame. An object is *seen* when some frame
+shows at least :data:`MIN_VISIBLE_PX` pixels of it (as ``tools/eval_synth.py`` counts).
+
+Moving objects first: each seen moving object is paired one to one (Hungarian, per class)
+with a world object, the cost being the median over the frames that show it of the BEV
+distance between its true position and the world object's position at that frame's time
+(a standing world object: its one position); pairs only within the gate
+``max(gate_min_m, gate_rel * range)``, the range being the median distance from the ego
+over those frames (as :func:`usdworld.evaluation.views.evaluate_bev` gates). Its
+*track error* is that median; whether its world object moves is counted.
+
+Standing objects then: the seen standing objects against the remaining world objects
+(their default positions), as :func:`usdworld.evaluation.views.evaluate_bev` compares a
+rig's world with its boxes (placed once, more than once, missed; median BEV error = the
+*ground error*), the gate's range being the distance from the nearest ego position of a
+frame that shows the object.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from usdworld.evaluation.views import BevBox, evaluate_bev
+
+#: Fewest visible pixels in some frame for a ground-truth object to count as seen.
+MIN_VISIBLE_PX = 10
+
+
+@dataclass(frozen=True)
+class TrackedWorldObject:
+    """One object of a drive's world.
+
+    Attributes:
+        name: prim name.
+        class_name: its class.
+        position: (2,) float64 its default BEV position, metres.
+        moving: whether the world says it moves.
+        samples: time (seconds) -> (2,) float64 BEV position, for a moving object.
+    """
+
+    name: str
+    class_name: str
+    position: np.ndarray
+    moving: bool
+    samples: Mapping[float, np.ndarray]
+
+    def at(self, t: float) -> np.ndarray:
+        """(2,) BEV position at time ``t``: linear between samples, held outside them."""
+        if not self.moving or not self.samples:
+            return self.position
+        ts = np.array(sorted(self.samples))
+        xy = np.array([self.samples[k] for k in sorted(self.samples)])
+        return np.array([np.interp(t, ts, xy[:, 0]), np.interp(t, ts, xy[:, 1])])
+
+
+def evaluate_drive(
+    objects: Sequence[TrackedWorldObject],
+    gt: dict[str, Any],
+    classes: Sequence[str],
+    gate_min_m: float = 2.0,
+    gate_rel: float = 0.15,
+) -> dict[str, Any]:
+    """Compare a drive's world with its ground truth.
+
+    Args:
+        objects: the world's objects.
+        gt: the drive ground-truth document.
+        classes: the classes compared (ground truth and world objects of other classes are left out).
+        gate_min_m: smallest gate of a moving pair's median track error, metres.
+        gate_rel: the gate's share of the moving object's median range.
+
+    Returns:
+        JSON-ready: ``moving`` (seen, paired, paired_moving, median and p90 track error,
+        per object rows), ``standing`` (the :func:`evaluate_bev` result) and ``false_moving``
+        (world objects that move but were paired with no moving object).
+    """
+    from scipy.optimize import linear_sum_assignment  # lazy: only the evaluation needs it
+
+    objects = [w for w in objects if w.class_name in classes]
+    times = np.array(gt["times"], dtype=np.float64)
+    egos = np.array([np.array(T)[:2, 3] for T in gt["world_from_ego"]])
+    seen = [
+        o
+        for o in gt["objects"]
+        if o["class"] in classes and max(o["visible_pixels"]) >= MIN_VISIBLE_PX
+    ]
+    movers = [o for o in seen if o["moving"]]
+    cost = np.full((len(movers), len(objects)), np.inf)
+    for i, o in enumerate(movers):
+        frames = [k for k, px in enumerate(o["visible_pixels"]) if px >= MIN_VISIBLE_PX]
+        track = np.array(o["track"])[:, :2]
+        rng = float(np.median([np.linalg.norm(track[k] - egos[k]) for k in frames]))
+        gate = max(gate_min_m, gate_rel * rng)
+        for j, w in enumerate(objects):
+            if w.class_name != o["class"]:
+                continue
+            d = float(np.median([np.linalg.norm(w.at(float(times[k])) - track[k]) for k in frames]))
+            if d <= gate:
+                cost[i, j] = d
+    used: set[int] = set()
+    rows = []
+    pairs = dict(
+        (int(i), int(j))
+        for i, j in zip(*linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e6)))
+        if np.isfinite(cost[i, j])
+    ) if len(movers) and len(objects) else {}
+    for i, o in enumerate(movers):
+        j = pairs.get(i)
+        if j is not None:
+            used.add(j)
+        rows.append(
+            {
+                "name": o["name"],
+                "class": o["class"],
+                "object": objects[j].name if j is not None else None,
+                "object_moving": bool(objects[j].moving) if j is not None else None,
+                "track_error_m": float(cost[i, j]) if j is not None else None,
+            }
+        )
+    errors = [r["track_error_m"] for r in rows if r["track_error_m"] is not None]
+    moving = {
+        "seen": len(movers),
+        "paired": len(errors),
+        "paired_moving": sum(bool(r["object_moving"]) for r in rows),
+        "median_track_error_m": float(np.median(errors)) if errors else None,
+        "p90_track_error_m": float(np.percentile(errors, 90)) if errors else None,
+        "objects": rows,
+    }
+    boxes = []
+    for k, o in enumerate(seen):
+        if o["moving"]:
+            continue
+        xy = np.array(o["track"][0][:2])
+        frames = [f for f, px in enumerate(o["visible_pixels"]) if px >= MIN_VISIBLE_PX]
+        rng = min(float(np.linalg.norm(xy - egos[f])) for f in frames)
+        boxes.append(BevBox(k, o["class"], xy, ("drive",), range_m=rng))
+    rest = [(w.name, w.class_name, w.position) for j, w in enumerate(objects) if j not in used]
+    standing = evaluate_bev(rest, boxes, gate_min_m=gate_min_m, gate_rel=gate_rel)
+    false_moving = [w.name for j, w in enumerate(objects) if w.moving and j not in used]
+    return {"moving": moving, "standing": standing, "false_moving": false_moving}

@@ -1,0 +1,307 @@
+"""A drive's frames placed into one world: standing objects once, moving ones as tracks (layout level: pure numpy).
+
+A view set is a *drive* when all its views carry timestamps and they fall into two or
+more *frames*: in time order, a view within ``frame_gap_s`` of the one before is of the
+same frame (a rig's cameras fire a few milliseconds apart: a nuScenes sample is one
+frame), a longer gap starts the next one. A frame's time is its first timestamp. Fusing
+every observation of a drive at once (:func:`usdworld.views.fusion.fuse`) would compare
+each with all others, and would average a moving car's positions into one; instead the
+frames are tracked in time order, so the work grows with the number of frames:
+
+1. Within a frame the cameras' observations are fused as a rig's are (:func:`fuse`).
+2. Each track of one class predicts its ground position at the frame's time with a
+   constant-velocity fit of its observations (information form, each weighted by its
+   ground covariance). Classes that cannot move (everything but vehicles and people)
+   have velocity 0; vehicles and people have a zero-mean velocity prior of standard
+   deviation ``vehicle_speed_max_mps`` / ``person_speed_max_mps``, which is what lets a
+   track follow a car before its own observations fix its speed.
+3. The frame's objects join tracks greedily, nearest first in squared Mahalanobis
+   distance (prediction and observation covariances summed) within
+   ``association_gate_chi2``; the rest start tracks. A track not seen for longer than
+   ``track_gap_s`` is closed.
+
+**Moving or standing.** A vehicle's or person's track is *moving* when it spans at least
+``moving_min_frames`` frames and its fitted velocity disagrees with standing still beyond
+its uncertainty: ``v^T C_v^-1 v > association_gate_chi2`` (the chi-square 99 % quantile, 2
+degrees of freedom) and ``|v| >= moving_speed_min_mps`` (a slower drift is what a depth
+error that grows with range makes of a parked car the camera drives past). Everything
+else stands: it is placed once, at the information-weighted mean of all its observations
+(as :func:`fuse` places an object several cameras see).
+
+**What a moving object gets.** Its placement (the default, un-timed value) is its fitted
+position at its first frame; per frame where it is seen, a time sample of its position
+*on the constant-velocity fit* (not the raw observation: single-view depth noise would
+make it jitter) and of its heading, the velocity's direction. Between and outside those
+frames USD holds and interpolates the samples linearly; the object is not hidden where it
+was not seen (a viewer shows it where it was last known).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from usdworld.parameters.views import ViewsParams
+from usdworld.views.fusion import FusedObject, Observation, combine, fuse, fusion_method
+
+#: Classes that can move in a drive, with the parameter that bounds their speed.
+VEHICLE_CLASSES = ("car", "truck", "bus", "motorcycle", "bicycle")
+PEOPLE_CLASSES = ("person", "rider")
+
+
+def speed_prior(class_name: str, params: ViewsParams) -> float:
+    """Standard deviation of the velocity prior of a class, m/s (0: the class stands still)."""
+    if class_name in VEHICLE_CLASSES:
+        return params.vehicle_speed_max_mps
+    if class_name in PEOPLE_CLASSES:
+        return params.person_speed_max_mps
+    return 0.0
+
+
+@dataclass(frozen=True)
+class MotionFit:
+    """A constant-velocity fit of a track's ground positions.
+
+    Attributes:
+        t_ref: the reference time, seconds.
+        state: (4,) float64 position (x, y) at ``t_ref`` and velocity (vx, vy), metres and m/s.
+        covariance: (4, 4) float64 its covariance.
+    """
+
+    t_ref: float
+    state: np.ndarray
+    covariance: np.ndarray
+
+    def predict(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(2,) position and (2, 2) covariance at time ``t``."""
+        H = np.hstack([np.eye(2), (t - self.t_ref) * np.eye(2)])
+        return H @ self.state, H @ self.covariance @ H.T
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """(2,) float64 m/s."""
+        return self.state[2:]
+
+    def speed_chi2(self) -> float:
+        """Squared Mahalanobis distance of the velocity from standing still."""
+        v = self.velocity
+        C = self.covariance[2:, 2:]
+        if not np.all(np.isfinite(C)) or np.linalg.det(C) <= 0:
+            return 0.0
+        return float(v @ np.linalg.solve(C, v))
+
+
+def fit_motion(
+    times: Sequence[float], positions: np.ndarray, covariances: np.ndarray, sigma_speed: float
+) -> MotionFit:
+    """Fit ``x(t) = p + v (t - t_ref)`` to ground positions, ``t_ref`` the last time.
+
+    Args:
+        times: (N,) seconds.
+        positions: (N, 2) float64 ground positions, metres.
+        covariances: (N, 2, 2) float64 their covariances, metres squared.
+        sigma_speed: standard deviation of the zero-mean prior on each velocity component,
+            m/s; 0 fixes the velocity at 0 (a class that cannot move).
+
+    Returns:
+        The fit (velocity exactly 0 with zero covariance when ``sigma_speed`` is 0).
+    """
+    t = np.asarray(times, dtype=np.float64)
+    t_ref = float(t[-1])
+    inv = np.linalg.inv(np.asarray(covariances, dtype=np.float64))
+    z = np.asarray(positions, dtype=np.float64)
+    if sigma_speed <= 0:
+        info = inv.sum(axis=0)
+        cov = np.linalg.inv(info)
+        p = cov @ np.einsum("nij,nj->i", inv, z)
+        C = np.zeros((4, 4))
+        C[:2, :2] = cov
+        return MotionFit(t_ref, np.array([p[0], p[1], 0.0, 0.0]), C)
+    dt = t - t_ref
+    info = np.zeros((4, 4))
+    info[:2, :2] = inv.sum(axis=0)
+    cross = np.einsum("n,nij->ij", dt, inv)
+    info[:2, 2:] = cross
+    info[2:, :2] = cross.T
+    info[2:, 2:] = np.einsum("n,nij->ij", dt * dt, inv) + np.eye(2) / sigma_speed**2
+    rhs = np.concatenate([np.einsum("nij,nj->i", inv, z), np.einsum("n,nij,nj->i", dt, inv, z)])
+    C = np.linalg.inv(info)
+    return MotionFit(t_ref, C @ rhs, C)
+
+
+@dataclass
+class _Track:
+    class_name: str
+    sigma_speed: float
+    times: list[float] = field(default_factory=list)
+    items: list[FusedObject] = field(default_factory=list)
+    fit: MotionFit | None = None
+
+    def add(self, t: float, item: FusedObject) -> None:
+        self.times.append(t)
+        self.items.append(item)
+        pos = np.array([o.placement.position_world[:2] for o in self.items])
+        cov = np.array([o.covariance for o in self.items])
+        self.fit = fit_motion(self.times, pos, cov, self.sigma_speed)
+
+
+@dataclass(frozen=True)
+class DriveObject:
+    """One object of a drive's world.
+
+    Attributes:
+        fused: the object as a rig's world holds it (placement, every observation of every
+            frame, primary first; method; covariance of the placed position).
+        moving: whether it moves (see the module docstring).
+        times: (T,) float64 the frames where it is seen, seconds.
+        positions: (T, 3) float64 its positions at those times (on the fit when moving;
+            the placed position repeated when standing), metres.
+        yaws: (T,) float64 its headings at those times, radians.
+        velocity: (2,) float64 its fitted ground velocity, m/s (0 for a class that cannot move).
+    """
+
+    fused: FusedObject
+    moving: bool
+    times: np.ndarray
+    positions: np.ndarray
+    yaws: np.ndarray
+    velocity: np.ndarray
+
+
+def frame_times(timestamps: Sequence[float | None], params: ViewsParams) -> list[float] | None:
+    """Each view's frame time when the views are a drive (see the module docstring), else None.
+
+    Args:
+        timestamps: (V,) each view's timestamp, seconds, or None.
+        params: ``frame_gap_s``.
+
+    Returns:
+        (V,) the time of each view's frame (its first timestamp), or None when a timestamp
+        is missing or all views are one frame.
+
+    Example:
+        >>> frame_times([0.0, 0.01, 0.1, 0.11], ViewsParams())
+        [0.0, 0.0, 0.1, 0.1]
+    """
+    if not timestamps or any(t is None for t in timestamps):
+        return None
+    values = [float(t) for t in timestamps if t is not None]
+    order = sorted(range(len(values)), key=lambda i: values[i])
+    out = [0.0] * len(values)
+    start = previous = values[order[0]]
+    frames = 1
+    for i in order:
+        if values[i] - previous > params.frame_gap_s:
+            start = values[i]
+            frames += 1
+        out[i] = start
+        previous = values[i]
+    return out if frames >= 2 else None
+
+
+def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params: ViewsParams) -> list[int | None]:
+    """The track index each item joins (greedy, nearest first, within the gate), or None."""
+    pairs = []
+    for j, item in enumerate(items):
+        cls = item.placement.obj.class_name
+        z = item.placement.position_world[:2]
+        for k, tr in enumerate(tracks):
+            if tr.class_name != cls or tr.fit is None:
+                continue
+            x, P = tr.fit.predict(t)
+            d = z - x
+            m2 = float(d @ np.linalg.solve(P + item.covariance, d))
+            if m2 <= params.association_gate_chi2:
+                pairs.append((m2, j, k))
+    pairs.sort()
+    out: list[int | None] = [None] * len(items)
+    taken: set[int] = set()
+    for _, j, k in pairs:
+        if out[j] is None and k not in taken:
+            out[j] = k
+            taken.add(k)
+    return out
+
+
+def _yaw_of(velocity: np.ndarray, fallback: float, params: ViewsParams) -> float:
+    if float(np.linalg.norm(velocity)) >= params.moving_speed_min_mps:
+        return math.atan2(float(velocity[1]), float(velocity[0]))
+    return fallback
+
+
+def track_drive(
+    obs: Sequence[Observation], view_times: Sequence[float], params: ViewsParams
+) -> list[DriveObject]:
+    """Place a drive's observations: standing objects once, moving ones with their track.
+
+    Args:
+        obs: every view's observations in the world, views in order.
+        view_times: (V,) each view's frame time (:func:`frame_times`), seconds.
+        params: the thresholds.
+
+    Returns:
+        The objects, in the order of their first observation (frames in time order),
+        named ``<class>_<NNNN>`` per class in that order.
+    """
+    by_frame: dict[float, list[Observation]] = {}
+    for o in obs:
+        by_frame.setdefault(float(view_times[o.view]), []).append(o)
+    open_tracks: list[_Track] = []
+    done: list[_Track] = []
+    for t in sorted(by_frame):
+        still = []
+        for tr in open_tracks:
+            (still if t - tr.times[-1] <= params.track_gap_s else done).append(tr)
+        open_tracks = still
+        items = fuse(by_frame[t], params)
+        joins = _associate(open_tracks, t, items, params)
+        for item, k in zip(items, joins):
+            if k is None:
+                tr = _Track(item.placement.obj.class_name, speed_prior(item.placement.obj.class_name, params))
+                open_tracks.append(tr)
+                tr.add(t, item)
+            else:
+                open_tracks[k].add(t, item)
+    done.extend(open_tracks)
+    index = {id(o): i for i, o in enumerate(obs)}
+    done.sort(key=lambda tr: (tr.times[0], min(index[id(o)] for o in tr.items[0].observations)))
+    counters: dict[str, int] = {}
+    return [_drive_object(tr, tr.fit, params, counters) for tr in done if tr.fit is not None]
+
+
+def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dict[str, int]) -> DriveObject:
+    members = sorted(
+        (o for item in tr.items for o in item.observations), key=lambda o: (o.sigma_range_m, o.view)
+    )
+    primary = members[0].placement
+    cls = tr.class_name
+    counters[cls] = counters.get(cls, 0) + 1
+    name = f"{cls}_{counters[cls]:04d}"
+    times = np.array(tr.times)
+    moving = (
+        tr.sigma_speed > 0
+        and len(tr.times) >= params.moving_min_frames
+        and fit.speed_chi2() > params.association_gate_chi2
+        and float(np.linalg.norm(fit.velocity)) >= params.moving_speed_min_mps
+    )
+    z = float(primary.position_world[2])
+    if moving:
+        xy = np.array([fit.predict(float(t))[0] for t in times])
+        positions = np.c_[xy, np.full(len(times), z)]
+        yaw = _yaw_of(fit.velocity, primary.yaw, params)
+        placement = dataclasses.replace(primary, name=name, position_world=positions[0].copy(), yaw=yaw)
+        cov = fit.predict(float(times[0]))[1]
+        fused = FusedObject(placement, tuple(members), "tracked", cov)
+        return DriveObject(fused, True, times, positions, np.full(len(times), yaw), fit.velocity.copy())
+    xy, cov = combine(members)
+    position = np.array([xy[0], xy[1], z])
+    placement = dataclasses.replace(primary, name=name, position_world=position)
+    fused = FusedObject(placement, tuple(members), fusion_method(members, cov, params), cov)
+    velocity = fit.velocity.copy()
+    return DriveObject(
+        fused, False, times, np.tile(position, (len(times), 1)), np.full(len(times), primary.yaw), velocity
+    )

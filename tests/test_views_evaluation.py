@@ -70,4 +70,8 @@ def test_the_real_sample_world(shared_data: Path, tmp_path: Path) -> None:
     assert len(stage.GetPrimAtPath("/World/Cameras").GetChildren()) == 6
     objects = [(o.name, o.class_name, o.bottom_centre_world[:2]) for o in world_objects(stage)]
     r = evaluate_bev(objects, boxes)["overall"]
-    assert r["placed_more"] == 0 and r["placed_once"] == 31
+    # 31 before the vehicles' span gave boxes-only views their traffic centre line (session 7): one
+    # far car's turn changed line and its re-centred placement fell out of the gate, while the
+    # median BEV error fell from 2.55 to 2.26 m (BENCHMARKS, "Several views, one world").
+    assert r["placed_more"] == 0 and r["placed_once"] == 30
+    assert r["median_bev_error_m"] < 2.3

@@ -38,9 +38,11 @@ SKY_ID = label_id_for_class("sky")
 GT_FORMAT = "usdworld-synth-gt/1"
 
 
-def _r(value: float, digits: int = 6) -> float:
+def rounded(value: float, digits: int = 6) -> float:
+    """``value`` rounded to ``digits`` decimals for the JSON files, with -0.0 written as 0.0."""
     v = round(float(value), digits)
     return 0.0 if v == 0 else v
+
 
 
 def _png(image: np.ndarray) -> bytes:
@@ -50,8 +52,23 @@ def _png(image: np.ndarray) -> bytes:
     return buf.tobytes()
 
 
-def _json(doc: Any) -> bytes:
+def json_bytes(doc: Any) -> bytes:
+    """``doc`` as the synth files' JSON: two-space indent, a final newline, UTF-8."""
     return (json.dumps(doc, indent=2) + "\n").encode("utf-8")
+
+
+def output_folder(out_dir: str | Path) -> Path:
+    """``out_dir`` as a Path, created if missing.
+
+    Raises:
+        OutputError: it cannot be created.
+    """
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{out}: cannot create the output folder ({exc})") from None
+    return out
 
 
 def cityscapes_camera_json(scene: SynthScene) -> dict[str, Any]:
@@ -60,14 +77,14 @@ def cityscapes_camera_json(scene: SynthScene) -> dict[str, Any]:
     return {
         "extrinsic": {
             "baseline": 0.0,
-            "pitch": _r(cam.pitch, 9),
-            "roll": _r(cam.roll, 9),
+            "pitch": rounded(cam.pitch, 9),
+            "roll": rounded(cam.roll, 9),
             "x": 0.0,
             "y": 0.0,
-            "yaw": _r(cam.yaw, 9),
-            "z": _r(cam.height_m, 9),
+            "yaw": rounded(cam.yaw, 9),
+            "z": rounded(cam.height_m, 9),
         },
-        "intrinsic": {"fx": _r(cam.fx, 9), "fy": _r(cam.fy, 9), "u0": _r(cam.cx, 9), "v0": _r(cam.cy, 9)},
+        "intrinsic": {"fx": rounded(cam.fx, 9), "fy": rounded(cam.fy, 9), "u0": rounded(cam.cx, 9), "v0": rounded(cam.cy, 9)},
     }
 
 
@@ -95,10 +112,10 @@ def ground_truth(scene: SynthScene, render_scene: RenderScene, result: RenderRes
                 "instance_id": rendered.instance_id if rendered else 0,
                 "variant": obj.variant,
                 "role": obj.role,
-                "centre_world": [_r(v) for v in obj.centre_world],
-                "yaw_rad": _r(obj.yaw),
-                "size_m": [_r(v) for v in obj.size_m],
-                "scale": [_r(v) for v in obj.scale],
+                "centre_world": [rounded(v) for v in obj.centre_world],
+                "yaw_rad": rounded(obj.yaw),
+                "size_m": [rounded(v) for v in obj.size_m],
+                "scale": [rounded(v) for v in obj.scale],
                 "visible_pixels": int(counts[rendered.index]) if rendered else 0,
             }
         )
@@ -107,13 +124,13 @@ def ground_truth(scene: SynthScene, render_scene: RenderScene, result: RenderRes
         "camera": {
             "width": cam.width,
             "height": cam.height,
-            "K": [[_r(v, 9) for v in row] for row in cam.K],
-            "height_m": _r(cam.height_m, 9),
-            "pitch": _r(cam.pitch, 9),
-            "roll": _r(cam.roll, 9),
-            "yaw": _r(cam.yaw, 9),
+            "K": [[rounded(v, 9) for v in row] for row in cam.K],
+            "height_m": rounded(cam.height_m, 9),
+            "pitch": rounded(cam.pitch, 9),
+            "roll": rounded(cam.roll, 9),
+            "yaw": rounded(cam.yaw, 9),
         },
-        "sun_direction_world": [_r(v) for v in scene.sun_direction_world],
+        "sun_direction_world": [rounded(v) for v in scene.sun_direction_world],
         "overcast": scene.overcast,
         "street": scene.street.to_json(),
         "objects": objects,
@@ -151,11 +168,7 @@ def write_cityscapes_frame(scene: SynthScene, out_dir: str | Path, name: str) ->
         RenderError: no usable OpenGL.
         OutputError: the folder cannot be written.
     """
-    out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"{out}: cannot create the output folder ({exc})") from None
+    out = output_folder(out_dir)
     render_input, result = render_scene(scene)
     labels, instances = label_images(result)
     paths = {
@@ -168,6 +181,6 @@ def write_cityscapes_frame(scene: SynthScene, out_dir: str | Path, name: str) ->
     write_bytes_atomic(paths["image"], _png(result.rgb[:, :, ::-1]))
     write_bytes_atomic(paths["labels"], _png(labels))
     write_bytes_atomic(paths["instances"], _png(instances))
-    write_bytes_atomic(paths["camera"], _json(cityscapes_camera_json(scene)))
-    write_bytes_atomic(paths["gt"], _json(ground_truth(scene, render_input, result)))
+    write_bytes_atomic(paths["camera"], json_bytes(cityscapes_camera_json(scene)))
+    write_bytes_atomic(paths["gt"], json_bytes(ground_truth(scene, render_input, result)))
     return paths

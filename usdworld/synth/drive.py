@@ -46,9 +46,9 @@ from typing import Any
 import numpy as np
 
 from usdworld.atomic import write_bytes_atomic
-from usdworld.errors import OutputError, UsdWorldError
+from usdworld.errors import UsdWorldError
 from usdworld.synth.assets import AssetSource, ClassAsset, class_asset, default_assets
-from usdworld.synth.cityscapes import _json, _r, write_cityscapes_frame
+from usdworld.synth.cityscapes import json_bytes, output_folder, rounded, write_cityscapes_frame
 from usdworld.synth.placement import SYNTH_CLASSES, SynthObject, place_objects
 from usdworld.synth.scene import SynthScene, sample_camera
 from usdworld.synth.street import STREET_X_RANGE_M, sample_street
@@ -196,7 +196,7 @@ def make_drive(
 
 
 def _matrix(T: np.ndarray) -> list[list[float]]:
-    return [[_r(v, 9) for v in row] for row in T]
+    return [[rounded(v, 9) for v in row] for row in T]
 
 
 def write_drive(drive: SynthDrive, out_dir: str | Path, name: str) -> dict[str, Path]:
@@ -214,11 +214,7 @@ def write_drive(drive: SynthDrive, out_dir: str | Path, name: str) -> dict[str, 
         RenderError: no usable OpenGL.
         OutputError: the folder cannot be written.
     """
-    out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"{out}: cannot create the output folder ({exc})") from None
+    out = output_folder(out_dir)
     cam = drive.scene.camera
     views = []
     visible: dict[str, list[int]] = {o.name: [] for o in drive.scene.objects}
@@ -231,9 +227,9 @@ def write_drive(drive: SynthDrive, out_dir: str | Path, name: str) -> dict[str, 
             {
                 "name": f"f{i:06d}",
                 "image": paths["image"].name,
-                "K": [[_r(v, 9) for v in row] for row in cam.K],
+                "K": [[rounded(v, 9) for v in row] for row in cam.K],
                 "camera_to_world": _matrix(drive.world_from_cam(float(t))),
-                "timestamp": _r(float(t), 9),
+                "timestamp": rounded(float(t), 9),
                 "labels": paths["labels"].name,
                 "instances": paths["instances"].name,
             }
@@ -247,23 +243,23 @@ def write_drive(drive: SynthDrive, out_dir: str | Path, name: str) -> dict[str, 
                 "class": obj.class_name,
                 "role": obj.role,
                 "moving": v is not None,
-                "velocity_world": [_r(c) for c in (v if v is not None else (0.0, 0.0))],
-                "yaw_rad": _r(obj.yaw),
-                "size_m": [_r(c) for c in obj.size_m],
-                "track": [[_r(c) for c in drive.position(obj, float(t))] for t in drive.times],
+                "velocity_world": [rounded(c) for c in (v if v is not None else (0.0, 0.0))],
+                "yaw_rad": rounded(obj.yaw),
+                "size_m": [rounded(c) for c in obj.size_m],
+                "track": [[rounded(c) for c in drive.position(obj, float(t))] for t in drive.times],
                 "visible_pixels": visible[obj.name],
             }
         )
     gt = {
         "format": DRIVE_GT_FORMAT,
-        "times": [_r(float(t), 9) for t in drive.times],
-        "speed_mps": _r(drive.speed_mps),
+        "times": [rounded(float(t), 9) for t in drive.times],
+        "speed_mps": rounded(drive.speed_mps),
         "world_from_ego": [_matrix(drive.world_from_ego(float(t))) for t in drive.times],
         "camera": {"width": cam.width, "height": cam.height, "K": _matrix(cam.K)},
         "street": drive.scene.street.to_json(),
         "objects": objects,
     }
     result = {"views": out / f"{name}_views.json", "gt": out / f"{name}_drive_gt.json"}
-    write_bytes_atomic(result["views"], _json({"views": views}))
-    write_bytes_atomic(result["gt"], _json(gt))
+    write_bytes_atomic(result["views"], json_bytes({"views": views}))
+    write_bytes_atomic(result["gt"], json_bytes(gt))
     return result

@@ -215,6 +215,29 @@ def inside_convex(points: np.ndarray, hull: np.ndarray, margin: float = 0.0) -> 
     return np.all(cross >= -margin * lengths[None, :], axis=1)
 
 
+def _grown_reach(hull: np.ndarray, margin: float) -> float:
+    """How far :func:`inside_convex`'s polygon grown by ``margin`` reaches beyond ``hull``'s vertices, metres.
+
+    Each edge moves out by ``margin``, so a corner of interior angle ``t`` moves by
+    ``margin / sin(t / 2)``; a hull of fewer than 3 vertices grows by ``margin`` (a disc
+    round a point or a capsule round a segment).
+
+    Args:
+        hull: (M, 2) float64 counter-clockwise convex polygon.
+        margin: the growth, metres (>= 0).
+    """
+    if len(hull) < 3 or margin == 0.0:
+        return float(margin)
+    edges = np.roll(hull, -1, axis=0) - hull
+    edges = edges[np.linalg.norm(edges, axis=1) > 1e-12]
+    if len(edges) < 3:
+        return float(margin)
+    before = np.roll(edges, 1, axis=0)
+    turn = np.arctan2(before[:, 0] * edges[:, 1] - before[:, 1] * edges[:, 0], np.einsum("ij,ij->i", before, edges))
+    half_interior = (np.pi - np.abs(turn)) / 2.0
+    return float(margin / max(float(np.sin(half_interior).min()), 1e-6)) * (1.0 + 1e-9)
+
+
 @dataclass(frozen=True)
 class _Samples:
     points_ground: np.ndarray  # (N, 2)
@@ -243,6 +266,11 @@ def _ring_samples(
     pts_all, rel_all = [], []
     used = []
     footprints = [_hull(c.footprint_ground) for c in casters]
+    # Each footprint grown by the margin lies within its bounding box grown by ``grow``: only the
+    # footprints whose grown box meets a caster's sampling square can hide any of its samples.
+    grow = np.array([_grown_reach(f, params.footprint_margin_m) for f in footprints])
+    boxes_lo = np.array([f.min(axis=0) for f in footprints]) - grow[:, None]
+    boxes_hi = np.array([f.max(axis=0) for f in footprints]) + grow[:, None]
     for i, c in enumerate(casters):
         reach = _reach(c, params)
         lo = c.footprint_ground.min(axis=0) - reach
@@ -251,8 +279,9 @@ def _ring_samples(
         gx, gy = np.meshgrid(np.linspace(lo[0], hi[0], n), np.linspace(lo[1], hi[1], n))
         pts = np.column_stack([gx.ravel(), gy.ravel()])
         near = inside_convex(pts, footprints[i], reach)
-        for other in footprints:  # ground under any footprint is not seen lit or shadowed
-            near &= ~inside_convex(pts, other, params.footprint_margin_m)
+        meets = np.flatnonzero(np.all(boxes_lo <= hi, axis=1) & np.all(boxes_hi >= lo, axis=1))
+        for j in meets:  # ground under any footprint is not seen lit or shadowed
+            near &= ~inside_convex(pts, footprints[j], params.footprint_margin_m)
         pts = pts[near]
         if len(pts) == 0:
             continue

@@ -21,7 +21,7 @@ import logging
 import math
 import shutil
 import tempfile
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -63,7 +63,7 @@ from usdworld.output_dir import swap_in as _swap_in
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.perception.dedupe import merge_duplicates
 from usdworld.perception.facades import StreetView
-from usdworld.perception.streets import NoStreetError, StreetBox, StreetLabels, infer_street_labels
+from usdworld.perception.streets import StreetLabels
 from usdworld.perception.objects import (
     ImageObject,
     objects_from_detections,
@@ -73,6 +73,7 @@ from usdworld.perception.objects import (
 from usdworld.perception.segment import BACKEND_NAMES as SEGMENT_BACKENDS
 from usdworld.report import make_report
 from usdworld.segment_stage import segment_photo
+from usdworld.streets_stage import inferred_stuff, infer_streets
 
 log = logging.getLogger(__name__)
 
@@ -319,39 +320,6 @@ def _camera(
     )
 
 
-def _infer_streets(
-    image: SourceImage,
-    objects: list[ImageObject],
-    camera: PinholeCamera,
-    vanishing: VanishingPoint | None,
-    table: ClassTable,
-    params: Parameters,
-) -> tuple[StreetLabels | None, str]:
-    """The stuff map inferred from the photo, the things and the camera's horizon; or None and why not."""
-    view = StreetView(
-        camera.horizon_v(),
-        float(camera.K[0, 0]),
-        float(camera.K[0, 2]),
-        float(camera.height_m),
-        float(vanishing.u) if vanishing is not None else None,
-    )
-    boxes = [
-        StreetBox(np.asarray(o.box_px, dtype=np.float64), table[o.class_name].yaw == "road")
-        for o in objects
-        if o.is_thing
-    ]
-    try:
-        return infer_street_labels(image.rgb, boxes, view, params.perception), ""
-    except NoStreetError as exc:
-        return None, f"{image.file.name}: no road, sidewalk or buildings inferred: {exc}"
-
-
-def _inferred_stuff(seg: Segmentation, view: StreetView | None, table: ClassTable, params: Parameters) -> list[ImageObject]:
-    """The stuff objects (facades, trees) of an inferred map, their source class marked ``inferred:``."""
-    stuff = objects_from_segmentation(seg, view, table, label_lookups(), params.perception)
-    return [replace(o, source_label=f"inferred:{o.source_label}") for o in stuff if not o.is_thing]
-
-
 def _ground_fit(request: BuildRequest, camera: PinholeCamera, params: Parameters) -> tuple[HomographyFit, str]:
     if request.correspondences is not None:
         pairs = read_correspondences(request.correspondences)
@@ -426,10 +394,10 @@ def read_scene_head(
     boxes_given = request.detections is not None or request.detection_items is not None
     if seg is None and boxes_given and request.infer_streets:
         # Boxes only: the road, sidewalks and buildings from the photo, once the camera gives the horizon.
-        inferred, why = _infer_streets(image, objects, camera.camera, vanishing, table, params)
+        inferred, why = infer_streets(image, objects, camera.camera, vanishing, table, params)
         if inferred is not None:
             seg = Segmentation(inferred.label_ids, None, ())
-            objects = sort_objects(objects + _inferred_stuff(seg, view, table, params))
+            objects = sort_objects(objects + inferred_stuff(seg, view, table, params))
             catalogue = asset_catalogue((o.class_name for o in objects), libraries)
     return SceneHead(image, seg, spec, vanishing, objects, catalogue, camera, inferred, why)
 

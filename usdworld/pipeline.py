@@ -65,6 +65,7 @@ from usdworld.perception.dedupe import merge_duplicates
 from usdworld.perception.facades import StreetView
 from usdworld.perception.streets import NoStreetError, StreetBox, StreetLabels, infer_street_labels
 from usdworld.perception.objects import (
+    INFERRED_PREFIX,
     ImageObject,
     objects_from_detections,
     objects_from_segmentation,
@@ -349,7 +350,7 @@ def _infer_streets(
 def _inferred_stuff(seg: Segmentation, view: StreetView | None, table: ClassTable, params: Parameters) -> list[ImageObject]:
     """The stuff objects (facades, trees) of an inferred map, their source class marked ``inferred:``."""
     stuff = objects_from_segmentation(seg, view, table, label_lookups(), params.perception)
-    return [replace(o, source_label=f"inferred:{o.source_label}") for o in stuff if not o.is_thing]
+    return [replace(o, source_label=f"{INFERRED_PREFIX}{o.source_label}") for o in stuff if not o.is_thing]
 
 
 def _ground_fit(request: BuildRequest, camera: PinholeCamera, params: Parameters) -> tuple[HomographyFit, str]:

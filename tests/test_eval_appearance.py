@@ -32,8 +32,9 @@ def test_one_kitti_frame_end_to_end(shared_data, tmp_path):
     eval_appearance.build_all(items, tmp_path)
     summary = eval_appearance.evaluate_all(items, tmp_path, tmp_path / "renders")
     frame = summary["per_frame"]["kitti_000002"]
-    assert frame["objects"] == 2 and summary["kitti_objects"] == 2
-    # Library colours: 61. Photo colours: 8.8 under the fixed default sun, 15.4 since the albedo is
-    # inverted through the light estimated from the photo (session 7; BENCHMARKS has every frame).
-    assert frame["median_delta_e76"] < 20.0
+    # The misc box is counted since inferred facades stand behind the boxes
+    # they surround (layout.occlusion.behind_bordered_things): 2 objects, no thing, before.
+    assert frame["objects"] == 3 and summary["kitti_objects"] == 3
+    assert "misc_0001" in {r["name"] for r in frame["rows"]}
+    assert frame["median_delta_e76"] < 15.0  # main's library colours: 61
     assert (tmp_path / "renders" / "kitti_000002.png").is_file()

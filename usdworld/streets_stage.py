@@ -18,7 +18,7 @@ from usdworld.io.label_table import label_lookups
 from usdworld.io.types import Segmentation, SourceImage
 from usdworld.parameters import Parameters
 from usdworld.perception.facades import StreetView
-from usdworld.perception.objects import ImageObject, objects_from_segmentation
+from usdworld.perception.objects import INFERRED_PREFIX, ImageObject, objects_from_segmentation
 from usdworld.perception.streets import NoStreetError, StreetBox, StreetLabels, infer_street_labels
 
 
@@ -52,4 +52,4 @@ def infer_streets(
 def inferred_stuff(seg: Segmentation, view: StreetView | None, table: ClassTable, params: Parameters) -> list[ImageObject]:
     """The stuff objects (facades, trees) of an inferred map, their source class marked ``inferred:``."""
     stuff = objects_from_segmentation(seg, view, table, label_lookups(), params.perception)
-    return [replace(o, source_label=f"inferred:{o.source_label}") for o in stuff if not o.is_thing]
+    return [replace(o, source_label=f"{INFERRED_PREFIX}{o.source_label}") for o in stuff if not o.is_thing]

@@ -5,11 +5,17 @@ height) or the weak top-row estimate; the object in front, when its own depth is
 (not itself only a bound from above) and it is not a facade (``unbounding_occluder``: its
 bottom edge hides ground and things far behind it), says the hidden object stands at
 least just behind it.
+
+Stuff inferred around detection boxes (:attr:`ImageObject.inferred`) is what remains of
+the photo once the boxes are cut out, so a piece bordering a box is seen around that
+thing: it does not stand in front of it (:func:`behind_bordered_things`).
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
+
+import numpy as np
 
 from usdworld.layout.draft import (
     DepthMethod,
@@ -95,6 +101,89 @@ def move_behind_occluders(drafts: list[Draft], ctx: PlacementContext) -> list[Dr
         if by_ref.get(d.obj.ref) is d:
             by_ref[d.obj.ref] = moved
     return out
+
+
+def borders_box(obj: ImageObject, box_px: np.ndarray) -> bool:
+    """True when a pixel of ``obj``'s mask lies inside ``box_px`` or next to it (8-neighbours).
+
+    Args:
+        obj: the stuff object.
+        box_px: (4,) int64 ``xmin, ymin, xmax, ymax`` of a thing (max edges exclusive).
+    """
+    ox0, oy0 = int(obj.box_px[0]), int(obj.box_px[1])
+    x0, y0 = max(int(box_px[0]) - 1, ox0), max(int(box_px[1]) - 1, oy0)
+    x1, y1 = min(int(box_px[2]) + 1, int(obj.box_px[2])), min(int(box_px[3]) + 1, int(obj.box_px[3]))
+    if x1 <= x0 or y1 <= y0:
+        return False
+    return bool(obj.mask[y0 - oy0 : y1 - oy0, x0 - ox0 : x1 - ox0].any())
+
+
+def hides(stuff: Draft, thing: Draft, ctx: PlacementContext) -> bool:
+    """True when ``stuff``'s box meets the viewing ray through the centre of ``thing``'s image
+    box nearer than ``thing``'s front: placed so, it would hide the thing from the source camera.
+
+    The box: footprint centre ``stuff.ground``, turned by ``stuff.yaw``, ``stuff.size``
+    (length along its own x, width, height from the ground up).
+    """
+    x0, y0, x1, y1 = (float(b) for b in thing.obj.box_px)
+    ray = ctx.camera.rays_world(np.array([[0.5 * (x0 + x1), 0.5 * (y0 + y1)]]))[0]
+    origin = ctx.camera.center_world
+    c, s = np.cos(stuff.yaw), np.sin(stuff.yaw)
+    to_local = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    o = to_local @ (origin - np.array([stuff.ground[0], stuff.ground[1], 0.0]))
+    r = to_local @ ray
+    lo = np.array([-0.5 * stuff.size[0], -0.5 * stuff.size[1], 0.0])
+    hi = np.array([0.5 * stuff.size[0], 0.5 * stuff.size[1], stuff.size[2]])
+    enter, leave = 0.0, float(thing.front_depth_m)
+    for k in range(3):
+        if abs(r[k]) < 1e-12:
+            if not lo[k] <= o[k] <= hi[k]:
+                return False
+            continue
+        a, b = (lo[k] - o[k]) / r[k], (hi[k] - o[k]) / r[k]
+        enter, leave = max(enter, min(a, b)), min(leave, max(a, b))
+    return enter < leave
+
+
+def behind_bordered_things(
+    drafts: list[Draft], ctx: PlacementContext
+) -> tuple[list[Draft], list[tuple[ImageObject, str]]]:
+    """Pass: inferred stuff in the way of a thing whose box it borders stands behind it.
+
+    The inferred map leaves the boxes unlabelled, so a facade or tree seen around a box is
+    hidden by that thing where the box covers it: it cannot stand in front of it. A piece
+    that borders a thing's box (:func:`borders_box`), is drafted where it would hide that
+    thing from the source camera (:func:`hides`) and whose front is nearer than just
+    behind it (:func:`behind_depth`) is redrafted just behind the farthest such thing (its
+    size follows the new depth); one that cannot be drafted there is dropped. Pieces that
+    border a box but stand beside the thing's line of sight (a facade running along the
+    street past a car) keep their own depth.
+
+    Returns:
+        (the drafts, in the same order less those dropped; the dropped objects and names).
+    """
+    things = [d for d in drafts if d.obj.is_thing]
+    out: list[Draft] = []
+    dropped: list[tuple[ImageObject, str]] = []
+    for d in drafts:
+        if d.obj.is_thing or not d.obj.inferred:
+            out.append(d)
+            continue
+        bordered = [t for t in things if borders_box(d.obj, t.obj.box_px) and hides(d, t, ctx)]
+        if not bordered:
+            out.append(d)
+            continue
+        occ = max(bordered, key=lambda t: behind_depth(t, ctx))
+        behind = behind_depth(occ, ctx)
+        if d.front_depth_m >= behind:
+            out.append(d)
+            continue
+        forced = draft_object(d.obj, d.name, ctx, Forced(behind, DepthMethod.BEHIND, occ.name))
+        if forced is None:
+            dropped.append((d.obj, d.name))
+        else:
+            out.append(forced)
+    return out, dropped
 
 
 def drop_unbounded(

@@ -6,7 +6,9 @@
 2. :func:`~usdworld.layout.occlusion.move_behind_occluders`: a hidden bottom's bound moves
    behind the object hiding it.
 3. :func:`~usdworld.layout.rows.onto_street_rows`: members of a street row whose foot is
-   hidden, cut or off the row stand in it (:mod:`usdworld.layout.rows`).
+   hidden, cut or off the row stand in it (:mod:`usdworld.layout.rows`); then
+   :func:`~usdworld.layout.occlusion.behind_bordered_things`: stuff inferred around a
+   detection box that would hide the thing from the camera stands behind it.
 4. :func:`~usdworld.layout.occlusion.drop_unbounded`: bounds beyond the world's range and
    slivers behind an occluder are dropped.
 5. :func:`~usdworld.layout.occlusion.place_behind_occluders`: objects with no cue go right
@@ -40,7 +42,12 @@ from usdworld.layout.draft import (
     point_at_depth,
 )
 from usdworld.layout.drafting import draft_object
-from usdworld.layout.occlusion import drop_unbounded, move_behind_occluders, place_behind_occluders
+from usdworld.layout.occlusion import (
+    behind_bordered_things,
+    drop_unbounded,
+    move_behind_occluders,
+    place_behind_occluders,
+)
 from usdworld.layout.ordering import apply_ordering_rules
 from usdworld.layout.rows import onto_street_rows
 from usdworld.layout.traffic_sides import face_the_traffic
@@ -196,6 +203,8 @@ def place_objects(
     drafts, unplaced = draft_all(objects, ctx)
     drafts = move_behind_occluders(drafts, ctx)
     drafts, unplaced = onto_street_rows(drafts, unplaced, ctx, sidewalk_ground)
+    drafts, cut = behind_bordered_things(drafts, ctx)
+    unplaced = [*unplaced, *cut]
     drafts, unplaced = drop_unbounded(drafts, unplaced, ctx, max_partial_depth_m)
     drafts, no_depth = place_behind_occluders(drafts, unplaced, ctx)
     drafts = apply_ordering(drafts, ctx)

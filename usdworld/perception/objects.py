@@ -31,6 +31,10 @@ from usdworld.perception.facades import StreetView, facade_ranges, fill_through_
 logger = logging.getLogger(__name__)
 
 
+#: Source-label prefix of the stuff inferred from the photo when only boxes are given.
+INFERRED_PREFIX = "inferred:"
+
+
 @dataclass(frozen=True)
 class ImageObject:
     """One object seen in the image.
@@ -102,6 +106,11 @@ class ImageObject:
     @property
     def is_thing(self) -> bool:
         return self.instance_id >= 0
+
+    @property
+    def inferred(self) -> bool:
+        """Stuff inferred from the photo around the detection boxes (source label ``inferred:...``)."""
+        return self.source_label.startswith(INFERRED_PREFIX)
 
     @property
     def cut_sides(self) -> tuple[str, ...]:

@@ -1,0 +1,68 @@
+"""Stuff inferred around detection boxes stands behind the things it is seen around (layout.occlusion)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from layout_support import box_object
+
+from usdworld.authoring.asset_library import library_dirs
+from usdworld.authoring.asset_measures import asset_catalogue
+from usdworld.geometry.camera import PinholeCamera
+from usdworld.io.class_table import load_class_table
+from usdworld.layout.occlusion import borders_box
+from usdworld.layout.placement import place_objects
+from usdworld.layout.yaw import RoadAxis
+from usdworld.parameters.placement import PlacementParams
+from usdworld.perception.objects import ImageObject
+
+K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
+CAM = PinholeCamera(1024, 512, K, 1.3)
+CAR_BOX = (100, 280, 300, 420)  # about 8 m ahead, 2.6 m to the left
+
+
+def _facade_around_the_car(source_label: str) -> ImageObject:
+    """A facade drawn around the car's box: above and beside it, and a 10 px strip under it
+    (a box a little short of the car's bottom leaves such a strip to the inferred stuff),
+    so that its foot, seen right of the car's middle, seems nearer than the car: drafted
+    there, the building (running along the street on the left) stands in the car's way."""
+    x0, y0, x1, y1 = 0, 0, 420, 430
+    mask = np.ones((y1 - y0, x1 - x0), bool)
+    mask[CAR_BOX[1] - y0 : CAR_BOX[3] - y0, CAR_BOX[0] - x0 : CAR_BOX[2] - x0] = False
+    facade = box_object("building", (x0, y0, x1, y1), 7, source_label=source_label)
+    return ImageObject(**{**facade.__dict__, "mask": mask, "contact_px": np.array([260.0, 429.5])})
+
+
+def _place(objects: list[ImageObject]) -> dict[int, object]:
+    sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
+    placements, _ = place_objects(
+        objects,
+        CAM,
+        np.linalg.inv(CAM.px_from_ground()),
+        RoadAxis(0.0, np.zeros(2), "camera_forward"),
+        sizes,
+        load_class_table(),
+        PlacementParams(),
+    )
+    return {p.obj.ref: p for p in placements}
+
+
+def test_an_inferred_facade_around_a_car_box_stands_behind_the_car():
+    car = box_object("car", CAR_BOX, 1)
+    placed = _place([car, _facade_around_the_car("inferred:building")])
+    assert placed[7].depth_method == "behind_car_0001"
+    assert placed[7].depth_m > placed[1].depth_m + 0.5 * placed[1].size_m[0]
+    # The pass is for inferred stuff only: a facade from given labels keeps its foot's depth.
+    labelled = _place([car, _facade_around_the_car("building")])
+    assert labelled[7].depth_method == "contact"
+    assert labelled[7].depth_m < labelled[1].depth_m
+
+
+@given(st.integers(-5, 5), st.integers(-5, 5))
+def test_a_mask_borders_a_box_when_a_pixel_touches_it(dx: int, dy: int):
+    """A one-pixel mask at (110 + dx, 110 + dy) next to the box 100..110 x 100..110."""
+    stuff = box_object("building", (110 + dx, 110 + dy, 111 + dx, 111 + dy), 1)
+    touches = -11 <= dx <= 0 and -11 <= dy <= 0
+    assert borders_box(stuff, np.array([100, 100, 110, 110])) == touches

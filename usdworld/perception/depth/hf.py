@@ -34,8 +34,10 @@ from usdworld.perception.depth.base import (
     check_rgb,
 )
 from usdworld.perception.depth.runtime import (
+    first_line,
     import_torch,
     import_transformers,
+    progress_bars_off,
     require_weights_path,
     select_device,
 )
@@ -88,21 +90,14 @@ class HfDepthBackend:
         import_torch(NAME)
         transformers = import_transformers(NAME)
         self.device = select_device(device, NAME)
-        bars = transformers.utils.logging.is_progress_bar_enabled()
-        transformers.utils.logging.disable_progress_bar()  # the library prints nothing
         try:
-            self.processor = transformers.AutoImageProcessor.from_pretrained(folder, local_files_only=True)
-            self.model = transformers.AutoModelForDepthEstimation.from_pretrained(
-                folder, local_files_only=True
-            )
+            with progress_bars_off(transformers):
+                self.processor = transformers.AutoImageProcessor.from_pretrained(folder, local_files_only=True)
+                self.model = transformers.AutoModelForDepthEstimation.from_pretrained(folder, local_files_only=True)
         except Exception as exc:  # transformers raises many types for a folder it cannot load
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise InputError(
-                f"{NAME} weights {folder}: cannot load a depth-estimation model and image processor ({first[:200]})"
+                f"{NAME} weights {folder}: cannot load a depth-estimation model and image processor ({first_line(exc)})"
             ) from exc
-        finally:
-            if bars:
-                transformers.utils.logging.enable_progress_bar()
         self.model.to(self.device).eval()
         self.kind: DepthKind = kind if kind is not None else output_kind(self.model.config)
         model_type = getattr(self.model.config, "model_type", "unknown")

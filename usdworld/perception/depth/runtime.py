@@ -7,9 +7,10 @@ without torch installed.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -48,6 +49,24 @@ def import_transformers(where: str) -> Any:
             f"{where}: needs the transformers package, which is not installed: pip install transformers ({exc})"
         ) from exc
     return transformers
+
+
+@contextlib.contextmanager
+def progress_bars_off(transformers: Any) -> Iterator[None]:
+    """transformers' progress bars off while a model loads (the library prints nothing), restored after."""
+    bars = transformers.utils.logging.is_progress_bar_enabled()
+    transformers.utils.logging.disable_progress_bar()
+    try:
+        yield
+    finally:
+        if bars:
+            transformers.utils.logging.enable_progress_bar()
+
+
+def first_line(exc: BaseException, limit: int = 200) -> str:
+    """The first line of an exception's message (its type's name when empty), at most ``limit`` characters."""
+    text = str(exc).strip()
+    return (text.splitlines()[0] if text else type(exc).__name__)[:limit]
 
 
 def select_device(device: str | None, where: str) -> torch.device:

@@ -35,7 +35,13 @@ import numpy as np
 from usdworld.errors import InputError
 from usdworld.io.label_table import LabelLookups
 from usdworld.perception.depth.base import check_rgb
-from usdworld.perception.depth.runtime import import_torch, import_transformers, select_device
+from usdworld.perception.depth.runtime import (
+    first_line,
+    import_torch,
+    import_transformers,
+    progress_bars_off,
+    select_device,
+)
 from usdworld.perception.segment.base import SegmentKind, SegmentPrediction
 from usdworld.perception.segment.classes import class_map, unknown_pixels
 from usdworld.perception.segment.instances import instances_from_panoptic, instances_from_semantic
@@ -59,11 +65,6 @@ UNSUPPORTED = {
 
 class _Unsupported(Exception):
     """A model type of :data:`UNSUPPORTED` (turned into InputError by the loader)."""
-
-
-def _first_line(exc: Exception) -> str:
-    text = str(exc).strip()
-    return (text.splitlines()[0] if text else type(exc).__name__)[:200]
 
 
 class HfSegmentBackend:
@@ -100,32 +101,28 @@ class HfSegmentBackend:
         self.device = select_device(device, NAME)
         from transformers.models.auto.modeling_auto import MODEL_FOR_UNIVERSAL_SEGMENTATION_MAPPING_NAMES
 
-        bars = transformers.utils.logging.is_progress_bar_enabled()
-        transformers.utils.logging.disable_progress_bar()  # the library prints nothing
         try:
-            config = transformers.AutoConfig.from_pretrained(folder, local_files_only=True)
-            self.model_type = str(getattr(config, "model_type", "unknown"))
-            if self.model_type in UNSUPPORTED:
-                raise _Unsupported(UNSUPPORTED[self.model_type])
-            self.kind: SegmentKind = (
-                "panoptic" if self.model_type in MODEL_FOR_UNIVERSAL_SEGMENTATION_MAPPING_NAMES else "semantic"
-            )
-            auto_model = (
-                transformers.AutoModelForUniversalSegmentation
-                if self.kind == "panoptic"
-                else transformers.AutoModelForSemanticSegmentation
-            )
-            self.processor = transformers.AutoImageProcessor.from_pretrained(folder, local_files_only=True)
-            self.model = auto_model.from_pretrained(folder, local_files_only=True)
+            with progress_bars_off(transformers):
+                config = transformers.AutoConfig.from_pretrained(folder, local_files_only=True)
+                self.model_type = str(getattr(config, "model_type", "unknown"))
+                if self.model_type in UNSUPPORTED:
+                    raise _Unsupported(UNSUPPORTED[self.model_type])
+                self.kind: SegmentKind = (
+                    "panoptic" if self.model_type in MODEL_FOR_UNIVERSAL_SEGMENTATION_MAPPING_NAMES else "semantic"
+                )
+                auto_model = (
+                    transformers.AutoModelForUniversalSegmentation
+                    if self.kind == "panoptic"
+                    else transformers.AutoModelForSemanticSegmentation
+                )
+                self.processor = transformers.AutoImageProcessor.from_pretrained(folder, local_files_only=True)
+                self.model = auto_model.from_pretrained(folder, local_files_only=True)
         except _Unsupported as exc:
             raise InputError(f"segmentation model {folder}: {exc}") from None
         except Exception as exc:  # transformers raises many types for a folder it cannot load
             raise InputError(
-                f"segmentation model {folder}: cannot load a segmentation model and image processor ({_first_line(exc)})"
+                f"segmentation model {folder}: cannot load a segmentation model and image processor ({first_line(exc)})"
             ) from exc
-        finally:
-            if bars:
-                transformers.utils.logging.enable_progress_bar()
         self.model.to(self.device).eval()
         self.classes = class_map(self.model.config.id2label, table, lookups)
         self.lookups = lookups

@@ -5,7 +5,6 @@ known pin what the pipeline places from it."""
 from __future__ import annotations
 
 import json
-import socket
 from pathlib import Path
 
 import cv2
@@ -13,6 +12,7 @@ import numpy as np
 import pytest
 from synthetic_scene import default_camera, default_objects, draw, write_scene
 
+from hf_support import refuse_network
 from usdworld.cli.main import main
 from usdworld.io.label_table import by_name
 from usdworld.io.labels import read_segmentation
@@ -35,14 +35,7 @@ CAMERA = default_camera(640, 320)
 @pytest.fixture(autouse=True)
 def offline(monkeypatch: pytest.MonkeyPatch) -> None:
     """No hub access: offline flags set and every socket connection refused."""
-    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
-    monkeypatch.setenv("TRANSFORMERS_OFFLINE", "1")
-
-    def refuse(*args: object, **kwargs: object) -> None:
-        raise OSError("network access attempted in an offline test")
-
-    monkeypatch.setattr(socket.socket, "connect", refuse)
-    monkeypatch.setattr(socket, "create_connection", refuse)
+    refuse_network(monkeypatch)
 
 
 def _processor(name: str, **kwargs: object):

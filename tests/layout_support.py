@@ -1,9 +1,18 @@
-"""Objects for the placement tests: a box filled by its mask (shared by the test modules)."""
+"""Objects for the placement tests: a box filled by its mask, and placing them on a straight road (shared by the test modules)."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from usdworld.authoring.asset_library import library_dirs
+from usdworld.authoring.asset_measures import asset_catalogue
+from usdworld.geometry.camera import PinholeCamera
+from usdworld.io.class_table import load_class_table
+from usdworld.layout.placement import Placement, Skipped, place_objects
+from usdworld.layout.yaw import RoadAxis
+from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.objects import ImageObject
 
 
@@ -40,4 +49,23 @@ def box_object(
         top_truncated=False,
         occluded_by=by,
         ref=ref,
+    )
+
+
+def place_on_a_straight_road(
+    objects: list[ImageObject], camera: PinholeCamera, **kwargs: Any
+) -> tuple[list[Placement], list[Skipped]]:
+    """:func:`place_objects` of ``objects`` with the built-in assets' sizes, the camera's own ground
+    homography, a road axis along the camera and the default placement parameters (``kwargs``
+    pass on, e.g. ``collision``)."""
+    sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
+    return place_objects(
+        objects,
+        camera,
+        np.linalg.inv(camera.px_from_ground()),
+        RoadAxis(0.0, np.zeros(2), "camera_forward"),
+        sizes,
+        load_class_table(),
+        PlacementParams(),
+        **kwargs,
     )

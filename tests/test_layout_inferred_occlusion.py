@@ -6,16 +6,10 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from layout_support import box_object
+from layout_support import box_object, place_on_a_straight_road
 
-from usdworld.authoring.asset_library import library_dirs
-from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.geometry.camera import PinholeCamera
-from usdworld.io.class_table import load_class_table
 from usdworld.layout.occlusion import borders_box
-from usdworld.layout.placement import place_objects
-from usdworld.layout.yaw import RoadAxis
-from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.objects import ImageObject
 
 K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
@@ -36,16 +30,7 @@ def _facade_around_the_car(source_label: str) -> ImageObject:
 
 
 def _place(objects: list[ImageObject]) -> dict[int, object]:
-    sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
-    placements, _ = place_objects(
-        objects,
-        CAM,
-        np.linalg.inv(CAM.px_from_ground()),
-        RoadAxis(0.0, np.zeros(2), "camera_forward"),
-        sizes,
-        load_class_table(),
-        PlacementParams(),
-    )
+    placements, _ = place_on_a_straight_road(objects, CAM)
     return {p.obj.ref: p for p in placements}
 
 

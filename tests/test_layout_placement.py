@@ -3,16 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
-from layout_support import box_object
+from layout_support import box_object, place_on_a_straight_road
 
-from usdworld.authoring.asset_library import library_dirs
-from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.geometry.camera import PinholeCamera
-from usdworld.io.class_table import load_class_table
-from usdworld.layout.placement import Skipped, SkipReason, place_objects, skip_warnings
-from usdworld.layout.yaw import RoadAxis
+from usdworld.layout.placement import Skipped, SkipReason, skip_warnings
 from usdworld.parameters.collision import CollisionParams
-from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.objects import ImageObject
 
 K = np.array([[800.0, 0.0, 512.0], [0.0, 800.0, 256.0], [0.0, 0.0, 1.0]])
@@ -26,17 +21,7 @@ def test_a_sliver_of_stuff_past_a_near_car_is_not_put_behind_it():
     sliver = box_object("tree", (500, 200, 512, 250), 2, hidden=True, by=1)
     crown = box_object("tree", (400, 60, 620, 250), 3, hidden=True, by=1)  # a whole crown: its top row places it
     objects = [car, sliver, crown]
-    sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
-    ground_from_px = np.linalg.inv(CAM.px_from_ground())
-    placements, skipped = place_objects(
-        objects,
-        CAM,
-        ground_from_px,
-        RoadAxis(0.0, np.zeros(2), "camera_forward"),
-        sizes,
-        load_class_table(),
-        PlacementParams(),
-    )
+    placements, skipped = place_on_a_straight_road(objects, CAM)
     placed = {p.obj.ref: p for p in placements}
     assert 2 not in placed and skipped == [Skipped("tree_0001", SkipReason.NO_DEPTH)]
     assert placed[3].depth_method == "top_row"
@@ -52,17 +37,7 @@ def test_a_person_under_a_crown_does_not_push_the_tree():
     mask[140:, 45:55] = True  # 35-45 px (about 1.2 m) left of the person
     tree = ImageObject(**{**tree.__dict__, "mask": mask, "contact_px": np.array([530.0, 299.5])})
     objects = [person, tree]
-    sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
-    ground_from_px = np.linalg.inv(CAM.px_from_ground())
-    placements, _ = place_objects(
-        objects,
-        CAM,
-        ground_from_px,
-        RoadAxis(0.0, np.zeros(2), "camera_forward"),
-        sizes,
-        load_class_table(),
-        PlacementParams(),
-    )
+    placements, _ = place_on_a_straight_road(objects, CAM)
     placed = {p.obj.ref: p for p in placements}
     assert set(placed) == {1, 2}
     crown = placed[2].size_m[:2].max() / 2
@@ -79,19 +54,9 @@ def test_each_skipped_object_is_named_once_with_its_reason(caplog):
     cars = [box_object("car", (380, 280, 640, 420), ref) for ref in range(1, 13)]
     tree = box_object("tree", (500, 200, 512, 250), 20, hidden=True, by=1)
     objects = [*cars, tree]
-    sizes = asset_catalogue((o.class_name for o in objects), library_dirs(None))
     collision = CollisionParams(max_displacement_m=1.0)
     with caplog.at_level("WARNING"):
-        placements, skipped = place_objects(
-            objects,
-            CAM,
-            np.linalg.inv(CAM.px_from_ground()),
-            RoadAxis(0.0, np.zeros(2), "camera_forward"),
-            sizes,
-            load_class_table(),
-            PlacementParams(),
-            collision=collision,
-        )
+        placements, skipped = place_on_a_straight_road(objects, CAM, collision=collision)
     assert caplog.records == []
     piled = [s.name for s in skipped if s.reason is SkipReason.PILED]
     assert [s for s in skipped if s.reason is SkipReason.NO_DEPTH] == [Skipped("tree_0001", SkipReason.NO_DEPTH)]

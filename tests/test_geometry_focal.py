@@ -50,20 +50,7 @@ def test_orthogonal_vanishing_points_known_answer():
 def test_street_and_vertical_lines_give_f_back():
     """A pitched camera (8 deg) looking along a street: the kerb-like lines and the poles give f within 5 %."""
     f_true, w, h = 900.0, 1280, 720
-    R = _rotation(np.radians(8.0), np.radians(5.0))
-    segments = []
-    for x in (-6.0, -3.0, 3.0, 6.0, -9.0, 9.0):  # lines along the street (z), on and above the ground
-        for y in (1.5, -2.0):
-            a, b = _project(np.array([[x, y, 8.0], [x, y, 30.0]]), f_true, R, w, h)
-            segments.append([*a, *b])
-    for x, z in [(-5, 10), (5, 12), (-7, 20), (7, 25), (-4, 15), (4, 18), (-8, 30), (8, 35), (-6, 40), (6, 45)]:
-        a, b = _project(np.array([[x, 1.5, z], [x, -4.0, z]]), f_true, R, w, h)
-        segments.append([*a, *b])
-    segments = np.array(segments)
-    street_dir = R @ np.array([0.0, 0.0, 1.0])
-    c = principal_point(w, h)
-    vp = c + f_true * street_dir[:2] / street_dir[2]
-    street = VanishingPoint(float(vp[0]), float(vp[1]), 0.5, 12, 12)
+    street, segments = _street_and_poles(8.0, f_true, w, h)
     assert find_vertical_vanishing_point(segments, w, h) is not None
     cue = vanishing_focal_cue(street, segments, w, h, CameraParams())
     assert cue is not None and cue.source == "vanishing_points"

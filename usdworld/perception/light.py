@@ -496,9 +496,8 @@ def sky_colours(
     rows, cols = np.nonzero(sky_mask)
     order = np.argsort(rows, kind="stable")
     k = max(1, int(round(len(order) * params.sky_top_fraction)))
-    linear = uint8_to_linear(rgb)
-    top = linear[rows[order[:k]], cols[order[:k]]]
-    bottom = linear[rows[order[-k:]], cols[order[-k:]]]
+    top = uint8_to_linear(rgb[rows[order[:k]], cols[order[:k]]])  # only the pixels measured
+    bottom = uint8_to_linear(rgb[rows[order[-k:]], cols[order[-k:]]])
     return np.median(top, axis=0), np.median(bottom, axis=0)
 
 

@@ -18,23 +18,42 @@ from usdworld.authoring.validate import errors_only, validate_file
 
 REPO = Path(__file__).resolve().parents[1]
 MOVES = 100
+LAG = 5  # how many moves one writer may run ahead of the other
 
 _MOVER = textwrap.dedent(
     """
-    import sys, time
+    import os, sys, time
     from pathlib import Path
     from usdworld.authoring.edits import WorldEditor
-    world, name = sys.argv[1], sys.argv[2]
+    world, name, other = sys.argv[1], sys.argv[2], sys.argv[7]
     x0, y0, n = float(sys.argv[3]), float(sys.argv[4]), int(sys.argv[5])
     go = Path(sys.argv[6])
+
+    def progress(who):
+        try:
+            return int((go.parent / f"done-{who}").read_text() or 0)
+        except (FileNotFoundError, ValueError):
+            return 0
+
     with WorldEditor(world) as editor:
         (go.parent / f"ready-{name}").touch()
         while not go.exists():  # start together, so the two really contend for the lock
             time.sleep(0.001)
         for i in range(n):
             editor.move(name, to=(round(x0 + 0.01 * (i % 50), 3), round(y0 + 0.001 * i, 4)))
+            tmp = go.parent / f".done-{name}.tmp"
+            tmp.write_text(str(i + 1))
+            os.replace(tmp, go.parent / f"done-{name}")
+            # Never more than LAG moves ahead of the other writer: the scheduler alone may run one
+            # process to the end before the other starts (seen at load 20-30), and then nothing is
+            # tested. With the bound, the two must interleave, whatever the load.
+            deadline = time.monotonic() + 120
+            while progress(other) < i + 1 - LAG:
+                if time.monotonic() > deadline:
+                    sys.exit(f"{other} made no progress for 120 s")
+                time.sleep(0.001)
     """
-)
+).replace("LAG", str(LAG))
 
 
 def _python(code: str, *args: str) -> subprocess.CompletedProcess:
@@ -55,13 +74,13 @@ def test_two_processes_editing_at_once_lose_no_edit(tmp_path_factory, tmp_path):
     go = tmp_path / "go"
     procs = [
         subprocess.Popen(
-            [sys.executable, "-c", _MOVER, str(world), name, str(x), str(y), str(MOVES), str(go)],
+            [sys.executable, "-c", _MOVER, str(world), name, str(x), str(y), str(MOVES), str(go), other],
             cwd=REPO,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
         )
-        for name, x, y in jobs
+        for (name, x, y), (other, _, _) in zip(jobs, jobs[::-1])
     ]
     deadline = time.monotonic() + 120
     while (
@@ -79,7 +98,10 @@ def test_two_processes_editing_at_once_lose_no_edit(tmp_path_factory, tmp_path):
         assert len(history) == 2 * MOVES
         assert [h.step for h in history] == list(range(1, 2 * MOVES + 1))
         names = [h.args["name"] for h in history]
-        assert sum(a != b for a, b in itertools.pairwise(names)) > 1  # the two really interleaved
+        # The lag bound makes them interleave: a writer's move j waits until the other has made j - 1 - LAG,
+        # so a run of one writer's steps starts at most LAG + 1 behind the other and ends LAG + 1 ahead.
+        runs = [len(list(run)) for _, run in itertools.groupby(names)]
+        assert len(runs) >= 2 * MOVES // (2 * (LAG + 1)) and max(runs) <= 2 * (LAG + 1)
         objects = {o.name: o for o in editor.objects()}
         for name, x0, y0 in jobs:
             mine = [h.args["to"] for h in history if h.args["name"] == name]

@@ -201,6 +201,16 @@ class CameraParams:
         "A photo's cue less certain than this (x2.7 either way) is not a measurement and is left out.",
         "convention: weaker than the prior by a factor of three",
     )
+    focal_posterior_half_width: float = param(
+        6.0,
+        "sigma",
+        "Half-width of the log f grid on which a cue's profile likelihood is multiplied with the other cues "
+        "(in the widest used cue's sigmas, about the Gaussian fusion).",
+        "convention: six sigmas hold all but 2e-9 of a Gaussian's mass",
+    )
+    focal_posterior_steps: int = param(
+        1201, "count", "Points of that log f grid.", "convention: resolution only (0.01 sigma steps)"
+    )
     principal_point_sigma_fraction: float = param(
         0.014,
         "fraction of the image diagonal",

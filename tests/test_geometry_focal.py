@@ -250,3 +250,25 @@ def test_profile_validation():
         FocalCue("box_shapes", 700.0, 0.1, "x", (1.0, 2.0, 3.0), (0.0, 0.0))
     with pytest.raises(CalibrationError, match="profile"):
         FocalCue("box_shapes", 700.0, 0.1, "x", (3.0, 2.0, 1.0), (0.0, 0.0, 0.0))
+
+
+def test_cars_across_the_street_pull_the_box_shapes_less():
+    """Four cars along the street and two across it, off to the side (a junction's crossing
+    traffic): read as cars along the street their wide boxes pull f short by 30-40 %; the
+    along-or-across mixture (``shape_cross_fraction``) halves that pull and leaves f within
+    the cue's stated spread."""
+    car = CameraParams().shape_car_size_m
+    for f_true, h_true in ((721.0, 1.65), (1100.0, 1.3)):
+        for crossing in ([(8, 30), (12, 45)], [(10, 40), (-9, 35)]):
+            along = _kitti_boxes(f_true, h_true, [(-4, 12), (3.5, 15), (-3, 25), (6, 20)], size=car)
+            across = _kitti_boxes(f_true, h_true, crossing, size=(car[1], car[0], car[2]))
+            n = len(along) + len(across)
+            shapes = BoxShapes(np.vstack([along.box_px, across.box_px]), np.tile(car, (n, 1)), np.full(n, 0.12))
+            err = {}
+            for share in (0.0, CameraParams().shape_cross_fraction):
+                cue = box_shape_cue(W, H, shapes, params=CameraParams(shape_cross_fraction=share))
+                assert cue is not None
+                err[share] = np.log(cue.f_px / f_true)
+            mixed = err[CameraParams().shape_cross_fraction]
+            assert err[0.0] < -0.3
+            assert abs(mixed) < 0.6 * abs(err[0.0]) and abs(mixed) < cue.sigma_log

@@ -318,8 +318,9 @@ def box_shape_cue(
     A grid over (log f, camera height, pitch) scores the Cauchy residuals of every
     vehicle's predicted box width and top row (spreads: the class size's, relative
     ``params.shape_length_rel_std`` for length and width, ``params.shape_yaw_std_deg`` of turn off the street, ``height_std_m`` for height,
-    plus ``params.edge_noise_px``), with the camera-height and pitch priors and, when
-    given, the horizon row. The profile likelihood of log f (best height and horizon row
+    plus ``params.edge_noise_px``; each vehicle along the street or, with probability
+    ``params.shape_cross_fraction``, across it), with the camera-height and pitch priors and,
+    when given, the horizon row. The profile likelihood of log f (best height and horizon row
     per focal length; the focal prior is fused separately) is the cue: :func:`fuse_focal`
     multiplies it with the other cues' likelihoods, and its mode and curvature (a Laplace
     summary) are the ``f_px`` and ``sigma_log`` its consistency with them is tested by.
@@ -352,21 +353,16 @@ def box_shape_cue(
     F, Hc, v_h = (a.ravel() for a in np.meshgrid(fs, hs, rows, indexing="ij"))
     P = np.arctan((c[1] - v_h) / F)
     yaw = np.arctan((street_u - c[0]) / F) if street_u is not None else np.zeros_like(F)
-    w_pred, top_pred, depth = project_street_boxes(F, Hc, v_h, yaw, c, shapes)
-    w_meas = shapes.box_px[:, 2] - shapes.box_px[:, 0]
-    # a vehicle turned by d_yaw from the street shows d_yaw * L more or less of its side (f / Z px per metre)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        turn_px = F[:, None] * shapes.size_m[None, :, 0] * np.sin(np.radians(params.shape_yaw_std_deg)) / depth
-    sig_w = np.sqrt((params.shape_length_rel_std * w_pred) ** 2 + turn_px**2 + params.edge_noise_px**2)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sig_t = np.hypot(F[:, None] * shapes.height_std_m[None, :] / np.maximum(depth, 0.1), params.edge_noise_px)
-        rw = (w_pred - w_meas[None, :]) / sig_w
-        rt = (top_pred - shapes.box_px[None, :, 1]) / sig_t
-    # Cauchy negative log densities, with log sigma: the spreads grow with the focal length,
-    # and without their normalisation a longer focal length would explain misfits for free.
-    with np.errstate(invalid="ignore", divide="ignore"):
-        data = np.where(np.isfinite(rw), np.log1p(rw**2) + np.log(sig_w), params.unprojectable_cost)
-        data += np.where(np.isfinite(rt), np.log1p(rt**2) + np.log(sig_t), params.unprojectable_cost)
+    # Each vehicle runs along the street or, with probability shape_cross_fraction, across it (a
+    # crossing or turning vehicle, one parked across): a mixture per vehicle, so that a wide box
+    # across the street does not read as a short focal length.
+    along = _shape_costs(F, Hc, v_h, yaw, c, shapes, params)
+    if params.shape_cross_fraction > 0:
+        across = _shape_costs(F, Hc, v_h, yaw + np.pi / 2, c, shapes, params)
+        p_cross = params.shape_cross_fraction
+        data = -np.logaddexp(np.log1p(-p_cross) - along, np.log(p_cross) - across)
+    else:
+        data = along
     mean_h, std_h = params.height_prior_m
     cost = data.sum(axis=1) + 0.5 * ((Hc - mean_h) / std_h) ** 2 + 0.5 * (np.degrees(P) / params.pitch_prior_std_deg) ** 2
     if horizon is not None:
@@ -400,3 +396,27 @@ def box_shape_cue(
         tuple(float(x) for x in logf),
         tuple(float(x) for x in log_lik),
     )
+
+
+def _shape_costs(
+    F: np.ndarray, Hc: np.ndarray, v_h: np.ndarray, yaw: np.ndarray, c: np.ndarray, shapes: BoxShapes, params: CameraParams
+) -> np.ndarray:
+    """(G, N) float64 negative log density of each vehicle's box width and top row under each
+    candidate camera (``F``, ``Hc``, ``v_h``: (G,) focal px, height m, horizon row px), its length
+    along ``yaw`` ((G,) radians about the camera's vertical): Cauchy residuals with their log spreads."""
+    w_pred, top_pred, depth = project_street_boxes(F, Hc, v_h, yaw, c, shapes)
+    w_meas = shapes.box_px[:, 2] - shapes.box_px[:, 0]
+    # a vehicle turned by d_yaw from its direction shows d_yaw * L more or less of its side (f / Z px per metre)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        turn_px = F[:, None] * shapes.size_m[None, :, 0] * np.sin(np.radians(params.shape_yaw_std_deg)) / depth
+    sig_w = np.sqrt((params.shape_length_rel_std * w_pred) ** 2 + turn_px**2 + params.edge_noise_px**2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sig_t = np.hypot(F[:, None] * shapes.height_std_m[None, :] / np.maximum(depth, 0.1), params.edge_noise_px)
+        rw = (w_pred - w_meas[None, :]) / sig_w
+        rt = (top_pred - shapes.box_px[None, :, 1]) / sig_t
+    # Cauchy negative log densities, with log sigma: the spreads grow with the focal length,
+    # and without their normalisation a longer focal length would explain misfits for free.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        data = np.where(np.isfinite(rw), np.log1p(rw**2) + np.log(sig_w), params.unprojectable_cost)
+        data += np.where(np.isfinite(rt), np.log1p(rt**2) + np.log(sig_t), params.unprojectable_cost)
+    return data

@@ -291,6 +291,14 @@ class CameraParams:
         "it widens or narrows the side a box shows.",
         "convention: a lane change over 30 m at 50 km/h turns a car by about 6-8 deg",
     )
+    shape_cross_fraction: float = param(
+        0.1,
+        "fraction",
+        "Share of vehicles in the object-shape focal cue taken to stand across the street rather than along "
+        "it (crossing or turning at a junction, parked across): each vehicle's box is a mixture of the two, so "
+        "one wide box across the street does not read as a short focal length.",
+        "convention: a robust mixture's outlier share, one vehicle in ten",
+    )
     shape_focal_range: tuple[float, float] = param(
         (0.25, 2.0),
         "1",

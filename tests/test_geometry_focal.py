@@ -263,7 +263,8 @@ def test_cars_across_the_street_pull_the_box_shapes_less():
             along = _kitti_boxes(f_true, h_true, [(-4, 12), (3.5, 15), (-3, 25), (6, 20)], size=car)
             across = _kitti_boxes(f_true, h_true, crossing, size=(car[1], car[0], car[2]))
             n = len(along) + len(across)
-            shapes = BoxShapes(np.vstack([along.box_px, across.box_px]), np.tile(car, (n, 1)), np.full(n, 0.12))
+            boxes = np.vstack([along.box_px, across.box_px])
+            shapes = BoxShapes(boxes, np.tile(car, (n, 1)), np.full(n, 0.12))
             err = {}
             for share in (0.0, CameraParams().shape_cross_fraction):
                 cue = box_shape_cue(W, H, shapes, params=CameraParams(shape_cross_fraction=share))

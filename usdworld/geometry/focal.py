@@ -65,8 +65,8 @@ class FocalCue:
         grid, lik = np.asarray(self.profile_log_f, float), np.asarray(self.profile_log_lik, float)
         if len(grid) != len(lik) or (len(grid) and (len(grid) < 3 or not np.all(np.diff(grid) > 0))):
             raise CalibrationError(
-                f"focal cue '{self.source}': the profile needs matching log f and log likelihood of >= 3 points, "
-                f"log f increasing; got {len(grid)} and {len(lik)}"
+                f"focal cue '{self.source}': the profile needs matching log f and log likelihood of "
+                f">= 3 points, log f increasing; got {len(grid)} and {len(lik)}"
             )
         if not (np.all(np.isfinite(grid)) and np.all(np.isfinite(lik))):
             raise CalibrationError(f"focal cue '{self.source}': the profile must be finite")
@@ -399,14 +399,21 @@ def box_shape_cue(
 
 
 def _shape_costs(
-    F: np.ndarray, Hc: np.ndarray, v_h: np.ndarray, yaw: np.ndarray, c: np.ndarray, shapes: BoxShapes, params: CameraParams
+    F: np.ndarray,
+    Hc: np.ndarray,
+    v_h: np.ndarray,
+    yaw: np.ndarray,
+    c: np.ndarray,
+    shapes: BoxShapes,
+    params: CameraParams,
 ) -> np.ndarray:
     """(G, N) float64 negative log density of each vehicle's box width and top row under each
     candidate camera (``F``, ``Hc``, ``v_h``: (G,) focal px, height m, horizon row px), its length
     along ``yaw`` ((G,) radians about the camera's vertical): Cauchy residuals with their log spreads."""
     w_pred, top_pred, depth = project_street_boxes(F, Hc, v_h, yaw, c, shapes)
     w_meas = shapes.box_px[:, 2] - shapes.box_px[:, 0]
-    # a vehicle turned by d_yaw from its direction shows d_yaw * L more or less of its side (f / Z px per metre)
+    # a vehicle turned by d_yaw from its direction shows d_yaw * L more or less of its side
+    # (f / Z px per metre)
     with np.errstate(invalid="ignore", divide="ignore"):
         turn_px = F[:, None] * shapes.size_m[None, :, 0] * np.sin(np.radians(params.shape_yaw_std_deg)) / depth
     sig_w = np.sqrt((params.shape_length_rel_std * w_pred) ** 2 + turn_px**2 + params.edge_noise_px**2)

@@ -195,3 +195,81 @@ def test_cue_validation():
 def test_prior_is_the_documented_fraction_of_the_diagonal():
     p = CameraParams()
     assert prior_cue(W, H, p).f_px == pytest.approx(p.focal_prior_diag_ratio * np.hypot(W, H))
+
+
+def _profile_cue(m: float, likelihood, lo: float = -3.0, hi: float = 3.0, n: int = 6001) -> FocalCue:
+    """A box-shape-like cue at ``log f = m`` whose profile log likelihood is ``likelihood(x - m)``."""
+    grid = np.linspace(m + lo, m + hi, n)
+    lik = likelihood(grid - m)
+    return FocalCue("box_shapes", float(np.exp(m)), 0.1, "profile", tuple(grid), tuple(lik - lik.max()))
+
+
+def test_a_gaussian_profile_fuses_as_its_gaussian():
+    """A cue whose profile is the Gaussian (log 900, 0.2) fuses with the prior (log 800, 0.3)
+    as inverse variance does: mean and sigma to 0.1 % of the prior's sigma."""
+    cue = _profile_cue(np.log(900.0), lambda d: -0.5 * (d / 0.2) ** 2)
+    est = fuse_focal([FocalCue("prior", 800.0, 0.3, "p"), cue])
+    w = np.array([1 / 0.09, 1 / 0.04])
+    assert np.log(est.f_px) == pytest.approx((w @ np.log([800.0, 900.0])) / w.sum(), abs=3e-4)
+    assert est.sigma_log == pytest.approx(1 / np.sqrt(w.sum()), abs=3e-4)
+
+
+def test_a_one_sided_profile_keeps_its_skew():
+    """Boxes that rule out focal lengths below f0 (Gaussian 0.1 on that side) and say nothing
+    above it, with the prior centred on f0 (sigma 0.3): the posterior of log f is two half
+    Gaussians of sigmas 0.3 and s_c = (1/0.3^2 + 1/0.1^2)^-1/2, whose mean lies
+    (0.3 - s_c) / sqrt(pi / 2) above log f0 (0.164), not at f0 as the cue's Gaussian summary
+    (f0, 0.1) would put it."""
+    f0, s_p, s_b = 700.0, 0.3, 0.1
+    cue = _profile_cue(np.log(f0), lambda d: np.where(d < 0, -0.5 * (d / s_b) ** 2, 0.0))
+    est = fuse_focal([FocalCue("prior", f0, s_p, "p"), cue])
+    s_c = 1 / np.sqrt(1 / s_p**2 + 1 / s_b**2)
+    assert np.log(est.f_px / f0) == pytest.approx((s_p - s_c) / np.sqrt(np.pi / 2), abs=1e-3)
+    # and a flat profile adds nothing: the prior comes back
+    flat = _profile_cue(np.log(f0), lambda d: np.zeros_like(d))
+    alone = fuse_focal([FocalCue("prior", 800.0, s_p, "p"), flat])
+    assert alone.f_px == pytest.approx(800.0, rel=1e-3) and alone.sigma_log == pytest.approx(s_p, rel=1e-3)
+
+
+def test_box_shape_cue_carries_its_profile():
+    """The cue's profile peaks (0) within a grid step of the Laplace summary's f and lies on
+    the searched focal lengths (``shape_focal_range`` of the diagonal)."""
+    p = CameraParams()
+    shapes = _kitti_boxes(721.0, 1.65, [(-4, 12), (3.5, 15), (-3, 25), (6, 20), (0.5, 30), (-7, 18)])
+    cue = box_shape_cue(W, H, shapes, params=p)
+    assert cue is not None and len(cue.profile_log_f) == p.shape_grid[0]
+    grid, lik = np.array(cue.profile_log_f), np.array(cue.profile_log_lik)
+    assert lik.max() == 0.0
+    step = grid[1] - grid[0]
+    assert abs(grid[np.argmax(lik)] - np.log(cue.f_px)) < 1.5 * step
+    assert np.exp(grid[[0, -1]]) == pytest.approx(np.array(p.shape_focal_range) * np.hypot(W, H))
+
+
+def test_profile_validation():
+    with pytest.raises(CalibrationError, match="profile"):
+        FocalCue("box_shapes", 700.0, 0.1, "x", (1.0, 2.0, 3.0), (0.0, 0.0))
+    with pytest.raises(CalibrationError, match="profile"):
+        FocalCue("box_shapes", 700.0, 0.1, "x", (3.0, 2.0, 1.0), (0.0, 0.0, 0.0))
+
+
+def test_cars_across_the_street_pull_the_box_shapes_less():
+    """Four cars along the street and two across it, off to the side (a junction's crossing
+    traffic): read as cars along the street their wide boxes pull f short by 30-40 %; the
+    along-or-across mixture (``shape_cross_fraction``) halves that pull and leaves f within
+    the cue's stated spread."""
+    car = CameraParams().shape_car_size_m
+    for f_true, h_true in ((721.0, 1.65), (1100.0, 1.3)):
+        for crossing in ([(8, 30), (12, 45)], [(10, 40), (-9, 35)]):
+            along = _kitti_boxes(f_true, h_true, [(-4, 12), (3.5, 15), (-3, 25), (6, 20)], size=car)
+            across = _kitti_boxes(f_true, h_true, crossing, size=(car[1], car[0], car[2]))
+            n = len(along) + len(across)
+            boxes = np.vstack([along.box_px, across.box_px])
+            shapes = BoxShapes(boxes, np.tile(car, (n, 1)), np.full(n, 0.12))
+            err = {}
+            for share in (0.0, CameraParams().shape_cross_fraction):
+                cue = box_shape_cue(W, H, shapes, params=CameraParams(shape_cross_fraction=share))
+                assert cue is not None
+                err[share] = np.log(cue.f_px / f_true)
+            mixed = err[CameraParams().shape_cross_fraction]
+            assert err[0.0] < -0.3
+            assert abs(mixed) < 0.6 * abs(err[0.0]) and abs(mixed) < cue.sigma_log

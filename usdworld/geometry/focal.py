@@ -14,8 +14,11 @@ at the image centre) with a standard error:
   by the ground contact, so the box widths across the image measure ``f`` once the rear
   widths and heights have measured the camera height.
 
-:func:`fuse_focal` combines them by inverse variance in ``log f`` and drops, one at a
-time, a cue inconsistent with the fusion of the others beyond ``focal_outlier_sigma``.
+:func:`fuse_focal` drops, one at a time, a cue inconsistent with the fusion of the others
+beyond ``focal_outlier_sigma`` and combines the rest: by inverse variance in ``log f`` when
+every cue is a Gaussian, else as the posterior of ``log f`` under the product of the cues'
+likelihoods (the box shapes' is a profile likelihood, flat on one side where their widths
+stop telling focal lengths apart, which a Gaussian summary would make symmetric).
 
 Frames: image pixels (u right, v down); the object-shape model's camera frame is
 OpenCV's (x right, y down, z forward), level, with the pitch as a shift of the horizon.
@@ -23,7 +26,7 @@ OpenCV's (x right, y down, z forward), level, with the pitch as a shift of the h
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -40,18 +43,40 @@ class FocalCue:
         f_px: focal length, pixels.
         sigma_log: standard error of ``log f``.
         detail: what it was measured from, one phrase.
+        profile_log_f: (M,) increasing ``log f`` grid of the cue's own log likelihood, or
+            empty: then the cue is the Gaussian ``(log f_px, sigma_log)``.
+        profile_log_lik: (M,) the log likelihood on that grid (its maximum 0). Outside the
+            grid the likelihood is taken as flat at its end values (nothing was measured there).
+            ``f_px`` and ``sigma_log`` are then its Laplace summary, used to test consistency.
     """
 
     source: str
     f_px: float
     sigma_log: float
     detail: str
+    profile_log_f: tuple[float, ...] = field(default=(), compare=False)
+    profile_log_lik: tuple[float, ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.f_px) and self.f_px > 0):
             raise CalibrationError(f"focal cue '{self.source}': f must be a positive number of pixels, got {self.f_px}")
         if not (np.isfinite(self.sigma_log) and self.sigma_log > 0):
             raise CalibrationError(f"focal cue '{self.source}': sigma_log must be > 0, got {self.sigma_log}")
+        grid, lik = np.asarray(self.profile_log_f, float), np.asarray(self.profile_log_lik, float)
+        if len(grid) != len(lik) or (len(grid) and (len(grid) < 3 or not np.all(np.diff(grid) > 0))):
+            raise CalibrationError(
+                f"focal cue '{self.source}': the profile needs matching log f and log likelihood of "
+                f">= 3 points, log f increasing; got {len(grid)} and {len(lik)}"
+            )
+        if not (np.all(np.isfinite(grid)) and np.all(np.isfinite(lik))):
+            raise CalibrationError(f"focal cue '{self.source}': the profile must be finite")
+
+    def log_likelihood(self, log_f: np.ndarray) -> np.ndarray:
+        """(K,) float64 log likelihood of each ``log f`` in ``log_f`` ((K,) float64), up to a constant:
+        the profile where the cue has one, else the Gaussian ``-(log f - log f_px)^2 / (2 sigma_log^2)``."""
+        if self.profile_log_f:
+            return np.interp(log_f, self.profile_log_f, self.profile_log_lik)
+        return -0.5 * ((log_f - np.log(self.f_px)) / self.sigma_log) ** 2
 
     def describe(self) -> str:
         """``source f = 721 px +- 8 % (detail)``."""
@@ -119,7 +144,8 @@ def exif_cue(f_px: float, detail: str, params: CameraParams = DEFAULT_CAMERA) ->
 
 
 def fuse_focal(cues: list[FocalCue] | tuple[FocalCue, ...], params: CameraParams = DEFAULT_CAMERA) -> FocalEstimate:
-    """Inverse-variance mean of the cues in log f, robust to one (or more) wrong cue.
+    """Inverse-variance mean of the cues in log f (the posterior mean of log f when a cue has a
+    profile likelihood), robust to one (or more) wrong cue.
 
     While two or more cues remain, each cue's leave-one-out discrepancy
     ``z_i = |log f_i - log f_(-i)| / sqrt(s_i^2 + s_(-i)^2)`` is computed against the
@@ -157,7 +183,29 @@ def fuse_focal(cues: list[FocalCue] | tuple[FocalCue, ...], params: CameraParams
     logs = np.log([c.f_px for c in used])
     w = 1.0 / np.array([c.sigma_log for c in used]) ** 2
     mean = float(np.sum(w * logs) / np.sum(w))
-    return FocalEstimate(float(np.exp(mean)), float(1.0 / np.sqrt(np.sum(w))), tuple(used), tuple(dropped))
+    sigma = float(1.0 / np.sqrt(np.sum(w)))
+    if any(c.profile_log_f for c in used):
+        mean, sigma = _posterior_log_f(used, mean, sigma, params)
+    return FocalEstimate(float(np.exp(mean)), sigma, tuple(used), tuple(dropped))
+
+
+def _posterior_log_f(
+    cues: list[FocalCue], mean: float, sigma: float, params: CameraParams
+) -> tuple[float, float]:
+    """Mean and standard deviation of ``log f`` under the product of the cues' likelihoods.
+
+    Summed on ``params.focal_posterior_steps`` points over ``params.focal_posterior_half_width``
+    Gaussian-fusion sigmas (at least the widest cue's) either side of the Gaussian fusion
+    (``mean``, ``sigma``), so a profile's skew (a flat side where the boxes stop telling focal
+    lengths apart) is kept instead of its Laplace summary's symmetric guess.
+    """
+    half = params.focal_posterior_half_width * max(sigma, max(c.sigma_log for c in cues))
+    grid = np.linspace(mean - half, mean + half, params.focal_posterior_steps)
+    log_post = np.sum([c.log_likelihood(grid) for c in cues], axis=0)
+    w = np.exp(log_post - log_post.max())
+    w /= w.sum()
+    post_mean = float(np.sum(w * grid))
+    return post_mean, float(np.sqrt(np.sum(w * (grid - post_mean) ** 2)))
 
 
 def focal_from_orthogonal_vps(vp1_px: np.ndarray, vp2_px: np.ndarray, center_px: np.ndarray) -> float | None:
@@ -270,10 +318,12 @@ def box_shape_cue(
     A grid over (log f, camera height, pitch) scores the Cauchy residuals of every
     vehicle's predicted box width and top row (spreads: the class size's, relative
     ``params.shape_length_rel_std`` for length and width, ``params.shape_yaw_std_deg`` of turn off the street, ``height_std_m`` for height,
-    plus ``params.edge_noise_px``), with the camera-height and pitch priors and, when
-    given, the horizon row. The profile likelihood of log f (best height and horizon row
-    per focal length; the focal prior is fused separately) gives the cue's mean and spread
-    from its mode and curvature.
+    plus ``params.edge_noise_px``; each vehicle along the street or, with probability
+    ``params.shape_cross_fraction``, across it), with the camera-height and pitch priors and,
+    when given, the horizon row. The profile likelihood of log f (best height and horizon row
+    per focal length; the focal prior is fused separately) is the cue: :func:`fuse_focal`
+    multiplies it with the other cues' likelihoods, and its mode and curvature (a Laplace
+    summary) are the ``f_px`` and ``sigma_log`` its consistency with them is tested by.
 
     Args:
         width: image width, pixels.
@@ -303,21 +353,16 @@ def box_shape_cue(
     F, Hc, v_h = (a.ravel() for a in np.meshgrid(fs, hs, rows, indexing="ij"))
     P = np.arctan((c[1] - v_h) / F)
     yaw = np.arctan((street_u - c[0]) / F) if street_u is not None else np.zeros_like(F)
-    w_pred, top_pred, depth = project_street_boxes(F, Hc, v_h, yaw, c, shapes)
-    w_meas = shapes.box_px[:, 2] - shapes.box_px[:, 0]
-    # a vehicle turned by d_yaw from the street shows d_yaw * L more or less of its side (f / Z px per metre)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        turn_px = F[:, None] * shapes.size_m[None, :, 0] * np.sin(np.radians(params.shape_yaw_std_deg)) / depth
-    sig_w = np.sqrt((params.shape_length_rel_std * w_pred) ** 2 + turn_px**2 + params.edge_noise_px**2)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sig_t = np.hypot(F[:, None] * shapes.height_std_m[None, :] / np.maximum(depth, 0.1), params.edge_noise_px)
-        rw = (w_pred - w_meas[None, :]) / sig_w
-        rt = (top_pred - shapes.box_px[None, :, 1]) / sig_t
-    # Cauchy negative log densities, with log sigma: the spreads grow with the focal length,
-    # and without their normalisation a longer focal length would explain misfits for free.
-    with np.errstate(invalid="ignore", divide="ignore"):
-        data = np.where(np.isfinite(rw), np.log1p(rw**2) + np.log(sig_w), params.unprojectable_cost)
-        data += np.where(np.isfinite(rt), np.log1p(rt**2) + np.log(sig_t), params.unprojectable_cost)
+    # Each vehicle runs along the street or, with probability shape_cross_fraction, across it (a
+    # crossing or turning vehicle, one parked across): a mixture per vehicle, so that a wide box
+    # across the street does not read as a short focal length.
+    along = _shape_costs(F, Hc, v_h, yaw, c, shapes, params)
+    if params.shape_cross_fraction > 0:
+        across = _shape_costs(F, Hc, v_h, yaw + np.pi / 2, c, shapes, params)
+        p_cross = params.shape_cross_fraction
+        data = -np.logaddexp(np.log1p(-p_cross) - along, np.log(p_cross) - across)
+    else:
+        data = along
     mean_h, std_h = params.height_prior_m
     cost = data.sum(axis=1) + 0.5 * ((Hc - mean_h) / std_h) ** 2 + 0.5 * (np.degrees(P) / params.pitch_prior_std_deg) ** 2
     if horizon is not None:
@@ -343,4 +388,42 @@ def box_shape_cue(
     if sigma > params.focal_max_sigma_log:
         return None  # the shapes add (almost) nothing to the prior
     sigma = max(sigma, params.focal_min_sigma_log)
-    return FocalCue("box_shapes", float(np.exp(mean)), sigma, f"{len(shapes)} vehicle box(es) of known size along the street")
+    return FocalCue(
+        "box_shapes",
+        float(np.exp(mean)),
+        sigma,
+        f"{len(shapes)} vehicle box(es) of known size along the street",
+        tuple(float(x) for x in logf),
+        tuple(float(x) for x in log_lik),
+    )
+
+
+def _shape_costs(
+    F: np.ndarray,
+    Hc: np.ndarray,
+    v_h: np.ndarray,
+    yaw: np.ndarray,
+    c: np.ndarray,
+    shapes: BoxShapes,
+    params: CameraParams,
+) -> np.ndarray:
+    """(G, N) float64 negative log density of each vehicle's box width and top row under each
+    candidate camera (``F``, ``Hc``, ``v_h``: (G,) focal px, height m, horizon row px), its length
+    along ``yaw`` ((G,) radians about the camera's vertical): Cauchy residuals with their log spreads."""
+    w_pred, top_pred, depth = project_street_boxes(F, Hc, v_h, yaw, c, shapes)
+    w_meas = shapes.box_px[:, 2] - shapes.box_px[:, 0]
+    # a vehicle turned by d_yaw from its direction shows d_yaw * L more or less of its side
+    # (f / Z px per metre)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        turn_px = F[:, None] * shapes.size_m[None, :, 0] * np.sin(np.radians(params.shape_yaw_std_deg)) / depth
+    sig_w = np.sqrt((params.shape_length_rel_std * w_pred) ** 2 + turn_px**2 + params.edge_noise_px**2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sig_t = np.hypot(F[:, None] * shapes.height_std_m[None, :] / np.maximum(depth, 0.1), params.edge_noise_px)
+        rw = (w_pred - w_meas[None, :]) / sig_w
+        rt = (top_pred - shapes.box_px[None, :, 1]) / sig_t
+    # Cauchy negative log densities, with log sigma: the spreads grow with the focal length,
+    # and without their normalisation a longer focal length would explain misfits for free.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        data = np.where(np.isfinite(rw), np.log1p(rw**2) + np.log(sig_w), params.unprojectable_cost)
+        data += np.where(np.isfinite(rt), np.log1p(rt**2) + np.log(sig_t), params.unprojectable_cost)
+    return data

@@ -201,6 +201,16 @@ class CameraParams:
         "A photo's cue less certain than this (x2.7 either way) is not a measurement and is left out.",
         "convention: weaker than the prior by a factor of three",
     )
+    focal_posterior_half_width: float = param(
+        6.0,
+        "sigma",
+        "Half-width of the log f grid on which a cue's profile likelihood is multiplied with the other cues "
+        "(in the widest used cue's sigmas, about the Gaussian fusion).",
+        "convention: six sigmas hold all but 2e-9 of a Gaussian's mass",
+    )
+    focal_posterior_steps: int = param(
+        1201, "count", "Points of that log f grid.", "convention: resolution only (0.01 sigma steps)"
+    )
     principal_point_sigma_fraction: float = param(
         0.014,
         "fraction of the image diagonal",
@@ -280,6 +290,14 @@ class CameraParams:
         "Spread of a vehicle's heading around the street's direction (lane changes, bends, parking at an angle): "
         "it widens or narrows the side a box shows.",
         "convention: a lane change over 30 m at 50 km/h turns a car by about 6-8 deg",
+    )
+    shape_cross_fraction: float = param(
+        0.1,
+        "fraction",
+        "Share of vehicles in the object-shape focal cue taken to stand across the street rather than along "
+        "it (crossing or turning at a junction, parked across): each vehicle's box is a mixture of the two, so "
+        "one wide box across the street does not read as a short focal length.",
+        "convention: a robust mixture's outlier share, one vehicle in ten",
     )
     shape_focal_range: tuple[float, float] = param(
         (0.25, 2.0),

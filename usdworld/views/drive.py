@@ -15,10 +15,18 @@ frames are tracked in time order, so the work grows with the number of frames:
    have velocity 0; vehicles and people have a zero-mean velocity prior of standard
    deviation ``vehicle_speed_max_mps`` / ``person_speed_max_mps``, which is what lets a
    track follow a car before its own observations fix its speed.
-3. The frame's objects join tracks greedily, nearest first in squared Mahalanobis
-   distance (prediction and observation covariances summed) within
-   ``association_gate_chi2``; the rest start tracks. A track not seen for longer than
-   ``track_gap_s`` is closed.
+3. The frame's objects join tracks by one global assignment (Hungarian) that maximises
+   the summed ``association_gate_chi2 - m2`` of the pairs it makes, ``m2`` a pair's
+   squared Mahalanobis distance (prediction and observation covariances summed), so only
+   pairs within the gate are made; the rest start tracks. A track not seen for longer
+   than ``track_gap_s`` is closed.
+4. Standing tracks that are fragments of one object are joined (:func:`merge_fragments`):
+   a single-view placement error that jumps between frames starts a second track, and
+   both then keep catching the object's observations. Two standing tracks of one class
+   that share no frame are one object when their positions agree within the gate, each
+   position's covariance floored at ``frame_error_correlation`` times its surest frame's
+   (the share of a frame's error that the object's other frames repeat does not average
+   away).
 
 **Moving or standing.** A vehicle's or person's track is *moving* when it spans at least
 ``moving_min_frames`` frames and its fitted velocity disagrees with standing still beyond
@@ -133,6 +141,10 @@ def fit_motion(
     return MotionFit(t_ref, C @ rhs, C)
 
 
+#: Added to every score inside the gate, so a pair exactly at the gate still scores above no pair.
+_TIE = 1e-9
+
+
 @dataclass
 class _Track:
     class_name: str
@@ -204,8 +216,17 @@ def frame_times(timestamps: Sequence[float | None], params: ViewsParams) -> list
 
 
 def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params: ViewsParams) -> list[int | None]:
-    """The track index each item joins (greedy, nearest first, within the gate), or None."""
-    pairs = []
+    """The track index each item joins, or None: one global assignment per frame.
+
+    Each pair of one class within ``association_gate_chi2`` scores ``gate - m2`` (its squared
+    Mahalanobis distance ``m2``, prediction and observation covariances summed); the
+    assignment (Hungarian) maximises the summed score, so a pair is made only where it is
+    inside the gate, and one near pair never takes the track that two others need.
+    """
+    from scipy.optimize import linear_sum_assignment  # lazy: only drives need it
+
+    gate = params.association_gate_chi2
+    score = np.zeros((len(items), len(tracks)))
     for j, item in enumerate(items):
         cls = item.placement.obj.class_name
         z = item.placement.position_world[:2]
@@ -215,15 +236,13 @@ def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params:
             x, P = tr.fit.predict(t)
             d = z - x
             m2 = float(d @ np.linalg.solve(P + item.covariance, d))
-            if m2 <= params.association_gate_chi2:
-                pairs.append((m2, j, k))
-    pairs.sort()
+            if m2 <= gate:
+                score[j, k] = gate - m2 + _TIE
     out: list[int | None] = [None] * len(items)
-    taken: set[int] = set()
-    for _, j, k in pairs:
-        if out[j] is None and k not in taken:
-            out[j] = k
-            taken.add(k)
+    if score.size:
+        for j, k in zip(*linear_sum_assignment(score, maximize=True)):
+            if score[j, k] > 0:
+                out[int(j)] = int(k)
     return out
 
 
@@ -267,10 +286,99 @@ def track_drive(
             else:
                 open_tracks[k].add(t, item)
     done.extend(open_tracks)
+    done = merge_fragments([tr for tr in done if tr.fit is not None], params)
     index = {id(o): i for i, o in enumerate(obs)}
     done.sort(key=lambda tr: (tr.times[0], min(index[id(o)] for o in tr.items[0].observations)))
     counters: dict[str, int] = {}
     return [_drive_object(tr, tr.fit, params, counters) for tr in done if tr.fit is not None]
+
+
+def _is_moving(tr: _Track, fit: MotionFit, params: ViewsParams) -> bool:
+    """Whether a track moves (the module docstring's test)."""
+    return (
+        tr.sigma_speed > 0
+        and len(tr.times) >= params.moving_min_frames
+        and fit.speed_chi2() > params.association_gate_chi2
+        and float(np.linalg.norm(fit.velocity)) >= params.moving_speed_min_mps
+    )
+
+
+def _standing_estimate(tr: _Track, params: ViewsParams) -> tuple[np.ndarray, np.ndarray]:
+    """(2,) position and (2, 2) covariance of a standing track, floored for correlated frame errors.
+
+    The information-weighted mean of its observations, whose covariance assumes independent
+    frames, plus ``frame_error_correlation`` times its surest single observation's covariance:
+    the share of a frame's error that the other frames repeat does not average away.
+    """
+    members = [o for item in tr.items for o in item.observations]
+    xy, cov = combine(members)
+    best = min((item.covariance for item in tr.items), key=lambda c: float(np.trace(c)))
+    return xy, cov + params.frame_error_correlation * best
+
+
+def merge_fragments(tracks: list[_Track], params: ViewsParams) -> list[_Track]:
+    """Join standing tracks that are one object broken into fragments.
+
+    Two standing tracks of one class that share no frame (one frame never holds one object
+    twice) are one object when their positions (:func:`_standing_estimate`, covariances
+    summed) are within ``association_gate_chi2``; greedy, nearest first, as
+    :func:`usdworld.views.fusion.associate` joins views. Moving tracks are kept as they are.
+
+    Args:
+        tracks: the drive's tracks, each with its fit.
+        params: the gate and the correlation floor.
+
+    Returns:
+        The tracks, merged ones with their frames in time order and their fit redone.
+    """
+    moving = [tr.fit is not None and _is_moving(tr, tr.fit, params) for tr in tracks]
+    keep = [tr for tr, m in zip(tracks, moving) if m]
+    frags = [tr for tr, m in zip(tracks, moving) if not m and tr.fit is not None]
+    if len(frags) < 2:
+        return tracks
+    frames = {t: i for i, t in enumerate(sorted({t for tr in frags for t in tr.times}))}
+    seen = np.zeros((len(frags), len(frames)), dtype=np.int32)
+    for i, tr in enumerate(frags):
+        seen[i, [frames[t] for t in tr.times]] = 1
+    estimates = [_standing_estimate(tr, params) for tr in frags]
+    pos = np.array([e[0] for e in estimates])
+    cov = np.array([e[1] for e in estimates])
+    cls = np.array([tr.class_name for tr in frags])
+    alive = np.ones(len(frags), dtype=bool)
+    upper = np.triu(np.ones((len(frags), len(frags)), dtype=bool), 1)
+    while True:
+        m2 = _pair_mahalanobis2(pos, cov)
+        ok = upper & (cls[:, None] == cls[None, :]) & alive[:, None] & alive[None, :]
+        ok &= (seen @ seen.T == 0) & (m2 <= params.association_gate_chi2)
+        if not ok.any():
+            return keep + [tr for tr, on in zip(frags, alive) if on]
+        a, b = np.unravel_index(int(np.argmin(np.where(ok, m2, np.inf))), m2.shape)
+        frags[a] = _joined(frags[a], frags[b])
+        seen[a] |= seen[b]
+        alive[b] = False
+        pos[a], cov[a] = _standing_estimate(frags[a], params)
+
+
+def _pair_mahalanobis2(pos: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """(N, N) squared Mahalanobis distances of (N, 2) positions with (N, 2, 2) covariances summed per pair."""
+    d = pos[:, None, :] - pos[None, :, :]
+    S = cov[:, None] + cov[None, :]
+    det = S[..., 0, 0] * S[..., 1, 1] - S[..., 0, 1] * S[..., 1, 0]
+    dx, dy = d[..., 0], d[..., 1]
+    return (S[..., 1, 1] * dx * dx - 2.0 * S[..., 0, 1] * dx * dy + S[..., 0, 0] * dy * dy) / det
+
+
+def _joined(a: _Track, b: _Track) -> _Track:
+    """One track of two that share no frame: their frames in time order, the fit redone."""
+    pairs = sorted(zip(a.times + b.times, a.items + b.items), key=lambda p: p[0])
+    out = _Track(a.class_name, a.sigma_speed, [t for t, _ in pairs], [item for _, item in pairs])
+    out.fit = fit_motion(
+        out.times,
+        np.array([item.placement.position_world[:2] for item in out.items]),
+        np.array([item.covariance for item in out.items]),
+        out.sigma_speed,
+    )
+    return out
 
 
 def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dict[str, int]) -> DriveObject:
@@ -282,12 +390,7 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
     counters[cls] = counters.get(cls, 0) + 1
     name = f"{cls}_{counters[cls]:04d}"
     times = np.array(tr.times)
-    moving = (
-        tr.sigma_speed > 0
-        and len(tr.times) >= params.moving_min_frames
-        and fit.speed_chi2() > params.association_gate_chi2
-        and float(np.linalg.norm(fit.velocity)) >= params.moving_speed_min_mps
-    )
+    moving = _is_moving(tr, fit, params)
     z = float(primary.position_world[2])
     if moving:
         xy = np.array([fit.predict(float(t))[0] for t in times])

@@ -150,3 +150,16 @@ def test_build_table_looks_as_richs_table_does(words: list[str], rows: list[tupl
     text = io.StringIO()
     Console(file=text, width=160).print(table)
     assert format_table(title, COLUMNS, rows) == text.getvalue()
+
+
+def test_build_summary_says_where_the_sun_comes_from_and_how_sure_it_is() -> None:
+    from usdworld.cli.summary import light_line
+
+    light = {"method": "cast_shadows", "sun_azimuth_deg": 141.6, "sun_elevation_deg": 50.2, "fit_iou": 0.512, "fit_casters": 7}
+    assert light_line(light) == "light: sun azimuth 142 deg, elevation 50 deg (fitted to the shadows of 7 objects, overlap 0.51)"
+    weak = dict(light, method="weak_fit", sun_azimuth_deg=135.0, sun_elevation_deg=45.0, fit_iou=0.2, fit_casters=1)
+    assert light_line(weak) == (
+        "light: sun azimuth 135 deg, elevation 45 deg "
+        "(the default: the shadow fit is too weak to trust (overlap 0.20, 1 objects))"
+    )
+    assert light_line(dict(light, method="overcast")) == "light: overcast (no cast shadows next to the objects)"

@@ -76,7 +76,9 @@ CASTERS = [
 ]
 
 
-def _street(sun_azimuth_deg: float | None, sun_elevation_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _street(
+    sun_azimuth_deg: float | None, sun_elevation_deg: float, casters: list[ShadowCaster] = CASTERS
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A flat grey street seen by CAMERA: (H, W, 3) photo, (H, W) ground ids, ground_from_px.
 
     The casters' footprints are not ground (the objects stand there); their shadows, drawn
@@ -93,7 +95,7 @@ def _street(sun_azimuth_deg: float | None, sun_elevation_deg: float) -> tuple[np
     pts = np.zeros((u.size, 2))
     pts[below] = g[below, :2] / g[below, 2:3]
     linear = np.full(u.size, 0.3)
-    for c in CASTERS:
+    for c in casters:
         ground[below & inside_convex(pts, _hull(c.footprint_ground))] = 0
         if sun_azimuth_deg is not None:
             length = c.height_m / math.tan(math.radians(sun_elevation_deg))
@@ -138,3 +140,29 @@ def test_sky_colours_are_the_medians_of_its_top_and_bottom_rows() -> None:
     zenith, horizon = sky_colours(rgb, sky, LightParams(sky_top_fraction=0.25))
     assert np.allclose(linear_to_srgb(zenith) * 255, (60, 120, 240), atol=0.5)
     assert np.allclose(linear_to_srgb(horizon) * 255, (200, 200, 210), atol=0.5)
+
+
+def test_one_casters_shadow_is_a_weak_fit_and_gives_the_default_sun() -> None:
+    # one car's shadow fits well, but one shadow is one direction and one length: not trusted
+    car = CASTERS[:1]
+    rgb, ground, ground_from_px = _street(140.0, 45.0, car)
+    est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", car, ground_from_px, 0.5, 0.6, PARAMS)
+    assert (est.method, est.overcast, est.fit_casters) == ("weak_fit", False, 1)
+    assert est.fit_iou > PARAMS.min_fit_iou  # the fit itself is good
+    assert (est.sun_azimuth, est.sun_elevation) == (0.5, 0.6)  # the caller's default
+    # the same car next to a second caster whose shadow agrees: trusted
+    two = CASTERS[:1] + CASTERS[5:6]
+    rgb, ground, ground_from_px = _street(140.0, 45.0, two)
+    est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", two, ground_from_px, 0.5, 0.6, PARAMS)
+    assert (est.method, est.fit_casters) == ("cast_shadows", 2)
+    assert abs((math.degrees(est.sun_azimuth) - 140.0 + 180.0) % 360.0 - 180.0) <= 5.0
+
+
+def test_shadows_the_casters_do_not_explain_are_a_weak_fit() -> None:
+    # the shadows are those of objects 5 m along and 4 m across from the casters (unseen ones,
+    # or placements that are far off): no sun explains them well, so the fit is not trusted
+    moved = [ShadowCaster(c.name, c.footprint_ground + [5.0, 4.0], c.height_m) for c in CASTERS]
+    rgb, ground, ground_from_px = _street(140.0, 45.0, moved)
+    est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", CASTERS, ground_from_px, 0.5, 0.6, PARAMS)
+    assert est.method == "weak_fit" and est.fit_iou < PARAMS.min_fit_iou
+    assert (est.sun_azimuth, est.sun_elevation) == (0.5, 0.6)

@@ -113,7 +113,7 @@ def test_evaluate_reports_the_sun_error_against_synth_truth() -> None:
     stage = _stage()
     nan3 = np.full(3, np.nan)
     fitted = LightEstimate(
-        "cast_shadows", False, math.radians(30.0), math.radians(40.0), 3.0, 0.1, 0.5, 5, 100, nan3, nan3, "none"
+        "cast_shadows", False, math.radians(30.0), math.radians(40.0), 3.0, 0.1, 0.5, 5, 100, 4, nan3, nan3, "none"
     )
     define_lights(stage, RIG, fitted)
     truth = GroundTruth("synth", "world", (), "s_gt.json", "0" * 64, None, sun_direction(-20.0, 50.0), False)

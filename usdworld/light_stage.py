@@ -123,7 +123,7 @@ def world_lighting(estimate: LightEstimate | None) -> Lighting:
 
     ``cast_shadows``: the default sun's colour and the default ambient, from the estimated
     direction; ``overcast``: :func:`~usdworld.render.lighting.overcast_lighting`;
-    ``no_evidence`` or None: the default sun. The sky's gradient takes the measured
+    ``weak_fit``, ``no_evidence`` or None: the default sun. The sky's gradient takes the measured
     colours when the sky was seen.
     """
     if estimate is None:

@@ -68,6 +68,7 @@ def _light_entry(light) -> dict | None:
         "fit_iou": _num(light.fit_iou),
         "casters": light.casters,
         "shadow_samples": light.shadow_samples,
+        "fit_casters": light.fit_casters,
         "sky_zenith_linear": [_num(v) for v in light.sky_zenith_linear],
         "sky_horizon_linear": [_num(v) for v in light.sky_horizon_linear],
         "sky_source": light.sky_source,

@@ -69,6 +69,28 @@ def format_table(title: str, columns: tuple[str, ...], rows: list[tuple[str, ...
     return "".join(f"{s}\n" for s in out)
 
 
+def light_line(light: dict[str, Any]) -> str:
+    """One line saying where the world's sun comes from and how sure it is.
+
+    Args:
+        light: the report's ``light`` entry (method, sun, fit IoU, casters).
+    """
+    sun = f"sun azimuth {light['sun_azimuth_deg']:.0f} deg, elevation {light['sun_elevation_deg']:.0f} deg"
+    method = light["method"]
+    if method == "cast_shadows":
+        how = f"fitted to the shadows of {light.get('fit_casters', 0)} objects, overlap {light['fit_iou']:.2f}"
+    elif method == "weak_fit":
+        how = (
+            f"the default: the shadow fit is too weak to trust (overlap {light['fit_iou']:.2f}, "
+            f"{light.get('fit_casters', 0)} objects)"
+        )
+    elif method == "overcast":
+        return "light: overcast (no cast shadows next to the objects)"
+    else:
+        how = "the default: no object with visible ground around it"
+    return f"light: {sun} ({how})"
+
+
 def print_build_summary(report: dict[str, Any], world: str, file: TextIO | None = None) -> None:
     """Print one line per object (sorted by class, then name) and the camera/DLT facts.
 
@@ -99,6 +121,7 @@ def print_build_summary(report: dict[str, Any], world: str, file: TextIO | None 
         f"camera: height {cam['height_m']:.2f} m, pitch {cam['pitch_deg']:.2f} deg, fx {cam['K'][0][0]:.1f} px"
         + (f" (estimated: {', '.join(cam['estimated'])})" if cam["estimated"] else " (given)")
         + f"\nground homography: DLT from {report['dlt']['source']}, RMS {report['dlt']['rms_px']:.3g} px"
+        + (f"\n{light_line(report['light'])}" if report.get("light") else "")
         + f"\nwrote {world}\n"
     )
     (file or sys.stdout).write(text)

@@ -265,7 +265,8 @@ def light_errors(stage: Usd.Stage, gt: GroundTruth) -> dict[str, Any] | None:
     """The world's sun against the true one: azimuth and elevation errors, overcast or not.
 
     The errors are measured when both are sunny (the world's ``usdworld:lightMethod`` is
-    ``cast_shadows`` and the truth is not overcast); the azimuth error wraps at 360 degrees.
+    ``cast_shadows``, or ``weak_fit`` whose default sun counts with its error, and the truth
+    is not overcast); the azimuth error wraps at 360 degrees.
 
     Returns:
         ``{true_overcast, overcast, method, azimuth_error_deg, elevation_error_deg}`` (errors
@@ -277,7 +278,7 @@ def light_errors(stage: Usd.Stage, gt: GroundTruth) -> dict[str, Any] | None:
     method = str(lights.GetAttribute("usdworld:lightMethod").Get())
     sun = lighting_from_stage(stage).sun_direction_world
     truth = gt.sun_direction_world
-    both_sunny = method == "cast_shadows" and not gt.overcast
+    both_sunny = method in ("cast_shadows", "weak_fit") and not gt.overcast
     az = math.degrees(math.atan2(sun[1], sun[0]) - math.atan2(truth[1], truth[0]))
     az = abs((az + 180.0) % 360.0 - 180.0)
     el = abs(math.degrees(math.asin(min(sun[2], 1.0)) - math.asin(min(truth[2], 1.0))))

@@ -85,6 +85,23 @@ class LightParams:
         "geometry: a car's shadow under a sun 70 degrees high covers about 1 % of the ring its "
         "reach spans (the sunny synthetic scenes: 5 to 45 %; the overcast ones: 0)",
     )
+    min_fit_iou: float = param(
+        1.0 / 3.0,
+        "fraction",
+        "Least overlap (weighted intersection over union) of the predicted and the observed "
+        "shadows for the fitted sun to be used; a weaker fit gives the default sun "
+        "(method weak_fit).",
+        "geometry: two equal shadows overlapping by half their area have an IoU of 1/3 (the "
+        "fit then explains no more of the shadows than it gets wrong)",
+    )
+    min_fit_casters: int = param(
+        2,
+        "count",
+        "Least number of casters whose shadow at the fitted sun meets shadowed ground for the "
+        "fit to be used; fewer gives the default sun (method weak_fit).",
+        "geometry: one caster's shadow is one direction and one length, which one shadow of "
+        "something unseen can mimic; two casters' shadows must agree",
+    )
     max_caster_range_m: float = param(
         40.0,
         "m",
@@ -110,5 +127,7 @@ class LightParams:
             raise ValueError(f"light.lit_percentile must be in (0, 100), got {self.lit_percentile}")
         if not (self.coarse_step_deg > 0 and self.reach_max_m > 0 and self.samples_per_side >= 4):
             raise ValueError("light: coarse_step_deg and reach_max_m must be > 0, samples_per_side >= 4")
+        if not (0.0 <= self.min_fit_iou < 1.0 and self.min_fit_casters >= 1):
+            raise ValueError("light: min_fit_iou must be in [0, 1) and min_fit_casters >= 1")
         if not 0.0 < self.sky_top_fraction <= 0.5:
             raise ValueError(f"light.sky_top_fraction must be in (0, 0.5], got {self.sky_top_fraction}")

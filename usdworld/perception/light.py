@@ -14,7 +14,12 @@ object, or not ground) are left out, so a shadow hidden behind its own caster co
 Sunny or overcast: direct sun makes a lit surface 3 to 10 times brighter than one in
 shadow; under an overcast sky nothing casts a shadow, so the share of shadowed samples
 around the casters (each caster's ring weighing the same) decides; the fit runs only
-for a sunny photo.
+for a sunny photo. A fit that explains little is not trusted: when its predicted and
+observed shadows overlap less than two equal shadows shifted by half their area do (IoU
+``min_fit_iou``) or its predicted shadows meet shadowed ground next to fewer than
+``min_fit_casters`` casters (one caster's shadow is one direction and one length, easily
+mimicked by a shadow of something unseen), the method is ``weak_fit`` and the sun is the
+caller's default.
 
 The sky's colour: the median linear RGB of the top and the bottom rows of its pixels
 (the sky labels when given, else the smooth bright part of the image above the horizon).
@@ -37,8 +42,9 @@ from usdworld.perception.colour_space import uint8_to_linear
 #: Rec. 709 luminance weights of linear RGB.
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 
-#: How the sun was found: cast shadows fitted, overcast (no shadows), or no evidence at all.
-METHODS = ("cast_shadows", "overcast", "no_evidence")
+#: How the sun was found: cast shadows fitted, a fit too weak to trust (the default sun),
+#: overcast (no shadows), or no evidence at all.
+METHODS = ("cast_shadows", "weak_fit", "overcast", "no_evidence")
 
 
 @dataclass(frozen=True)
@@ -70,9 +76,10 @@ class LightEstimate:
     """The sun and sky found in a photo.
 
     Attributes:
-        method: ``cast_shadows`` (the sun fitted to shadows), ``overcast`` (too few shadowed
-            samples around the casters) or ``no_evidence`` (no caster with visible ground
-            around it; the sun is the caller's default).
+        method: ``cast_shadows`` (the sun fitted to shadows), ``weak_fit`` (a fit that
+            explains too little; the sun is the caller's default), ``overcast`` (too few
+            shadowed samples around the casters) or ``no_evidence`` (no caster with visible
+            ground around it; the sun is the caller's default).
         overcast: True when the photo shows no direct sun.
         sun_azimuth: radians from world +X towards +Y of the direction towards the sun
             (meaningful only for ``cast_shadows``; the default otherwise).
@@ -81,9 +88,11 @@ class LightEstimate:
             when none is shadowed, NaN when unmeasured).
         shadow_share: share of the ground samples around the casters that is shadowed (each
             caster's ring weighing the same; NaN when unmeasured).
-        fit_iou: overlap of the predicted and the observed shadows at the fit (NaN unless fitted).
+        fit_iou: overlap of the predicted and the observed shadows at the fit (NaN unless
+            fitted; ``weak_fit`` keeps the weak fit's).
         casters: how many casters had visible ground around them.
         shadow_samples: ground samples inside the fitted shadows (0 unless fitted).
+        fit_casters: casters whose shadow at the fit meets shadowed ground (0 unless fitted).
         sky_zenith_linear: (3,) float64 linear RGB of the top of the sky (NaN when no sky is seen).
         sky_horizon_linear: (3,) float64 linear RGB of the sky near the horizon (NaN when none).
         sky_source: ``labels``, ``image`` (the bright smooth region above the horizon) or ``none``.
@@ -98,6 +107,7 @@ class LightEstimate:
     fit_iou: float
     casters: int
     shadow_samples: int
+    fit_casters: int
     sky_zenith_linear: np.ndarray
     sky_horizon_linear: np.ndarray
     sky_source: str
@@ -352,6 +362,7 @@ class _Pairs:
     """Every (sample, caster) pair within the caster's reach, flattened for vectorised tests."""
 
     sample: np.ndarray  # (P,) sample index
+    caster: np.ndarray  # (P,) caster index
     normals: np.ndarray  # (P, K, 2) the caster's footprint half-planes
     slack: np.ndarray  # (P, K) a . p - b
     height: np.ndarray  # (P,) the caster's height, m
@@ -384,6 +395,7 @@ def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
         radius.append(np.full(len(near), float(np.max(np.linalg.norm(hull - centre, axis=1)))))
     return _Pairs(
         np.concatenate(samples.neighbours),
+        np.concatenate([np.full(len(near), i) for i, near in enumerate(samples.neighbours)]),
         np.concatenate(normals),
         np.concatenate(slack),
         np.concatenate(height),
@@ -405,6 +417,18 @@ def _predicted(
     ``strips`` caches, per azimuth, the pairs across the shadow's strip and their distance
     along it (the same for every elevation).
     """
+    inside = _pairs_in_shadow(pairs, azimuth, elevation, reach_max_m, strips)
+    return np.bincount(pairs.sample, weights=inside, minlength=n_samples) > 0
+
+
+def _pairs_in_shadow(
+    pairs: _Pairs,
+    azimuth: float,
+    elevation: float,
+    reach_max_m: float,
+    strips: dict[float, tuple[np.ndarray, np.ndarray]] | None = None,
+) -> np.ndarray:
+    """(P,) bool: each pair's sample lies in its caster's shadow for a sun at (azimuth, elevation)."""
     length = np.minimum(pairs.height / math.tan(elevation), reach_max_m)
     away = -np.array([math.cos(azimuth), math.sin(azimuth)])
     # The swept footprint lies inside its bounding disc swept along the shadow, a stadium:
@@ -423,7 +447,7 @@ def _predicted(
     near = band[along_band <= length[band] + margin[band]]
     inside = np.zeros(len(pairs.sample), dtype=bool)
     inside[near] = in_swept(pairs.slack[near], (pairs.normals[near] @ away) * length[near, None])
-    return np.bincount(pairs.sample, weights=inside, minlength=n_samples) > 0
+    return inside
 
 
 def _overlap(pred: np.ndarray, observed: np.ndarray, weight: np.ndarray) -> float:
@@ -447,14 +471,15 @@ def sample_weights(samples: _Samples) -> np.ndarray:
 
 def fit_sun(
     casters: Sequence[ShadowCaster], samples: _Samples, params: LightParams
-) -> tuple[float, float, float, np.ndarray]:
+) -> tuple[float, float, float, np.ndarray, int]:
     """The azimuth and elevation whose predicted shadows overlap the observed ones best.
 
     A grid of ``coarse_step_deg`` over all azimuths and the elevation range, then a grid a
     third as fine around the best cell, then one of one degree.
 
     Returns:
-        azimuth (rad), elevation (rad), the overlap (weighted IoU) and the (N,) bool predicted shadow.
+        azimuth (rad), elevation (rad), the overlap (weighted IoU), the (N,) bool predicted
+        shadow and how many casters' shadows at the fit meet shadowed samples.
     """
     observed = samples.relative < 1.0 / params.sunny_min_contrast
     weight = sample_weights(samples)
@@ -476,8 +501,10 @@ def fit_sun(
         offsets = np.arange(-3, 4) * fine
         best = max([best] + [score(az0 + da, el0 + de) for da in offsets for de in offsets])
     overlap, az, el = best
-    pred = _predicted(pairs, n, math.radians(az), math.radians(el), params.reach_max_m)
-    return math.radians(az), math.radians(el), overlap, pred
+    inside = _pairs_in_shadow(pairs, math.radians(az), math.radians(el), params.reach_max_m)
+    pred = np.bincount(pairs.sample, weights=inside, minlength=n) > 0
+    meeting = len(np.unique(pairs.caster[inside & observed[pairs.sample]]))
+    return math.radians(az), math.radians(el), overlap, pred, meeting
 
 
 def sky_colours(
@@ -566,7 +593,7 @@ def estimate_light(
     common = {"sky_zenith_linear": zenith, "sky_horizon_linear": horizon, "sky_source": source}
     if not used:
         return LightEstimate(
-            "no_evidence", False, default_azimuth, default_elevation, math.nan, math.nan, math.nan, 0, 0, **common
+            "no_evidence", False, default_azimuth, default_elevation, math.nan, math.nan, math.nan, 0, 0, 0, **common
         )
     users = [casters[i] for i in used]
     dark = samples.relative < 1.0 / params.sunny_min_contrast
@@ -575,9 +602,13 @@ def estimate_light(
     contrast = float(1.0 / max(np.median(samples.relative[dark]), 1e-6)) if np.any(dark) else 1.0
     if share < params.min_shadow_share:
         return LightEstimate(
-            "overcast", True, default_azimuth, default_elevation, contrast, share, math.nan, len(used), 0, **common
+            "overcast", True, default_azimuth, default_elevation, contrast, share, math.nan, len(used), 0, 0, **common
         )
-    az, el, score, pred = fit_sun(users, samples, params)
+    az, el, score, pred, meeting = fit_sun(users, samples, params)
     n_shadow = int(np.count_nonzero(pred))
-    return LightEstimate("cast_shadows", False, az, el, contrast, share, score, len(used), n_shadow, **common)
+    if score < params.min_fit_iou or meeting < params.min_fit_casters:
+        az, el, method = default_azimuth, default_elevation, "weak_fit"
+    else:
+        method = "cast_shadows"
+    return LightEstimate(method, False, az, el, contrast, share, score, len(used), n_shadow, meeting, **common)
 

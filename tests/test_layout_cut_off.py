@@ -124,13 +124,30 @@ def test_a_car_cut_at_the_bottom_and_a_side_uses_no_width_and_stays_within_its_b
     assert 0.0 < front.depth_m < bound
 
 
-def test_an_object_cut_at_the_top_and_bottom_keeps_its_bound() -> None:
+def test_a_truck_cut_at_the_top_bottom_and_side_is_placed_in_the_middle_of_its_bounds() -> None:
+    """With no cue still seen, the uniform prior within (near plane, bound] decides: its middle.
+
+    A truck beside the camera, its rear 2 m ahead, fills the image's left edge from top to
+    bottom. The bound (the image's bottom row's ground, nearer than the cut height's depth)
+    is the farthest it can be; the middle of the interval is the median of the uniform prior.
+    """
     camera = _camera(1.65)
-    box = np.array([-20.0, -30.0, 400.0, 500.0])
+    l, w, h = TABLE["truck"].size_m
+    box = _box_of(camera, (2.0 + l / 2, 2.5), (l, w, h))
     obj = _box_object(camera, "truck", box)
     assert obj.cut_sides == ("left", "top", "bottom")
     front = front_depth(obj, _ctx(camera, "truck"), None)
-    assert front.method in (DepthMethod.CONTACT_PARTIAL, DepthMethod.HEIGHT_PARTIAL)
+    assert front.method is DepthMethod.CUT_OFF
+    contact_bound = camera.fy * 1.65 / (obj.contact_px[1] - camera.cy)
+    height_bound = camera.fy * h / obj.height_px
+    hi = min(contact_bound, height_bound)
+    assert hi == pytest.approx(contact_bound)
+    assert front.depth_m == pytest.approx(0.5 * (PARAMS.near_plane_m + hi), rel=1e-9)
+    cue = {c.name: c for c in front.cues}["cut_off"]
+    assert "no cue still seen" in cue.note and "cut at left, top, bottom" in cue.note
+    assert cue.sigma_m == pytest.approx((hi - PARAMS.near_plane_m) / np.sqrt(12.0))
+    # Nearer the truth (2 m) than the bound the placement used to take (~5.9 m).
+    assert abs(front.depth_m - 2.0) < 0.5 * abs(hi - 2.0)
 
 
 def test_border_sides() -> None:

@@ -305,13 +305,15 @@ def cut_off_front_depth(
     * the width across the image (when both sides are seen): :func:`_width_cue`.
 
     The depth is the median of that product restricted to the interval (a uniform prior in
-    depth within the bounds); with no cue still seen, None (the bound alone decides,
-    :func:`partial_front_depth`). A dense depth map, when given, is fused before this is
+    depth within the bounds). With no cue still seen (a box cut at its top and its sides as
+    well) the uniform prior alone decides: the middle of the interval, not its upper end (a
+    bound is the farthest the object can be, and taking it put a truck filling KITTI
+    000019's left edge 78 % too far). A dense depth map, when given, is fused before this is
     reached (:func:`front_depth`).
 
     Returns:
         (front depth in metres, :attr:`DepthMethod.CUT_OFF`, a ``cut_off`` cue whose note
-        names the cut sides, the cues used and the bounds), or None.
+        names the cut sides, the cues used and the bounds), or None when nothing bounds it.
     """
     camera = ctx.camera
     bounds: list[tuple[float, str]] = []
@@ -335,7 +337,13 @@ def cut_off_front_depth(
     if width is not None:
         gaussians.append((width[0], width[1], "width"))
     if not gaussians:
-        return None
+        depth = 0.5 * (lo + hi)
+        note = (
+            f"cut at {', '.join(obj.cut_sides)}: no cue still seen; the middle of ({lo:g}, {hi:.2f}] m "
+            f"(upper bound from the {hi_name})"
+        )
+        # The spread of a uniform distribution over the interval.
+        return depth, DepthMethod.CUT_OFF, DepthCue("cut_off", depth, (hi - lo) / np.sqrt(12.0), note)
     weights = np.array([1.0 / s**2 for _, s, _ in gaussians])
     mean = float(np.sum(weights * np.array([m for m, _, _ in gaussians])) / weights.sum())
     sigma = float(1.0 / np.sqrt(weights.sum()))

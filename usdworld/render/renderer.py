@@ -9,7 +9,9 @@ Example:
 
 Passes (one draw call each, no multisampling anywhere, so every id pixel is exact):
 
-1. shadow: depth from an orthographic sun camera into a ``shadow_map_size``\u00b2 depth texture;
+1. shadow: depth from an orthographic sun camera into a ``shadow_map_size``\u00b2 depth texture
+   its box follows the view, or is fixed once for a whole camera path over a static scene
+   (:meth:`Renderer.fix_shadow_box`: the fly-through draws it once);
 2. colour: sky gradient, then Blinn-Phong + hemisphere ambient with a 3x3 PCF shadow
    lookup (normal offset + small bias), gamma-encoded to 8 bits;
 3. labels: class id, instance id and object index as int32 and the OpenCV camera depth
@@ -28,7 +30,7 @@ from usdworld.errors import UsdWorldError
 from usdworld.render import shaders
 from usdworld.render.camera import check_intrinsics, gl_projection, gl_view
 from usdworld.render.context import RenderError, create_context
-from usdworld.render.lighting import Lighting, sun_view_projection
+from usdworld.render.lighting import Lighting, PathShadow, path_shadow, sun_view_projection
 from usdworld.render.scene import RenderScene
 
 log = logging.getLogger(__name__)
@@ -130,11 +132,7 @@ class Renderer:
                 "label": ctx.program(vertex_shader=shaders.LABEL_VS, fragment_shader=shaders.LABEL_FS),
             }
             size = (self.width, self.height)
-            s = self.lighting.shadow_map_size
-            self._shadow_tex = ctx.depth_texture((s, s))
-            self._shadow_tex.compare_func = "<="
-            self._shadow_tex.repeat_x = self._shadow_tex.repeat_y = False
-            self._shadow_fbo = ctx.framebuffer(depth_attachment=self._shadow_tex)
+            self._make_shadow_target(self.lighting.shadow_map_size)
             self._color_fbo = ctx.framebuffer(
                 color_attachments=[ctx.renderbuffer(size, 4, dtype="f1")],
                 depth_attachment=ctx.depth_renderbuffer(size),
@@ -154,6 +152,7 @@ class Renderer:
             raise RenderError(f"OpenGL setup failed: {' '.join(str(exc).split())}") from exc
         self._buffers: _SceneBuffers | None = None
         self._shadow_key: tuple[int, bytes] | None = None
+        self._path_shadow: tuple[RenderScene, PathShadow] | None = None
 
     # -- lifetime -------------------------------------------------------------------
 
@@ -223,7 +222,7 @@ class Renderer:
             _write(lit, "u_shininess", float(lt.shininess))
             _write(lit, "u_inv_gamma", 1.0 / lt.gamma)
             _write(lit, "u_normal_offset", 1.5 * texel)
-            _write(lit, "u_texel", 1.0 / lt.shadow_map_size)
+            _write(lit, "u_texel", 1.0 / self._shadow_size)
             _write(lit, "u_shadow_map", 0)
             self._shadow_tex.use(location=0)
             ctx.enable(ctx.DEPTH_TEST)
@@ -270,7 +269,60 @@ class Renderer:
         self._shadow_pass(scene, buffers, K, world_from_cam)
         self._context().finish()
 
+    def fix_shadow_box(
+        self, scene: RenderScene, K: np.ndarray, poses_world_from_cam: np.ndarray
+    ) -> PathShadow:
+        """Use one shadow map for every view of a camera path over this (static) scene.
+
+        The sun's box holds the box each view would get on its own, and the map is enlarged
+        (up to the GL texture limit) so that its texels are no coarser than the first view's
+        own (:func:`~usdworld.render.lighting.path_shadow`). The map is drawn at the next
+        colour render and reused by every later one of ``scene`` from any pose, until another
+        scene is rendered or this is called again. A shadow box that follows each view
+        re-draws the map whenever the camera moves.
+
+        Args:
+            scene: the scene the path is rendered in; it must not change along the path
+                (a RenderScene is immutable: movers mean another scene, which ends the fixed box).
+            K: (3, 3) float64 camera matrix of the path's views.
+            poses_world_from_cam: (N, 4, 4) float64 poses of the path, the reference view first.
+
+        Returns:
+            The box, map size and texel sizes used.
+        """
+        ctx = self._context()
+        K = check_intrinsics(K)
+        limit = int(ctx.info.get("GL_MAX_TEXTURE_SIZE", MAX_SIZE))
+        bounds = scene.bounds_world()
+        size = (self.width, self.height)
+        shadow = path_shadow(self.lighting, bounds, K, poses_world_from_cam, *size, min(limit, MAX_SIZE))
+        if float(np.max(shadow.texel_m / shadow.first_view_texel_m)) > 1.0 + 1e-9:
+            log.info(
+                "fly-through shadow map capped at %d texels: texels %.3f m, the first view alone has %.3f m",
+                shadow.map_size,
+                float(np.max(shadow.texel_m)),
+                float(np.max(shadow.first_view_texel_m)),
+            )
+        if shadow.map_size != self._shadow_size:
+            self._release_shadow_target()
+            self._make_shadow_target(shadow.map_size)
+        self._path_shadow = (scene, shadow)
+        self._shadow_key = None
+        return shadow
+
     # -- internals ----------------------------------------------------------------------
+
+    def _make_shadow_target(self, size: int) -> None:
+        ctx = self._context()
+        self._shadow_tex = ctx.depth_texture((size, size))
+        self._shadow_tex.compare_func = "<="
+        self._shadow_tex.repeat_x = self._shadow_tex.repeat_y = False
+        self._shadow_fbo = ctx.framebuffer(depth_attachment=self._shadow_tex)
+        self._shadow_size = size
+
+    def _release_shadow_target(self) -> None:
+        self._shadow_fbo.release()
+        self._shadow_tex.release()
 
     def _context(self) -> Any:
         if self._ctx is None:
@@ -306,9 +358,19 @@ class Renderer:
     def _shadow_pass(
         self, scene: RenderScene, buffers: _SceneBuffers, K: np.ndarray, world_from_cam: np.ndarray
     ) -> tuple[np.ndarray, float]:
-        sun_vp, texel = sun_view_projection(
-            self.lighting, scene.bounds_world(), K, world_from_cam, self.width, self.height
-        )
+        fixed = self._path_shadow
+        if fixed is not None and fixed[0] is scene:
+            sun_vp, texel = fixed[1].sun_vp, float(np.max(fixed[1].texel_m))
+        else:
+            if fixed is not None:  # another scene: back to a box that follows the view
+                self._path_shadow = None
+                if self._shadow_size != self.lighting.shadow_map_size:
+                    self._release_shadow_target()
+                    self._make_shadow_target(self.lighting.shadow_map_size)
+                    self._shadow_key = None
+            sun_vp, texel = sun_view_projection(
+                self.lighting, scene.bounds_world(), K, world_from_cam, self.width, self.height
+            )
         key = (id(scene), sun_vp.astype(np.float32).tobytes())
         if key != self._shadow_key and buffers.n_vertices:
             self._draw_shadow_map(buffers, sun_vp)

@@ -61,8 +61,9 @@ def test_path_box_holds_every_view_box_with_texels_no_coarser_than_the_first(x, 
         corners = _clip_square_world(own)
         clip = np.c_[corners, np.ones(8)] @ shadow.sun_vp.T
         assert np.all(np.abs(clip[:, :2] / clip[:, 3:]) <= 1.0 + 1e-6)
-    assert np.all(shadow.texel_m <= shadow.first_view_texel_m * (1.0 + 1e-9))
-    assert shadow.map_size >= size
+    assert size <= shadow.map_size <= 16384
+    if shadow.map_size < 16384:  # else the texture limit binds (the next test)
+        assert np.all(shadow.texel_m <= shadow.first_view_texel_m * (1.0 + 1e-9))
     if len(poses) == 1:  # one view: its own box, at its own size
         own, texel = sun_view_projection(lighting, BOUNDS, K, poses[0], W, H)
         assert shadow.map_size == size
@@ -105,3 +106,48 @@ def test_fixed_shadow_box_draws_the_map_once_and_keeps_the_shadows(monkeypatch: 
         d = np.abs(a.astype(int) - b.astype(int))
         assert d.mean() < 0.2 and np.mean(d.max(axis=2) > 8) < 0.01, (d.mean(), np.mean(d.max(axis=2) > 8))
     assert shaded > 500  # the path sees the shadow
+
+
+# -- the colour pass shades what is seen ---------------------------------------------------
+
+
+class _CountingVao:
+    """Stands in for a vertex array and counts the samples its draws pass (GL occlusion query)."""
+
+    def __init__(self, ctx, vao) -> None:
+        self.ctx, self.vao, self.samples = ctx, vao, []
+
+    def render(self, **kwargs) -> None:
+        query = self.ctx.query(samples=True)
+        with query:
+            self.vao.render(**kwargs)
+        self.samples.append(query.samples)
+
+    def release(self) -> None:
+        self.vao.release()
+
+
+def test_colour_pass_shades_each_seen_pixel_once_and_ties_go_to_the_first_surface() -> None:
+    cam = camera(pitch=0.12, roll=0.0, yaw=0.0)
+    stage = new_stage()
+    box(stage, "/World/Road", (-5, -10, -0.1), (60, 10, 0), color=(0.3, 0.3, 0.3), cls="road")
+    # drawn after the road, at exactly its height: a tie the road wins in every pass
+    box(stage, "/World/Patch", (5, -3, -0.1), (20, 3, 0), color=(0.9, 0.1, 0.1), cls="sidewalk")
+    # far wall first, near wall last: a near-to-far draw would shade the far one where hidden
+    box(stage, "/World/Far", (30, -8, 0), (31, 8, 6), color=(0.1, 0.1, 0.9), cls="building")
+    box(stage, "/World/Near", (10, -2, 0), (10.5, 2, 3), color=(0.1, 0.9, 0.1), cls="wall")
+    scene = RenderScene.from_stage(stage)
+    with Renderer(W, H, lighting=Lighting(sun_direction_world=SUN)) as r:
+        labels = r.render_labels(scene, cam.K, cam.world_from_cam())[0]
+        r.render_rgb(scene, cam.K, cam.world_from_cam())  # uploads the scene
+        counting = _CountingVao(r._ctx, r._buffers.vaos["lit"])
+        r._buffers.vaos["lit"] = counting
+        rgb = r.render_rgb(scene, cam.K, cam.world_from_cam())
+    seen = int(np.sum(labels > 0))
+    # once each, but for the few pixels where two surfaces tie in depth (both pass "<=")
+    shaded = counting.samples
+    assert len(shaded) == 1 and seen <= shaded[0] <= 1.005 * seen, (shaded, seen)
+    # where the road and the patch tie in depth, the colour shows the surface the labels show
+    red = (rgb[..., 0].astype(int) - rgb[..., 1]) > 60
+    assert np.any(labels == 8) and np.any(labels == 7)
+    assert np.array_equal(red[(labels == 7) | (labels == 8)], labels[(labels == 7) | (labels == 8)] == 8)

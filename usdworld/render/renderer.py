@@ -9,7 +9,7 @@ Example:
 
 Passes (one draw call each, no multisampling anywhere, so every id pixel is exact):
 
-1. shadow: depth from an orthographic sun camera into a ``shadow_map_size``\u00b2 depth texture
+1. shadow: depth from an orthographic sun camera into a ``shadow_map_size``\u00b2 depth texture;
    its box follows the view, or is fixed once for a whole camera path over a static scene
    (:meth:`Renderer.fix_shadow_box`: the fly-through draws it once);
 2. colour: sky gradient, then Blinn-Phong + hemisphere ambient with a 3x3 PCF shadow
@@ -84,8 +84,20 @@ class _SceneBuffers:
         vbo_i = ctx.buffer(np.ascontiguousarray(ints, dtype="i4").tobytes())
         self.buffers = [vbo_f, vbo_i]
         self.vaos["shadow"] = ctx.vertex_array(programs["shadow"], [(vbo_f, "3f 24x", "in_pos")])
+        self.vaos["depth"] = ctx.vertex_array(programs["depth"], [(vbo_f, "3f 24x", "in_pos")])
+        # The colour pass draws the triangles last to first after a depth pre-pass: with the "<="
+        # test the last of the fragments at the nearest depth wins, which in reverse order is the
+        # first, as in one "<" pass (so where two surfaces tie in depth the same one shows).
+        n_tri = self.n_vertices // 3
+        last_first = np.arange(n_tri - 1, -1, -1, dtype=np.int32)[:, None] * 3
+        reverse = (last_first + np.arange(3, dtype=np.int32)).ravel()
+        ibo = ctx.buffer(reverse.tobytes())
+        self.buffers.append(ibo)
         self.vaos["lit"] = ctx.vertex_array(
-            programs["lit"], [(vbo_f, "3f 3f 3f", "in_pos", "in_normal", "in_color")]
+            programs["lit"],
+            [(vbo_f, "3f 3f 3f", "in_pos", "in_normal", "in_color")],
+            index_buffer=ibo,
+            index_element_size=4,
         )
         self.vaos["label"] = ctx.vertex_array(
             programs["label"], [(vbo_f, "3f 24x", "in_pos"), (vbo_i, "3i", "in_ids")]
@@ -128,6 +140,7 @@ class Renderer:
             self._programs = {
                 "shadow": ctx.program(vertex_shader=shaders.SHADOW_VS, fragment_shader=shaders.SHADOW_FS),
                 "sky": ctx.program(vertex_shader=shaders.SKY_VS, fragment_shader=shaders.SKY_FS),
+                "depth": ctx.program(vertex_shader=shaders.DEPTH_VS, fragment_shader=shaders.DEPTH_FS),
                 "lit": ctx.program(vertex_shader=shaders.LIT_VS, fragment_shader=shaders.LIT_FS),
                 "label": ctx.program(vertex_shader=shaders.LABEL_VS, fragment_shader=shaders.LABEL_FS),
             }
@@ -226,7 +239,14 @@ class Renderer:
             _write(lit, "u_shadow_map", 0)
             self._shadow_tex.use(location=0)
             ctx.enable(ctx.DEPTH_TEST)
+            # Depth first, then shade only the fragment that is seen (no shading of hidden ones).
+            _write(self._programs["depth"], "u_view_proj", view_proj)
+            self._color_fbo.color_mask = (False, False, False, False)
+            buffers.vaos["depth"].render(mode=ctx.TRIANGLES)
+            self._color_fbo.color_mask = (True, True, True, True)
+            ctx.depth_func = "<="
             buffers.vaos["lit"].render(mode=ctx.TRIANGLES)
+            ctx.depth_func = "<"
         data = self._color_fbo.read(components=3, alignment=1)
         ctx.finish()
         return np.frombuffer(data, dtype=np.uint8).reshape(self.height, self.width, 3)[::-1].copy()

@@ -7,13 +7,14 @@ Example:
     >>> result.rgb.shape, result.class_ids.dtype                   # doctest: +SKIP
     ((512, 1024, 3), dtype('int32'))
 
-Passes (one draw call each, no multisampling anywhere, so every id pixel is exact):
+Passes (one draw call each, two for the colour; no multisampling anywhere, so every id pixel is exact):
 
 1. shadow: depth from an orthographic sun camera into a ``shadow_map_size``\u00b2 depth texture;
    its box follows the view, or is fixed once for a whole camera path over a static scene
    (:meth:`Renderer.fix_shadow_box`: the fly-through draws it once);
 2. colour: sky gradient, then Blinn-Phong + hemisphere ambient with a 3x3 PCF shadow
-   lookup (normal offset + small bias), gamma-encoded to 8 bits;
+   lookup (normal offset + small bias), gamma-encoded to 8 bits; a depth-only pre-pass
+   first, so only the nearest surface of each pixel is shaded;
 3. labels: class id, instance id and object index as int32 and the OpenCV camera depth
    ``z`` in metres as float32 (0 where no surface was hit) in one multi-target pass.
 """
@@ -179,6 +180,7 @@ class Renderer:
         """Release the GL context and everything on it (idempotent)."""
         if self._ctx is None:
             return
+        self._ctx.__enter__()  # release this context's objects, not those of the one current now
         if self._buffers is not None:
             self._buffers.release()
             self._buffers = None
@@ -345,8 +347,10 @@ class Renderer:
         self._shadow_tex.release()
 
     def _context(self) -> Any:
+        """The GL context, made current: another Renderer made and closed since leaves none current."""
         if self._ctx is None:
             raise RenderError("this Renderer is closed; create a new one")
+        self._ctx.__enter__()  # eglMakeCurrent (the matching exit would only restore the previous context)
         return self._ctx
 
     def _check_camera(self, K: np.ndarray, world_from_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

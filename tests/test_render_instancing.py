@@ -145,3 +145,43 @@ def test_culling_an_empty_scene() -> None:
     cam = camera()
     scene = RenderScene.from_stage(stage, cull=ViewCull(cam.K, cam.world_from_cam(), W, H, None))
     assert scene.n_triangles == 0 and scene.objects == ()
+
+
+def test_objects_with_their_own_paint_share_one_read_of_the_asset_meshes(tmp_path, monkeypatch) -> None:
+    """As a world's base layer writes them: each object's variant body paints the asset's material."""
+    from pxr import UsdShade
+
+    import usdworld.render.usd_mesh as usd_mesh
+
+    asset = Usd.Stage.CreateNew(str(tmp_path / "painted.usda"))
+    UsdGeom.SetStageUpAxis(asset, UsdGeom.Tokens.z)
+    root = UsdGeom.Xform.Define(asset, "/thing").GetPrim()
+    asset.SetDefaultPrim(root)
+    label(root, "car")
+    body = box(asset, "/thing/Geom/body", (-1, -1, 0), (1, 1, 1.5))
+    box(asset, "/thing/Geom/roof", (-0.8, -0.8, 1.5), (0.8, 0.8, 1.8), color=(0.2, 0.2, 0.2))
+    material = UsdShade.Material.Define(asset, "/thing/Looks/paint")
+    shader = UsdShade.Shader.Define(asset, "/thing/Looks/paint/PreviewSurface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.5, 0.5, 0.5))
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(body.GetPrim()).Bind(material)
+    asset.Save()
+    stage = new_stage()
+    for i in range(4):
+        xf = obj(stage, f"thing_{i}", "car", (8.0 + 4.0 * i, -3.0 + 2.0 * i, 0.0))
+        xf.GetPrim().GetReferences().AddReference(asset.GetRootLayer().identifier)
+        paint = UsdShade.Shader(stage.OverridePrim(f"/World/Objects/thing_{i}/Looks/paint/PreviewSurface"))
+        paint.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.2 * i, 0.1, 0.9 - 0.2 * i))
+    reads = []
+    real = usd_mesh.read_topology
+    monkeypatch.setattr(usd_mesh, "read_topology", lambda mesh, *a: (reads.append(1), real(mesh, *a))[1])
+    scene = RenderScene.from_stage(stage)
+    assert len(reads) == 2  # body and roof, once for the four objects
+    positions, normals, colors = _one_by_one(stage)
+    assert np.array_equal(scene.positions_world, positions.astype(np.float32))
+    assert np.array_equal(scene.normals_world, normals.astype(np.float32))
+    assert np.array_equal(scene.colors, colors.astype(np.float32))
+    painted = scene.colors[scene.class_ids > 0].astype(np.float64)
+    bodies = {tuple(np.round(c, 4).tolist()) for c in painted}
+    assert {(round(0.2 * i, 4), 0.1, round(0.9 - 0.2 * i, 4)) for i in range(4)} <= bodies

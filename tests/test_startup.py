@@ -64,3 +64,25 @@ def test_a_named_sub_command_builds_only_its_own_command() -> None:
     assert commands_for(["--debug", "build", "photo.png"]) == ("build",)
     for args in ([], ["--help"], ["-q"], ["bogus"], ["--debug", "--help"]):
         assert commands_for(args) == tuple(COMMANDS)
+
+
+def test_reading_a_render_scene_loads_neither_the_world_writer_nor_numpy_ma() -> None:
+    """``usdworld render`` opens a world and reads its meshes: no authoring of worlds, no masked arrays."""
+    probe = (
+        "import json, sys\n"
+        "import usdworld.authoring.inspect\n"
+        "from pxr import Usd, UsdGeom\n"
+        "from usdworld.render.scene import RenderScene\n"
+        "stage = Usd.Stage.CreateInMemory()\n"
+        "mesh = UsdGeom.Mesh.Define(stage, '/World/quad')\n"
+        "mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)])\n"
+        "mesh.CreateFaceVertexCountsAttr([4])\n"
+        "mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])\n"
+        "assert RenderScene.from_stage(stage).n_triangles == 2\n"
+        "print(json.dumps(sorted(sys.modules)))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe], cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True, text=True, check=True
+    )
+    loaded = set(json.loads(out.stdout.splitlines()[-1]))
+    assert not loaded & {"usdworld.authoring.world", "usdworld.authoring.appearance", "numpy.ma"}

@@ -66,7 +66,8 @@ def _frames_alone(world: Path, frames: int, width: int, height: int) -> tuple[fl
     scene = RenderScene.from_stage(stage)
     poses = fly.flythrough_poses(source.world_from_cam, frames, fly.clear_path(fly.FlythroughPath(), scene, source.world_from_cam))
     with Renderer(width, height) as renderer:
-        renderer.render_rgb(scene, K, poses[0])  # context and upload, as the fly-through's first frame
+        renderer.fix_shadow_box(scene, K, poses)  # one shadow map for the path, as render_flythrough
+        renderer.render_rgb(scene, K, poses[0])  # context, upload and shadow map, as the first frame
         t0 = time.perf_counter()
         images = [renderer.render_rgb(scene, K, pose) for pose in poses]
         return time.perf_counter() - t0, images

@@ -11,8 +11,8 @@ from pxr import Sdf, Usd, UsdSemantics
 
 from usdworld.authoring.provenance import read_values
 from usdworld.authoring.stages import open_stage
-from usdworld.authoring.world import OBJECTS_PATH, WORLD_PATH
 from usdworld.errors import InputError
+from usdworld.world_files import OBJECTS_PATH, WORLD_PATH
 
 
 def open_world(path: str | Path) -> Usd.Stage:

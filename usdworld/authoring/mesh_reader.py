@@ -143,7 +143,7 @@ def triangulate_polygons(
     corners, face = _fan(counts)
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
     concave_faces = []
-    for n in np.unique(counts[counts >= 4]):
+    for n in np.flatnonzero(np.bincount(counts[counts >= 4])):  # sizes present; np.unique imports numpy.ma
         faces_n = np.flatnonzero(counts == n)
         ring = points[indices[starts[faces_n][:, None] + np.arange(n)]]
         concave_faces.append(faces_n[_concave(ring)])

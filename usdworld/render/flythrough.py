@@ -381,6 +381,8 @@ def render_flythrough(
         Renderer(width, height, lighting=lighting) as renderer,
         Mp4Writer(output, width, height, fps=fps) as video,
     ):
+        # The scene is static along the path: one shadow map, drawn once, serves every frame.
+        renderer.fix_shadow_box(scene, K, poses)
         for i, pose in enumerate(poses):
             t0 = time.perf_counter()
             frame = renderer.render_rgb(scene, K, pose)

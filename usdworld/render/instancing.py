@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom
 
-from usdworld.render.usd_mesh import LocalMesh, read_local_mesh
+from usdworld.render.usd_mesh import GeometryCache, LocalMesh, read_local_mesh
 
 _LABEL_ATTR = "semantics:labels:class"
 _PRUNED_PURPOSES = (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
@@ -110,8 +110,15 @@ def prototype_key(prim: Usd.Prim, local_ids: frozenset[str], local_layers: list[
     )
 
 
-def read_prototype(prim: Usd.Prim, predicate: object) -> Prototype | None:
-    """The meshes below an object prim, in its frame; None when one resets the transform stack."""
+def read_prototype(
+    prim: Usd.Prim, predicate: object, geometry: GeometryCache | None = None
+) -> Prototype | None:
+    """The meshes below an object prim, in its frame; None when one resets the transform stack.
+
+    ``geometry`` shares the asset meshes' topology between prototypes (:func:`read_local_mesh`):
+    objects that differ only in their own material opinions are distinct prototypes of the
+    same meshes.
+    """
     root = prim.GetPath()
     labels: dict[Sdf.Path, str | None] = {root: None}
     chains: dict[Sdf.Path, tuple[Gf.Matrix4d, ...]] = {root: ()}
@@ -136,7 +143,7 @@ def read_prototype(prim: Usd.Prim, predicate: object) -> Prototype | None:
             chains[path] = chains[parent]
         if not p.IsA(UsdGeom.Mesh):
             continue
-        mesh = read_local_mesh(UsdGeom.Mesh(p))
+        mesh = read_local_mesh(UsdGeom.Mesh(p), geometry)
         if mesh is None:
             continue
         parts.append(Part(chains[path], mesh, labels[path]))

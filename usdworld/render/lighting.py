@@ -177,6 +177,54 @@ def frustum_corners_world(
     return cam @ world_from_cam[:3, :3].T + world_from_cam[:3, 3]
 
 
+def _light_from_world(lighting: Lighting) -> np.ndarray:
+    """(3, 3) rotation world -> sun frame (x, y across the sun's rays, z towards the sun)."""
+    d = lighting.sun_direction_world
+    up = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.99 else np.array([1.0, 0.0, 0.0])
+    x_axis = np.cross(up, d)
+    x_axis /= np.linalg.norm(x_axis)
+    y_axis = np.cross(d, x_axis)
+    return np.stack([x_axis, y_axis, d])
+
+
+def _view_box_light(
+    lighting: Lighting,
+    light_from_world: np.ndarray,
+    scene_l: np.ndarray,
+    K: np.ndarray,
+    world_from_cam: np.ndarray,
+    width: int,
+    height: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(2,) lower and (2,) upper corner, in the sun frame, of the box one view's shadows need."""
+    xy_lo, xy_hi = scene_l[:, :2].min(axis=0), scene_l[:, :2].max(axis=0)
+    if lighting.shadow_distance_m is not None:
+        frustum = frustum_corners_world(K, world_from_cam, width, height, 0.05, lighting.shadow_distance_m)
+        fr_l = frustum @ light_from_world.T
+        view_lo = np.maximum(xy_lo, fr_l[:, :2].min(axis=0))
+        view_hi = np.minimum(xy_hi, fr_l[:, :2].max(axis=0))
+        if np.all(view_hi > view_lo):  # else the camera looks away from the scene: the whole scene
+            xy_lo, xy_hi = view_lo, view_hi
+    return xy_lo, xy_hi
+
+
+def _ortho_view_projection(
+    light_from_world: np.ndarray, xy_lo: np.ndarray, xy_hi: np.ndarray, scene_l: np.ndarray
+) -> np.ndarray:
+    """(4, 4) world -> shadow clip space of the sun box ``xy_lo..xy_hi`` spanning the scene along the rays."""
+    light = np.eye(4)
+    light[:3, :3] = light_from_world
+    z_lo, z_hi = scene_l[:, 2].min() - 1.0, scene_l[:, 2].max() + 1.0
+    ortho = np.eye(4)
+    ortho[0, 0] = 2.0 / (xy_hi[0] - xy_lo[0])
+    ortho[1, 1] = 2.0 / (xy_hi[1] - xy_lo[1])
+    ortho[2, 2] = -2.0 / (z_hi - z_lo)  # GL: nearer the sun (larger z) -> smaller depth
+    ortho[0, 3] = -(xy_hi[0] + xy_lo[0]) / (xy_hi[0] - xy_lo[0])
+    ortho[1, 3] = -(xy_hi[1] + xy_lo[1]) / (xy_hi[1] - xy_lo[1])
+    ortho[2, 3] = (z_hi + z_lo) / (z_hi - z_lo)
+    return ortho @ light
+
+
 def sun_view_projection(
     lighting: Lighting,
     bounds_world: np.ndarray,
@@ -201,30 +249,75 @@ def sun_view_projection(
     Returns:
         (4, 4) float64 matrix world -> shadow clip space, and the texel size in metres.
     """
-    d = lighting.sun_direction_world
-    up = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.99 else np.array([1.0, 0.0, 0.0])
-    x_axis = np.cross(up, d)
-    x_axis /= np.linalg.norm(x_axis)
-    y_axis = np.cross(d, x_axis)
-    light_from_world = np.eye(4)
-    light_from_world[:3, :3] = np.stack([x_axis, y_axis, d])  # z = towards the sun
-    lo, hi = bounds_world[0] - 0.5, bounds_world[1] + 0.5
-    scene_l = _box_corners(lo, hi) @ light_from_world[:3, :3].T
-    xy_lo, xy_hi = scene_l[:, :2].min(axis=0), scene_l[:, :2].max(axis=0)
-    if lighting.shadow_distance_m is not None:
-        frustum = frustum_corners_world(K, world_from_cam, width, height, 0.05, lighting.shadow_distance_m)
-        fr_l = frustum @ light_from_world[:3, :3].T
-        xy_lo = np.maximum(xy_lo, fr_l[:, :2].min(axis=0))
-        xy_hi = np.minimum(xy_hi, fr_l[:, :2].max(axis=0))
-        if np.any(xy_hi <= xy_lo):  # the camera looks away from the scene
-            xy_lo, xy_hi = scene_l[:, :2].min(axis=0), scene_l[:, :2].max(axis=0)
-    z_lo, z_hi = scene_l[:, 2].min() - 1.0, scene_l[:, 2].max() + 1.0
-    ortho = np.eye(4)
-    ortho[0, 0] = 2.0 / (xy_hi[0] - xy_lo[0])
-    ortho[1, 1] = 2.0 / (xy_hi[1] - xy_lo[1])
-    ortho[2, 2] = -2.0 / (z_hi - z_lo)  # GL: nearer the sun (larger z) -> smaller depth
-    ortho[0, 3] = -(xy_hi[0] + xy_lo[0]) / (xy_hi[0] - xy_lo[0])
-    ortho[1, 3] = -(xy_hi[1] + xy_lo[1]) / (xy_hi[1] - xy_lo[1])
-    ortho[2, 3] = (z_hi + z_lo) / (z_hi - z_lo)
+    light_from_world = _light_from_world(lighting)
+    scene_l = _box_corners(bounds_world[0] - 0.5, bounds_world[1] + 0.5) @ light_from_world.T
+    xy_lo, xy_hi = _view_box_light(lighting, light_from_world, scene_l, K, world_from_cam, width, height)
     texel = float(max(xy_hi - xy_lo) / lighting.shadow_map_size)
-    return ortho @ light_from_world, texel
+    return _ortho_view_projection(light_from_world, xy_lo, xy_hi, scene_l), texel
+
+
+@dataclass(frozen=True)
+class PathShadow:
+    """One shadow map for every view of a camera path over a static scene.
+
+    Attributes:
+        sun_vp: (4, 4) float64 world -> shadow clip space.
+        map_size: side of the square shadow map, texels.
+        texel_m: (2,) float64 texel size across the sun's rays (sun-frame x, y), metres.
+        first_view_texel_m: (2,) float64 the texel size the first view has on its own
+            (:func:`sun_view_projection` with ``lighting.shadow_map_size``), metres.
+    """
+
+    sun_vp: np.ndarray
+    map_size: int
+    texel_m: np.ndarray
+    first_view_texel_m: np.ndarray
+
+
+def path_shadow(
+    lighting: Lighting,
+    bounds_world: np.ndarray,
+    K: np.ndarray,
+    poses_world_from_cam: np.ndarray,
+    width: int,
+    height: int,
+    max_map_size: int,
+) -> PathShadow:
+    """A shadow box that holds every view's own box, with texels no coarser than the first view's.
+
+    The box is the union, in the sun's frame, of the boxes :func:`sun_view_projection`
+    gives each view, so every shadow a view would have drawn is in it. The map is made
+    large enough (up to ``max_map_size``) that along both axes a texel is no larger than
+    the first view's own, which is the one the source camera sees.
+
+    Args:
+        lighting: sun direction and shadow settings.
+        bounds_world: (2, 3) float64 scene bounds ``[min, max]``.
+        K: (3, 3) float64 camera matrix of every view.
+        poses_world_from_cam: (N, 4, 4) float64 camera poses, the first being the reference view (N >= 1).
+        width: image width in pixels.
+        height: image height in pixels.
+        max_map_size: largest shadow map side allowed (the GL texture limit); when it binds
+            the texels are coarser than the first view's.
+
+    Returns:
+        The box's projection, map size and texel sizes.
+    """
+    poses = np.asarray(poses_world_from_cam, dtype=np.float64).reshape(-1, 4, 4)
+    if len(poses) == 0:
+        raise UsdWorldError("path_shadow: needs at least one pose")
+    light_from_world = _light_from_world(lighting)
+    scene_l = _box_corners(bounds_world[0] - 0.5, bounds_world[1] + 0.5) @ light_from_world.T
+    boxes = np.array(
+        [_view_box_light(lighting, light_from_world, scene_l, K, T, width, height) for T in poses]
+    )
+    xy_lo, xy_hi = boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)
+    first = (boxes[0, 1] - boxes[0, 0]) / lighting.shadow_map_size
+    size = int(np.ceil(np.max((xy_hi - xy_lo) / first) - 1e-9))
+    size = min(max(size, lighting.shadow_map_size), int(max_map_size))
+    return PathShadow(
+        sun_vp=_ortho_view_projection(light_from_world, xy_lo, xy_hi, scene_l),
+        map_size=size,
+        texel_m=(xy_hi - xy_lo) / size,
+        first_view_texel_m=first,
+    )

@@ -7,11 +7,14 @@ Example:
     >>> result.rgb.shape, result.class_ids.dtype                   # doctest: +SKIP
     ((512, 1024, 3), dtype('int32'))
 
-Passes (one draw call each, no multisampling anywhere, so every id pixel is exact):
+Passes (one draw call each, two for the colour; no multisampling anywhere, so every id pixel is exact):
 
 1. shadow: depth from an orthographic sun camera into a ``shadow_map_size``\u00b2 depth texture;
+   its box follows the view, or is fixed once for a whole camera path over a static scene
+   (:meth:`Renderer.fix_shadow_box`: the fly-through draws it once);
 2. colour: sky gradient, then Blinn-Phong + hemisphere ambient with a 3x3 PCF shadow
-   lookup (normal offset + small bias), gamma-encoded to 8 bits;
+   lookup (normal offset + small bias), gamma-encoded to 8 bits; a depth-only pre-pass
+   first, so only the nearest surface of each pixel is shaded;
 3. labels: class id, instance id and object index as int32 and the OpenCV camera depth
    ``z`` in metres as float32 (0 where no surface was hit) in one multi-target pass.
 """
@@ -28,7 +31,7 @@ from usdworld.errors import UsdWorldError
 from usdworld.render import shaders
 from usdworld.render.camera import check_intrinsics, gl_projection, gl_view
 from usdworld.render.context import RenderError, create_context
-from usdworld.render.lighting import Lighting, sun_view_projection
+from usdworld.render.lighting import Lighting, PathShadow, path_shadow, sun_view_projection
 from usdworld.render.scene import RenderScene
 
 log = logging.getLogger(__name__)
@@ -82,8 +85,20 @@ class _SceneBuffers:
         vbo_i = ctx.buffer(np.ascontiguousarray(ints, dtype="i4").tobytes())
         self.buffers = [vbo_f, vbo_i]
         self.vaos["shadow"] = ctx.vertex_array(programs["shadow"], [(vbo_f, "3f 24x", "in_pos")])
+        self.vaos["depth"] = ctx.vertex_array(programs["depth"], [(vbo_f, "3f 24x", "in_pos")])
+        # The colour pass draws the triangles last to first after a depth pre-pass: with the "<="
+        # test the last of the fragments at the nearest depth wins, which in reverse order is the
+        # first, as in one "<" pass (so where two surfaces tie in depth the same one shows).
+        n_tri = self.n_vertices // 3
+        last_first = np.arange(n_tri - 1, -1, -1, dtype=np.int32)[:, None] * 3
+        reverse = (last_first + np.arange(3, dtype=np.int32)).ravel()
+        ibo = ctx.buffer(reverse.tobytes())
+        self.buffers.append(ibo)
         self.vaos["lit"] = ctx.vertex_array(
-            programs["lit"], [(vbo_f, "3f 3f 3f", "in_pos", "in_normal", "in_color")]
+            programs["lit"],
+            [(vbo_f, "3f 3f 3f", "in_pos", "in_normal", "in_color")],
+            index_buffer=ibo,
+            index_element_size=4,
         )
         self.vaos["label"] = ctx.vertex_array(
             programs["label"], [(vbo_f, "3f 24x", "in_pos"), (vbo_i, "3i", "in_ids")]
@@ -126,15 +141,12 @@ class Renderer:
             self._programs = {
                 "shadow": ctx.program(vertex_shader=shaders.SHADOW_VS, fragment_shader=shaders.SHADOW_FS),
                 "sky": ctx.program(vertex_shader=shaders.SKY_VS, fragment_shader=shaders.SKY_FS),
+                "depth": ctx.program(vertex_shader=shaders.DEPTH_VS, fragment_shader=shaders.DEPTH_FS),
                 "lit": ctx.program(vertex_shader=shaders.LIT_VS, fragment_shader=shaders.LIT_FS),
                 "label": ctx.program(vertex_shader=shaders.LABEL_VS, fragment_shader=shaders.LABEL_FS),
             }
             size = (self.width, self.height)
-            s = self.lighting.shadow_map_size
-            self._shadow_tex = ctx.depth_texture((s, s))
-            self._shadow_tex.compare_func = "<="
-            self._shadow_tex.repeat_x = self._shadow_tex.repeat_y = False
-            self._shadow_fbo = ctx.framebuffer(depth_attachment=self._shadow_tex)
+            self._make_shadow_target(self.lighting.shadow_map_size)
             self._color_fbo = ctx.framebuffer(
                 color_attachments=[ctx.renderbuffer(size, 4, dtype="f1")],
                 depth_attachment=ctx.depth_renderbuffer(size),
@@ -154,6 +166,7 @@ class Renderer:
             raise RenderError(f"OpenGL setup failed: {' '.join(str(exc).split())}") from exc
         self._buffers: _SceneBuffers | None = None
         self._shadow_key: tuple[int, bytes] | None = None
+        self._path_shadow: tuple[RenderScene, PathShadow] | None = None
 
     # -- lifetime -------------------------------------------------------------------
 
@@ -167,6 +180,7 @@ class Renderer:
         """Release the GL context and everything on it (idempotent)."""
         if self._ctx is None:
             return
+        self._ctx.__enter__()  # release this context's objects, not those of the one current now
         if self._buffers is not None:
             self._buffers.release()
             self._buffers = None
@@ -223,11 +237,18 @@ class Renderer:
             _write(lit, "u_shininess", float(lt.shininess))
             _write(lit, "u_inv_gamma", 1.0 / lt.gamma)
             _write(lit, "u_normal_offset", 1.5 * texel)
-            _write(lit, "u_texel", 1.0 / lt.shadow_map_size)
+            _write(lit, "u_texel", 1.0 / self._shadow_size)
             _write(lit, "u_shadow_map", 0)
             self._shadow_tex.use(location=0)
             ctx.enable(ctx.DEPTH_TEST)
+            # Depth first, then shade only the fragment that is seen (no shading of hidden ones).
+            _write(self._programs["depth"], "u_view_proj", view_proj)
+            self._color_fbo.color_mask = (False, False, False, False)
+            buffers.vaos["depth"].render(mode=ctx.TRIANGLES)
+            self._color_fbo.color_mask = (True, True, True, True)
+            ctx.depth_func = "<="
             buffers.vaos["lit"].render(mode=ctx.TRIANGLES)
+            ctx.depth_func = "<"
         data = self._color_fbo.read(components=3, alignment=1)
         ctx.finish()
         return np.frombuffer(data, dtype=np.uint8).reshape(self.height, self.width, 3)[::-1].copy()
@@ -270,11 +291,66 @@ class Renderer:
         self._shadow_pass(scene, buffers, K, world_from_cam)
         self._context().finish()
 
+    def fix_shadow_box(
+        self, scene: RenderScene, K: np.ndarray, poses_world_from_cam: np.ndarray
+    ) -> PathShadow:
+        """Use one shadow map for every view of a camera path over this (static) scene.
+
+        The sun's box holds the box each view would get on its own, and the map is enlarged
+        (up to the GL texture limit) so that its texels are no coarser than the first view's
+        own (:func:`~usdworld.render.lighting.path_shadow`). The map is drawn at the next
+        colour render and reused by every later one of ``scene`` from any pose, until another
+        scene is rendered or this is called again. A shadow box that follows each view
+        re-draws the map whenever the camera moves.
+
+        Args:
+            scene: the scene the path is rendered in; it must not change along the path
+                (a RenderScene is immutable: movers mean another scene, which ends the fixed box).
+            K: (3, 3) float64 camera matrix of the path's views.
+            poses_world_from_cam: (N, 4, 4) float64 poses of the path, the reference view first.
+
+        Returns:
+            The box, map size and texel sizes used.
+        """
+        ctx = self._context()
+        K = check_intrinsics(K)
+        limit = int(ctx.info.get("GL_MAX_TEXTURE_SIZE", MAX_SIZE))
+        bounds = scene.bounds_world()
+        size = (self.width, self.height)
+        shadow = path_shadow(self.lighting, bounds, K, poses_world_from_cam, *size, min(limit, MAX_SIZE))
+        if float(np.max(shadow.texel_m / shadow.first_view_texel_m)) > 1.0 + 1e-9:
+            log.info(
+                "fly-through shadow map capped at %d texels: texels %.3f m, the first view alone has %.3f m",
+                shadow.map_size,
+                float(np.max(shadow.texel_m)),
+                float(np.max(shadow.first_view_texel_m)),
+            )
+        if shadow.map_size != self._shadow_size:
+            self._release_shadow_target()
+            self._make_shadow_target(shadow.map_size)
+        self._path_shadow = (scene, shadow)
+        self._shadow_key = None
+        return shadow
+
     # -- internals ----------------------------------------------------------------------
 
+    def _make_shadow_target(self, size: int) -> None:
+        ctx = self._context()
+        self._shadow_tex = ctx.depth_texture((size, size))
+        self._shadow_tex.compare_func = "<="
+        self._shadow_tex.repeat_x = self._shadow_tex.repeat_y = False
+        self._shadow_fbo = ctx.framebuffer(depth_attachment=self._shadow_tex)
+        self._shadow_size = size
+
+    def _release_shadow_target(self) -> None:
+        self._shadow_fbo.release()
+        self._shadow_tex.release()
+
     def _context(self) -> Any:
+        """The GL context, made current: another Renderer made and closed since leaves none current."""
         if self._ctx is None:
             raise RenderError("this Renderer is closed; create a new one")
+        self._ctx.__enter__()  # eglMakeCurrent (the matching exit would only restore the previous context)
         return self._ctx
 
     def _check_camera(self, K: np.ndarray, world_from_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -306,9 +382,19 @@ class Renderer:
     def _shadow_pass(
         self, scene: RenderScene, buffers: _SceneBuffers, K: np.ndarray, world_from_cam: np.ndarray
     ) -> tuple[np.ndarray, float]:
-        sun_vp, texel = sun_view_projection(
-            self.lighting, scene.bounds_world(), K, world_from_cam, self.width, self.height
-        )
+        fixed = self._path_shadow
+        if fixed is not None and fixed[0] is scene:
+            sun_vp, texel = fixed[1].sun_vp, float(np.max(fixed[1].texel_m))
+        else:
+            if fixed is not None:  # another scene: back to a box that follows the view
+                self._path_shadow = None
+                if self._shadow_size != self.lighting.shadow_map_size:
+                    self._release_shadow_target()
+                    self._make_shadow_target(self.lighting.shadow_map_size)
+                    self._shadow_key = None
+            sun_vp, texel = sun_view_projection(
+                self.lighting, scene.bounds_world(), K, world_from_cam, self.width, self.height
+            )
         key = (id(scene), sun_vp.astype(np.float32).tobytes())
         if key != self._shadow_key and buffers.n_vertices:
             self._draw_shadow_map(buffers, sun_vp)

@@ -38,7 +38,7 @@ from usdworld.render.instancing import (
     pruned,
     read_prototype,
 )
-from usdworld.render.usd_mesh import MeshTriangles, mesh_triangles, place_mesh
+from usdworld.render.usd_mesh import GeometryCache, MeshTriangles, mesh_triangles, place_mesh
 
 
 @dataclass(frozen=True)
@@ -183,6 +183,7 @@ def _extract(stage: Usd.Stage, objects_path: str | None, cull: ViewCull | None) 
     local_layers = list(stage.GetLayerStack(includeSessionLayers=True))
     local_ids = local_layer_ids(stage)
     prototypes: dict[tuple, Prototype | None] = {}
+    geometry: GeometryCache = {}  # asset meshes, shared by prototypes and by objects read on their own
 
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
     it = iter(Usd.PrimRange(stage.GetPseudoRoot(), predicate))
@@ -203,7 +204,7 @@ def _extract(stage: Usd.Stage, objects_path: str | None, cull: ViewCull | None) 
             key = prototype_key(prim, local_ids, local_layers)
             if key is not None:
                 if key not in prototypes:
-                    prototypes[key] = read_prototype(prim, predicate)
+                    prototypes[key] = read_prototype(prim, predicate, geometry)
                 proto = prototypes[key]
                 if proto is not None:
                     it.PruneChildren()
@@ -212,7 +213,7 @@ def _extract(stage: Usd.Stage, objects_path: str | None, cull: ViewCull | None) 
         if not prim.IsA(UsdGeom.Mesh):
             continue
         world_from_local = world_T @ matrix_from_gf(xf_cache.GetLocalToWorldTransform(prim))
-        tris = mesh_triangles(UsdGeom.Mesh(prim), world_from_local)
+        tris = mesh_triangles(UsdGeom.Mesh(prim), world_from_local, geometry)
         if tris is None:
             continue
         class_id = label_id_for_class(labels[path])

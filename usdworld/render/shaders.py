@@ -41,8 +41,22 @@ void main() {
 }
 """
 
+# Depth only, for the colour pass's depth pre-pass: ``invariant`` here and in LIT_VS makes
+# both programs compute the same gl_Position, so the lit pass's "<=" test passes exactly the
+# surface that is seen and shades each pixel once.
+DEPTH_VS = """
+#version 330
+invariant gl_Position;
+uniform mat4 u_view_proj;
+in vec3 in_pos;
+void main() { gl_Position = u_view_proj * vec4(in_pos, 1.0); }
+"""
+
+DEPTH_FS = SHADOW_FS
+
 LIT_VS = """
 #version 330
+invariant gl_Position;
 uniform mat4 u_view_proj;
 in vec3 in_pos;
 in vec3 in_normal;

@@ -102,8 +102,11 @@ class LocalMesh:
     colors: np.ndarray
 
 
-def read_local_mesh(mesh: UsdGeom.Mesh) -> LocalMesh | None:
-    """The mesh's topology, normals and colours at the default time, or None when it has no renderable face."""
+#: Meshes' topology and normals by the specs that compose the mesh prim (see :func:`read_local_mesh`).
+GeometryCache = dict[tuple, tuple[MeshTopology, np.ndarray | None] | None]
+
+
+def _read_geometry(mesh: UsdGeom.Mesh) -> tuple[MeshTopology, np.ndarray | None] | None:
     topology = read_topology(mesh)
     if topology is None:
         return None
@@ -113,6 +116,32 @@ def read_local_mesh(mesh: UsdGeom.Mesh) -> LocalMesh | None:
         local_n = expand_primvar(authored[0], authored[1], topology)
         if local_n is not None:
             normals = local_n.reshape(-1, 3)
+    return topology, normals
+
+
+def read_local_mesh(mesh: UsdGeom.Mesh, geometry: GeometryCache | None = None) -> LocalMesh | None:
+    """The mesh's topology, normals and colours at the default time, or None when it has no renderable face.
+
+    Args:
+        mesh: the mesh prim.
+        geometry: topology and normals already read, keyed by the prim specs that compose a
+            mesh prim (layer and path of each): two mesh prims composed of the same specs (the
+            same asset mesh under two objects, none of the world's own layers over it) have
+            the same points, faces and normals, so they are read and triangulated once. The
+            colours are read for every mesh (an object's own material opinions are on its
+            material prims, not on the mesh). None reads everything.
+    """
+    if geometry is None:
+        found = _read_geometry(mesh)
+    else:
+        key = tuple((spec.layer.identifier, spec.path) for spec in mesh.GetPrim().GetPrimStack())
+        if key in geometry:
+            found = geometry[key]
+        else:
+            found = geometry[key] = _read_geometry(mesh)
+    if found is None:
+        return None
+    topology, normals = found
     return LocalMesh(topology, normals, _face_colors(mesh, topology))
 
 
@@ -142,15 +171,18 @@ def place_mesh(local: LocalMesh, world_from_local: np.ndarray) -> MeshTriangles:
     return MeshTriangles(positions, normals, local.colors)
 
 
-def mesh_triangles(mesh: UsdGeom.Mesh, world_from_local: np.ndarray) -> MeshTriangles | None:
+def mesh_triangles(
+    mesh: UsdGeom.Mesh, world_from_local: np.ndarray, geometry: GeometryCache | None = None
+) -> MeshTriangles | None:
     """Triangles of ``mesh`` moved into the world frame.
 
     Args:
         mesh: the mesh prim (its composed values at the default time are read).
         world_from_local: (4, 4) float64 column-vector transform, local -> world.
+        geometry: meshes read before (:func:`read_local_mesh`); None reads this one.
 
     Returns:
         The triangles, or None when the mesh has no renderable face.
     """
-    local = read_local_mesh(mesh)
+    local = read_local_mesh(mesh, geometry)
     return None if local is None else place_mesh(local, world_from_local)

@@ -11,7 +11,10 @@ parallelism, and a pool's worker process may not start processes of its own).
   the manifest's file stem.
 * ``nuscenes``: SOURCE is an info JSON; every sample of its ``data_list`` is a job, with the
   sample's token as the frame id (``sample_<index>`` for a sample without one). A sample
-  whose photos are not beside the info file is listed as incomplete.
+  whose photos are not beside the info file is listed as incomplete. SOURCE may also be a
+  nuScenes dataroot (``build --dataroot``): every sample of its tables is a job (each job
+  loads the tables through nuscenes-devkit again: seconds for v1.0-mini, far longer for
+  v1.0-trainval).
 
 Discovery reads the manifests and the info file (small JSON), never a photo; the views are
 read by the worker (:meth:`ViewsBuild.build`). A job's resume key
@@ -100,6 +103,7 @@ def views_key(request: ViewsBuild) -> str:
     except UsdWorldError as exc:
         doc["unreadable"] = str(exc)
     else:
+        doc["source"] = view_set.source.sha256  # a dataroot's tables
         doc["files"] = [
             {
                 name: file_digest(path)
@@ -117,6 +121,25 @@ def _frame(frame_id: str, source: str, request: ViewsBuild) -> Frame | Incomplet
         return Frame(frame_id, source, request)  # type: ignore[arg-type]
     except InputError as exc:
         return Incomplete(frame_id, str(exc))
+
+
+def _dataroot_samples(root: Path, library: Path | None, max_range_m: float) -> Iterator[Frame | Incomplete]:
+    """One job per sample of a nuScenes dataroot's tables, in the sample table's order.
+
+    Raises:
+        InputError: the devkit is missing or cannot load the tables.
+    """
+    from usdworld.views.nuscenes_devkit import load_devkit
+
+    version, nusc = load_devkit(root, None)
+
+    def frames() -> Iterator[Frame | Incomplete]:
+        for sample in nusc.sample:
+            token = str(sample["token"])
+            request = ViewsBuild(root, "nuscenes", token, Path(token), library, max_range_m)
+            yield _frame(token, f"{version}/sample.json#{token}", request)
+
+    return frames()
 
 
 def _beside(info: Path, img_path: object) -> Path:
@@ -170,8 +193,12 @@ def discover_nuscenes(
     from usdworld.io.camera_infos import is_pickle
 
     path = Path(source).absolute()
+    if path.is_dir():
+        return _dataroot_samples(path, library, max_range_m)
     if not path.is_file():
-        raise InputError(f"{path}: no such file; --layout nuscenes takes an mmdetection3d info JSON")
+        raise InputError(
+            f"{path}: no such file or folder; --layout nuscenes takes an mmdetection3d info JSON or a nuScenes dataroot"
+        )
     data, file = read_input(path, "views")
     if is_pickle(data):
         raise InputError(

@@ -81,13 +81,24 @@ def test_the_scene_at_a_time_hides_the_mover_before_it_was_seen_and_moves_it(dri
     for code in (None, 0.0, 1.0, 4.0):
         scene = RenderScene.from_stage(stage, time=None if code is None else Usd.TimeCode(code))
         obj = scene.object_by_path().get(LATE)
-        mine = None if obj is None else scene.positions_world[scene.object_ids == obj.index]
-        centres[code] = None if mine is None else mine.mean(axis=0)
+        assert obj is not None  # a hidden mover keeps its place among the objects
+        mine = scene.positions_world[scene.object_ids == obj.index]
+        centres[code] = mine.mean(axis=0) if len(mine) else None
     assert centres[0.0] is None
     for code in (1.0, 4.0):  # the mesh moves with its time-sampled translate
         moved = np.array(translate.Get(code)) - np.array(translate.Get(1.0))
         assert centres[code] - centres[1.0] == pytest.approx(moved, abs=1e-3)
     assert centres[None] == pytest.approx(centres[1.0], abs=1e-6)  # the default is its first seen place
+
+
+def test_a_hidden_mover_keeps_its_id_so_ids_agree_over_time(drive: Path) -> None:
+    stage = Usd.Stage.Open(str(drive / "world.usda"))
+    scenes = {code: RenderScene.from_stage(stage, time=Usd.TimeCode(code)) for code in (0.0, 2.0)}
+    ids = {code: {o.path: (o.index, o.instance_id) for o in s.objects} for code, s in scenes.items()}
+    assert ids[0.0] == ids[2.0] and LATE in ids[0.0]
+    hidden = ids[0.0][LATE][0]
+    assert hidden not in set(scenes[0.0].object_ids.tolist())  # no triangle of it at time 0
+    assert hidden in set(scenes[2.0].object_ids.tolist())
 
 
 def test_render_time_draws_the_ego_view_then(

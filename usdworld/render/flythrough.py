@@ -31,8 +31,8 @@ from usdworld.render.world_lights import lighting_from_stage
 from usdworld.render.outputs import view_camera, world_image_size
 from usdworld.render.renderer import Renderer
 from usdworld.render.scene import RenderScene
-from usdworld.render.video import Mp4Writer, check_video_size
 from usdworld.render.timing import scene_at
+from usdworld.render.video import Mp4Writer, check_video_size
 
 log = logging.getLogger(__name__)
 

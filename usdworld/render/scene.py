@@ -211,6 +211,14 @@ def _extract(
             continue
         if pruned(prim, t):
             it.PruneChildren()
+            if time is not None and path.GetParentPath() == objects_sdf and not pruned(prim):
+                # hidden at this time only (a drive's mover not seen then): it keeps its id and
+                # place in ``objects``, as a culled object does, so ids agree over time
+                own = own_label(prim)
+                label = (own if own is not None else labels.get(path.GetParentPath())) or ""
+                label_id = label_id_for_class(label)
+                instance_id = ids.next(label_id) if label_id in ids.things else label_id
+                objects[path] = RenderObject(str(path), label, label_id, instance_id, len(objects) + 1)
             continue
         own = own_label(prim)
         labels[path] = own if own is not None else labels.get(path.GetParentPath())

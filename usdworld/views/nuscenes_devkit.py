@@ -179,10 +179,9 @@ def read_devkit_views(dataroot: Path, token: str | None = None) -> ViewSet:
     Raises:
         InputError: the devkit is missing, no tables, no such sample, or a missing photo.
     """
-    from nuscenes.utils.geometry_utils import BoxVisibility
-
     dataroot = Path(dataroot)
-    version, nusc = load_devkit(dataroot, token)
+    version, nusc = load_devkit(dataroot, token)  # first: it says how to install a missing devkit
+    from nuscenes.utils.geometry_utils import BoxVisibility
     if token is None:
         if not nusc.sample:
             raise InputError(f"--dataroot {dataroot}: {version}/sample.json holds no sample")

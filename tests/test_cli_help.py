@@ -41,7 +41,7 @@ def test_choices_mirror_the_domain_tables() -> None:
         (["segment"], ["--segment-model <path>", "--detections <path>"]),
         (["depth"], ["--depth <ground|monodepth|monodepth2|hf|file>"]),
         (["export"], ["-f, --format <usdz|usdc|usda-flat|glb>"]),
-        (["batch"], ["--layout <cityscapes|kitti|manifest>"]),
+        (["batch"], ["--layout <cityscapes|kitti|manifest|views|nuscenes>"]),
     ],
 )
 def test_help_lists_the_choices(capsys, command, expected) -> None:

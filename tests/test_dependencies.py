@@ -30,6 +30,7 @@ DISTRIBUTION = {
     "mapbox_earcut": "mapbox-earcut",
     "moderngl": "moderngl",
     "numpy": "numpy",
+    "nuscenes": "nuscenes-devkit",
     "omni": "omniverse-asset-validator",
     "pxr": "usd-core",
     "rich": "rich",
@@ -52,6 +53,7 @@ EXTRA_MODULES = {
     "perception/segment/hf.py": "segment",
     "serve/": "serve",
     "cli/serve_cmd.py": "serve",
+    "views/nuscenes_devkit.py": "nuscenes",
 }
 
 

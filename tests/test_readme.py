@@ -45,6 +45,7 @@ OUTSIDE_DATA = (
     (r"\bstreet\.jpg\b|\bstreet_detections\.json\b|\bdet\.json\b", "your own photo and detections"),
     (r"\bframes\.json\b", "a batch manifest of your frames"),
     (r"\.pkl\.DERIVED\.json\b", "a nuScenes info file"),
+    (r"--dataroot\b", "the nuScenes dataset"),
     (r"\bviews\.json\b", "your own views manifest"),
     (r"--depth-weights\b|--depth-map\b", "network weights or a depth file"),
 )

@@ -191,6 +191,11 @@ def test_png_settings_are_lossless() -> None:
             ),
         ),
         (["--write", ","], "error: --write ',': names no output; e.g. --write data or --write all"),
+        (
+            ["--time", "1"],
+            "error: --time 1: the world has no time range (only a drive's world, build --views of "
+            "timestamped views, has one); drop --time",
+        ),
     ],
 )
 def test_render_bad_input_is_one_line_exit_2(world, tmp_path, capsys, args, expected) -> None:

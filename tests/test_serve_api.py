@@ -182,6 +182,7 @@ def test_world_snapshot(client, world, targets):
     assert w["scene"]["image_size_px"] == [1024, 512]
     assert w["scene"]["dlt_rms_px"] < 1e-6 and w["scene"]["dlt_source"] == "camera_model"
     assert w["photo"] is True  # the demo's photo, from the package's demo data
+    assert w["views"] == []  # one view: no view picker
     classes = w["classes"]
     assert classes["replace_with"]["car"] == {
         "bus": classes["variants"]["bus"],

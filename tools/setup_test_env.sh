@@ -22,6 +22,10 @@ fi
 # requirement would pull a multi-GB CUDA build.
 python3 -m pip install -q "torch==2.13.0"
 python3 -m pip install -q -e ".[test,render,depth,segment,batch,serve]"
+# The nuscenes extra (nuscenes-devkit, build --dataroot) without its numpy<2 requirement, and
+# what the devkit's table reader imports.
+python3 -m pip install -q --no-deps "nuscenes-devkit==1.2.0"
+python3 -m pip install -q "pyquaternion>=0.9.5" "matplotlib>=3.6" scikit-learn cachetools
 # The blender extra (bpy, Blender 4.5 LTS) without its numpy<2 requirement: resolving it would
 # downgrade numpy and opencv-python-headless; its other requirements come explicitly.
 python3 -m pip install -q --no-deps "bpy>=4.5,<4.6" zstandard cython

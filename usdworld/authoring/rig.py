@@ -213,6 +213,10 @@ def write_drive(
       stay), and on every object ``usdworld:moving``, ``usdworld:velocity`` (m/s) and
       ``usdworld:trackTimes`` (s), with the per-observation provenance :func:`write_rig`
       writes for a rig of one moment (called with ``object_provenance=False``);
+    * each moving object not seen in every frame: ``visibility`` time-sampled
+      (:func:`visibility_samples`): ``invisible`` before the first frame it is seen in and
+      from the first frame after the last, ``inherited`` in between; its default value
+      stays ``inherited``, so tools that read the default time show every object;
     * ``/World``'s attributes with an entry per view (:data:`PER_VIEW_WORLD_ATTRIBUTES`),
       moved here from the base layer.
 
@@ -265,4 +269,48 @@ def write_drive(
         for t, p, yaw in zip(obj.times, obj.positions, obj.yaws):
             translate.Set(Gf.Vec3d(*(float(c) for c in p)), code(t))
             rotate.Set(float(round(np.degrees(yaw), 6)), code(t))
+        seen = [code(t).GetValue() for t in obj.times]
+        samples = visibility_samples(seen, [code(t).GetValue() for t in times])
+        if samples:
+            visibility = UsdGeom.Imageable(prim).CreateVisibilityAttr()
+            for c, token in samples:
+                visibility.Set(token, Usd.TimeCode(c))
     drive_layer.Save()
+
+
+def visibility_samples(seen: Sequence[float], frames: Sequence[float]) -> list[tuple[float, str]]:
+    """The ``visibility`` time samples of a moving object: shown over the frames it was seen in.
+
+    ``visibility`` is a token, so USD holds each sample until the next (no interpolation),
+    and before the first sample the first one holds; the samples follow the OpenUSD
+    Imageable schema's animated-visibility example (``inherited`` / ``invisible`` at time codes).
+    The object is ``invisible`` from the drive's first frame until the first frame it is seen
+    in, ``inherited`` from there, and ``invisible`` again from the first frame of the drive
+    after the last one it is seen in. Frames between its first and last where it is not seen
+    keep it visible, on its motion's interpolated path (a track bridges such a gap).
+
+    Args:
+        seen: the time codes of the frames the object is seen in.
+        frames: the time codes of all the drive's frames.
+
+    Returns:
+        (time code, token) pairs in time order; empty when it is seen in the first and the last frame.
+
+    Example:
+        >>> visibility_samples([1.0, 2.0], [0.0, 1.0, 2.0, 3.0])
+        [(0.0, 'invisible'), (1.0, 'inherited'), (3.0, 'invisible')]
+        >>> visibility_samples([0.0, 3.0], [0.0, 1.0, 2.0, 3.0])
+        []
+    """
+    first, last = min(seen), max(seen)
+    begin, end = min(frames), max(frames)
+    if first <= begin and last >= end:
+        return []
+    out: list[tuple[float, str]] = []
+    if first > begin:
+        out.append((float(begin), str(UsdGeom.Tokens.invisible)))
+    out.append((float(first), str(UsdGeom.Tokens.inherited)))
+    later = [f for f in frames if f > last]
+    if later:
+        out.append((float(min(later)), str(UsdGeom.Tokens.invisible)))
+    return out

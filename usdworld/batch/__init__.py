@@ -13,6 +13,8 @@ One machine
     usdworld batch kitti/object/training --layout kitti -o worlds/ --workers 2
     usdworld batch kitti/object/training --layout kitti --ground-plane -o worlds/
     usdworld batch frames.json -o worlds/                                   # a manifest (.json or .csv)
+    usdworld batch rigs/ --layout views -o worlds/                          # a world per views manifest
+    usdworld batch infos.json --layout nuscenes -o worlds/                  # a world per nuScenes sample
 
 ``--workers 1`` (the default) builds in the calling process, one frame after another;
 ``--workers N`` runs a local pool of N worker processes (``spawn``), one frame per process

@@ -28,6 +28,9 @@ Layouts:
       id,image,labels,instances,camera
       f1,img/f1.png,gt/f1_labelIds.png,gt/f1_instanceIds.png,cam/f1.json
 
+* ``views`` and ``nuscenes``: one multi-view world per views manifest or nuScenes sample
+  (:mod:`usdworld.batch.views`).
+
 Example:
     >>> for item in discover("cityscapes/", "cityscapes", splits=["val"]):  # doctest: +SKIP
     ...     print(item)
@@ -51,7 +54,7 @@ from usdworld.parameters import DEFAULT_PARAMETERS
 
 MAX_RANGE_M = DEFAULT_PARAMETERS.scene.max_range_m  # the default range (scene.max_range_m)
 
-LAYOUTS = ("cityscapes", "kitti", "manifest")
+LAYOUTS = ("cityscapes", "kitti", "manifest", "views", "nuscenes")
 IMAGE_SUFFIX = "_leftImg8bit.png"
 LABELS_SUFFIX = "_gtFine_labelIds.png"
 INSTANCES_SUFFIX = "_gtFine_instanceIds.png"
@@ -432,7 +435,8 @@ def discover(
 
     Args:
         source: dataset root or manifest file.
-        layout: ``cityscapes``, ``kitti``, ``manifest`` or None (manifest for a file).
+        layout: ``cityscapes``, ``kitti``, ``manifest``, ``views``, ``nuscenes``
+            (:mod:`usdworld.batch.views`) or None (manifest for a file).
         splits: Cityscapes splits (cityscapes only).
         ground_plane: use KITTI ``planes/`` (kitti only).
         library: user asset library (rows of a manifest may name their own).
@@ -457,6 +461,11 @@ def discover(
         return discover_cityscapes(source, splits=splits, library=library, max_range_m=max_range_m)
     if layout == "kitti":
         return discover_kitti(source, ground_plane=ground_plane, library=library, max_range_m=max_range_m)
+    if layout in ("views", "nuscenes"):  # one multi-view world per views manifest or nuScenes sample
+        from usdworld.batch.views import discover_nuscenes, discover_views
+
+        find = discover_views if layout == "views" else discover_nuscenes
+        return _unique(find(source, library=library, max_range_m=max_range_m))
     return discover_manifest(source, library=library, max_range_m=max_range_m)
 
 

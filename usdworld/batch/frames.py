@@ -11,8 +11,13 @@ import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 from usdworld.errors import InputError
 from usdworld.pipeline import BuildRequest
+
+if TYPE_CHECKING:
+    from usdworld.batch.views import ViewsBuild
 
 #: A frame id: letters, digits, ``.``, ``_``, ``-``; starts with a letter or digit.
 FRAME_ID_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,199}$")
@@ -44,13 +49,14 @@ class Frame:
         frame_id: names the world folder ``OUT/<frame_id>/`` (see :func:`check_frame_id`).
         source: the photo as the dataset names it (path relative to the dataset root, or
             as written in the manifest); recorded in ``batch.json`` and ``index.usda``.
-        request: the build inputs and options; ``request.output`` is ``Path(frame_id)``,
-            the world folder relative to the batch output (see :meth:`request_in`).
+        request: the build inputs and options (a :class:`~usdworld.batch.views.ViewsBuild`
+            for a multi-view world); ``request.output`` is ``Path(frame_id)``, the world
+            folder relative to the batch output (see :meth:`request_in`).
     """
 
     frame_id: str
     source: str
-    request: BuildRequest
+    request: BuildRequest | ViewsBuild
 
     def __post_init__(self) -> None:
         check_frame_id(self.frame_id)
@@ -59,7 +65,7 @@ class Frame:
                 f"frame {self.frame_id}: request.output must be {self.frame_id!r}, got {self.request.output}"
             )
 
-    def request_in(self, out_dir: Path) -> BuildRequest:
+    def request_in(self, out_dir: Path) -> BuildRequest | ViewsBuild:
         """The build request writing this frame's world to ``out_dir/<frame_id>``."""
         return replace(self.request, output=Path(out_dir) / self.frame_id)
 

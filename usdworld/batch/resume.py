@@ -13,10 +13,14 @@ import hashlib
 import json
 from dataclasses import fields
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import usdworld
 from usdworld.io.camera_infos import split_camera_ref
 from usdworld.pipeline import BuildRequest
+
+if TYPE_CHECKING:
+    from usdworld.batch.views import ViewsBuild
 
 #: Bumped when the key's recipe changes, so old keys never match.
 KEY_FORMAT = "usdworld-batch-key/1"
@@ -51,15 +55,20 @@ def folder_digest(folder: Path) -> str:
     return h.hexdigest()
 
 
-def frame_key(request: BuildRequest) -> str:
+def frame_key(request: BuildRequest | ViewsBuild) -> str:
     """The resume key of one build: 64 hex characters.
 
     Args:
-        request: the frame's build request (its ``output`` is ignored).
+        request: the frame's build request (its ``output`` is ignored); a multi-view
+            world's is keyed by :func:`usdworld.batch.views.views_key`.
 
     Returns:
         SHA-256 of the key format, usdworld version, options and input file digests.
     """
+    from usdworld.batch.views import ViewsBuild, views_key
+
+    if isinstance(request, ViewsBuild):
+        return views_key(request)
     doc: dict[str, object] = {"format": KEY_FORMAT, "usdworld": usdworld.__version__}
     for f in fields(request):
         value = getattr(request, f.name)

@@ -23,6 +23,7 @@ from pathlib import Path
 import usdworld
 from usdworld.batch.records import FrameRecord
 from usdworld.batch.resume import frame_key, world_complete
+from usdworld.batch.views import ViewsBuild
 from usdworld.errors import UsdWorldError
 from usdworld.pipeline import BuildRequest, build
 
@@ -36,7 +37,8 @@ class FrameTask:
     Attributes:
         frame_id: the frame id.
         source: the photo as the dataset names it.
-        request: the build request; ``request.output`` is ``OUT/<frame_id>`` (absolute).
+        request: the build request (a multi-view world's :class:`~usdworld.batch.views.ViewsBuild`);
+            ``request.output`` is ``OUT/<frame_id>`` (absolute).
         previous_key: the key of the frame's earlier complete world (``--resume``), or None
             to build unconditionally.
         isolated: True in a worker process of a pool or cluster: the process then logs
@@ -46,7 +48,7 @@ class FrameTask:
 
     frame_id: str
     source: str
-    request: BuildRequest
+    request: BuildRequest | ViewsBuild
     previous_key: str | None = None
     isolated: bool = False
 
@@ -117,7 +119,7 @@ def run_frame(task: FrameTask) -> FrameRecord:
             status = "unchanged"
             objects, warnings = _earlier_build(task.request.output)
         else:
-            result = build(task.request)
+            result = task.request.build() if isinstance(task.request, ViewsBuild) else build(task.request)
             status, objects = "built", len(result.report["objects"])
             warnings = tuple(result.report["warnings"])
     except UsdWorldError as exc:

@@ -26,15 +26,23 @@ class Layout(str, enum.Enum):
     cityscapes = "cityscapes"
     kitti = "kitti"
     manifest = "manifest"
+    views = "views"
+    nuscenes = "nuscenes"
 
 
 def batch(
-    source: Path = typer.Argument(..., help="Dataset root (with --layout) or a manifest .json/.csv."),
+    source: Path = typer.Argument(
+        ...,
+        help="Dataset root (with --layout) or a manifest .json/.csv; with --layout views a views manifest "
+        "or a folder of them, with --layout nuscenes an mmdetection3d info JSON (one world per sample).",
+    ),
     output: Path = typer.Option(
         ..., "--output", "-o", help="Folder for OUT/<frame_id>/ worlds, batch.json and index.usda."
     ),
     layout: Layout | None = typer.Option(
-        None, "--layout", help="cityscapes, kitti or manifest (default: manifest for a .json/.csv file)."
+        None,
+        "--layout",
+        help="cityscapes, kitti, manifest, views or nuscenes (default: manifest for a .json/.csv file).",
     ),
     split: list[str] | None = typer.Option(
         None, "--split", help="Cityscapes split to build (repeatable; default: every split)."

@@ -61,6 +61,12 @@ def build(
     sample: Optional[str] = typer.Option(
         None, "--sample", help="With --layout nuscenes: the sample's token (default: the first)."
     ),
+    dataroot: Optional[Path] = typer.Option(
+        None,
+        "--dataroot",
+        help="With --layout nuscenes, instead of --views: the official nuScenes dataset root "
+        "(v1.0-*/ tables, samples/), read through nuscenes-devkit (extra: usdworld[nuscenes]).",
+    ),
     jobs: Optional[int] = typer.Option(
         None,
         "--jobs",
@@ -88,6 +94,12 @@ def build(
         "ground_points": ground_points,
         "depth_map": depth_map,
     }
+    if dataroot is not None:
+        if views is not None:
+            raise InputError("--dataroot and --views: give one (--dataroot is a nuScenes dataset root)")
+        if layout is not ViewsLayout.nuscenes:
+            raise InputError("--dataroot reads the nuScenes dataset layout; add --layout nuscenes")
+        views = dataroot
     views_build.check_options(views, per_view, any(v is not None for v in (layout, sample, jobs)))
     if views is not None:
         if segment is not SegmentBackendName.none or segment_model is not None:

@@ -34,6 +34,13 @@ def render(
     photo: Path | None = typer.Option(
         None, "--photo", help="The source photo for the comparisons (default: found next to the world)."
     ),
+    at_time: str | None = typer.Option(
+        None,
+        "--time",
+        help="A drive's world at this time: a time code (3) or seconds from its first frame (1.5s); "
+        "moving objects at their time-sampled places, shown only where they were seen, and "
+        "/World/Ego/Camera where the ego was. Default: the default time (every object at its first place).",
+    ),
     write: str = typer.Option(
         "data",
         "--write",
@@ -49,7 +56,7 @@ def render(
 
     from usdworld.authoring.inspect import open_world
     from usdworld.errors import InputError, OutputError
-    from usdworld.render import Renderer, RenderScene, ViewCull
+    from usdworld.render import Renderer, ViewCull
     from usdworld.render.outputs import (
         COMPARISONS,
         find_beside_world,
@@ -67,10 +74,13 @@ def render(
         raise OutputError(f"{output}: exists and is not a folder; choose another -o")
     from usdworld.authoring.rig import rig_view
 
+    from usdworld.render.timing import parse_time, scene_at
+
     stage = open_world(world)
+    code = parse_time(stage, at_time) if at_time is not None else None
     camera, view_photo = rig_view(stage, camera)
     width, height = parse_size(size) if size else world_image_size(stage)
-    pose = view_camera(stage, width, height, camera)
+    pose = view_camera(stage, width, height, camera, code)
     comparisons = [name for name in outputs if name in COMPARISONS]
     if photo is not None and not photo.is_file():
         raise InputError(f"{photo}: no such photo; pass --photo with the source image")
@@ -102,7 +112,7 @@ def render(
 
     lighting = lighting_from_stage(stage)  # the world's own sun and sky (the default for an old world)
     cull = ViewCull(pose.K, pose.world_from_cam, width, height, lighting.sun_direction_world)
-    scene = RenderScene.from_stage(stage, cull=cull)
+    scene = scene_at(stage, code, cull=cull)
     with Renderer(width, height, lighting=lighting) as renderer:
         result = renderer.render(scene, pose.K, pose.world_from_cam)
     seconds = time.perf_counter() - t0
@@ -114,7 +124,8 @@ def render(
     for path in paths.values():
         typer.echo(str(path))
     typer.echo(
-        f"rendered {width}x{height} from {camera or '/World/SourceCamera'}: {scene.n_triangles:,d} triangles, "
+        f"rendered {width}x{height} from {camera or '/World/SourceCamera'}"
+        f"{'' if code is None else f' at time code {code:g}'}: {scene.n_triangles:,d} triangles, "
         f"{len(scene.objects)} objects in {seconds:.2f} s"
     )
 

@@ -31,6 +31,7 @@ from usdworld.render.world_lights import lighting_from_stage
 from usdworld.render.outputs import view_camera, world_image_size
 from usdworld.render.renderer import Renderer
 from usdworld.render.scene import RenderScene
+from usdworld.render.timing import scene_at
 from usdworld.render.video import Mp4Writer, check_video_size
 
 log = logging.getLogger(__name__)
@@ -317,8 +318,13 @@ def ego_poses(stage: Usd.Stage, n_frames: int, width: int, height: int) -> np.nd
         raise InputError(
             f"--follow-ego: the world has no {EGO_CAMERA_PATH}; build a drive (build --views with timestamped views)"
         )
-    codes = np.linspace(stage.GetStartTimeCode(), stage.GetEndTimeCode(), n_frames)
+    codes = ego_codes(stage, n_frames)
     return np.array([camera_from_usd(prim, width, height, Usd.TimeCode(float(c))).world_from_cam for c in codes])
+
+
+def ego_codes(stage: Usd.Stage, n_frames: int) -> np.ndarray:
+    """(n_frames,) float64 the time codes of ``--follow-ego``'s frames, evenly over the stage's range."""
+    return np.linspace(stage.GetStartTimeCode(), stage.GetEndTimeCode(), n_frames)
 
 
 def render_flythrough(
@@ -351,6 +357,9 @@ def render_flythrough(
         progress: called with (frames done, frames total) after every frame.
         follow_ego: ride a drive's ego camera over the stage's time range (:func:`ego_poses`)
             instead of the fly-through path; no source vehicle is added (the ego is the camera).
+            Each frame draws the scene at its time code (:func:`usdworld.render.timing.scene_at`,
+            as ``render --time`` does): moving objects where they are then, hidden where
+            they were not seen.
 
     Raises:
         InputError: bad size, frame count, camera path or car asset.
@@ -363,9 +372,10 @@ def render_flythrough(
     source_size = world_image_size(stage)
     source = view_camera(stage, *source_size, camera_path=camera_path)
     K = video_intrinsics(source.K, source_size, (width, height))
+    codes: list[float | None] = [None] * n_frames
     if follow_ego:
         poses = ego_poses(stage, n_frames, width, height)
-        scene = RenderScene.from_stage(stage)
+        codes = [float(c) for c in ego_codes(stage, n_frames)]
     else:
         if car_asset is None:
             root = stage.GetRootLayer().realPath
@@ -381,9 +391,14 @@ def render_flythrough(
         Renderer(width, height, lighting=lighting) as renderer,
         Mp4Writer(output, width, height, fps=fps) as video,
     ):
-        # The scene is static along the path: one shadow map, drawn once, serves every frame.
-        renderer.fix_shadow_box(scene, K, poses)
+        prototypes: dict = {}
+        if all(code is None for code in codes):
+            # The scene is static along the path: one shadow map, drawn once, serves every frame.
+            # (A drive's movers make each frame another scene, whose shadow box follows its view.)
+            renderer.fix_shadow_box(scene, K, poses)
         for i, pose in enumerate(poses):
+            if codes[i] is not None:  # the drive's movers where they are at the frame's time
+                scene = scene_at(stage, codes[i], prototypes=prototypes)
             t0 = time.perf_counter()
             frame = renderer.render_rgb(scene, K, pose)
             render_s += time.perf_counter() - t0

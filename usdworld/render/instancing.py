@@ -69,11 +69,18 @@ def own_label(prim: Usd.Prim) -> str | None:
     return str(value[0]) if value is not None and len(value) else None
 
 
-def pruned(prim: Usd.Prim) -> bool:
-    """True for invisible prims and ``guide`` / ``proxy`` purpose prims (skipped with their children)."""
+def pruned(prim: Usd.Prim, time: Usd.TimeCode | None = None) -> bool:
+    """True for invisible prims and ``guide`` / ``proxy`` purpose prims (skipped with their children).
+
+    Args:
+        prim: a prim of a composed stage.
+        time: the time code its ``visibility`` is read at (a drive's movers have it
+            time-sampled); default the default time.
+    """
     imageable = UsdGeom.Imageable(prim)
     return bool(imageable) and (
-        imageable.GetVisibilityAttr().Get() == UsdGeom.Tokens.invisible
+        imageable.GetVisibilityAttr().Get(Usd.TimeCode.Default() if time is None else time)
+        == UsdGeom.Tokens.invisible
         or imageable.GetPurposeAttr().Get() in _PRUNED_PURPOSES
     )
 

@@ -113,8 +113,13 @@ def world_source_image(stage: Usd.Stage) -> str:
     return str(world_facts(stage).get("usdworld:sourceImage", "") or "")
 
 
-def view_camera(stage: Usd.Stage, width: int, height: int, camera_path: str | None = None) -> CameraPose:
+def view_camera(
+    stage: Usd.Stage, width: int, height: int, camera_path: str | None = None, time: float | None = None
+) -> CameraPose:
     """K and pose of a camera prim (default the world's ``SourceCamera``) for a ``width`` x ``height`` image.
+
+    ``time`` is the time code of its pose (a drive's ``/World/Ego/Camera`` moves); None for
+    the default time.
 
     Raises:
         InputError: the path is not a prim of the stage.
@@ -131,7 +136,7 @@ def view_camera(stage: Usd.Stage, width: int, height: int, camera_path: str | No
         raise InputError(f"--camera {path}: no such prim; {hint}")
     if not prim.IsA(UsdGeom.Camera):
         raise CalibrationError(f"--camera {path}: is a {prim.GetTypeName() or 'typeless'} prim, not a Camera")
-    return camera_from_usd(prim, width, height)
+    return camera_from_usd(prim, width, height, None if time is None else Usd.TimeCode(float(time)))
 
 
 @functools.cache

@@ -2,9 +2,10 @@
 
 :meth:`RenderScene.from_stage` walks the stage with ``Usd.PrimRange`` (active, loaded,
 defined, non-abstract prims; instance proxies included, so instanced objects render;
-variant selections and edits layers are already applied by composition). Invisible
-prims and ``guide`` / ``proxy`` purpose prims are pruned. Every ``UsdGeom.Mesh`` is
-triangulated into the world frame (see :mod:`usdworld.render.usd_mesh`).
+variant selections and edits layers are already applied by composition), at one time
+code (default: the default time). Invisible prims (``visibility`` at that time) and
+``guide`` / ``proxy`` purpose prims are pruned. Every ``UsdGeom.Mesh`` is triangulated
+into the world frame (see :mod:`usdworld.render.usd_mesh`).
 
 Ids per mesh:
 
@@ -132,7 +133,12 @@ class RenderScene:
 
     @classmethod
     def from_stage(
-        cls, stage: Usd.Stage, objects_path: str | None = None, cull: ViewCull | None = None
+        cls,
+        stage: Usd.Stage,
+        objects_path: str | None = None,
+        cull: ViewCull | None = None,
+        time: Usd.TimeCode | None = None,
+        prototypes: dict[tuple, Prototype | None] | None = None,
     ) -> RenderScene:
         """Collect every renderable mesh of the composed stage.
 
@@ -145,8 +151,14 @@ class RenderScene:
                 ``<defaultPrim>/Objects`` when it exists, else ``/World/Objects``.
             cull: leave out the triangles of the objects this view cannot see, nor their
                 shadows (they keep their ids and place in ``objects``); None keeps all.
+            time: the time code whose transforms and ``visibility`` are read (a drive's
+                movers are time-sampled); None for the default time (every object shown
+                where its default value puts it).
+            prototypes: a cache of the assets' meshes (read at the default time) that
+                several calls on one unchanged stage share, so that reading the scene at
+                many times reads each asset once; None reads them afresh.
         """
-        return _extract(stage, objects_path, cull)
+        return _extract(stage, objects_path, cull, time, prototypes)
 
 
 def world_from_stage(stage: Usd.Stage) -> np.ndarray:
@@ -171,10 +183,17 @@ def _default_objects_path(stage: Usd.Stage) -> str:
     return "/World/Objects"
 
 
-def _extract(stage: Usd.Stage, objects_path: str | None, cull: ViewCull | None) -> RenderScene:
+def _extract(
+    stage: Usd.Stage,
+    objects_path: str | None,
+    cull: ViewCull | None,
+    time: Usd.TimeCode | None,
+    cache: dict[tuple, Prototype | None] | None,
+) -> RenderScene:
     objects_sdf = Sdf.Path(objects_path or _default_objects_path(stage))
     world_T = world_from_stage(stage)
-    xf_cache = UsdGeom.XformCache(Usd.TimeCode.Default())
+    t = Usd.TimeCode.Default() if time is None else time
+    xf_cache = UsdGeom.XformCache(t)
     ids = _Ids(thing_label_ids())
     labels: dict[Sdf.Path, str | None] = {}
     objects: dict[Sdf.Path, RenderObject] = {}
@@ -182,7 +201,7 @@ def _extract(stage: Usd.Stage, objects_path: str | None, cull: ViewCull | None) 
     culled: list[np.ndarray] = []
     local_layers = list(stage.GetLayerStack(includeSessionLayers=True))
     local_ids = local_layer_ids(stage)
-    prototypes: dict[tuple, Prototype | None] = {}
+    prototypes: dict[tuple, Prototype | None] = {} if cache is None else cache
     geometry: GeometryCache = {}  # asset meshes, shared by prototypes and by objects read on their own
 
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
@@ -191,8 +210,16 @@ def _extract(stage: Usd.Stage, objects_path: str | None, cull: ViewCull | None) 
         path = prim.GetPath()
         if prim.IsPseudoRoot():
             continue
-        if pruned(prim):
+        if pruned(prim, t):
             it.PruneChildren()
+            if time is not None and path.GetParentPath() == objects_sdf and not pruned(prim):
+                # hidden at this time only (a drive's mover not seen then): it keeps its id and
+                # place in ``objects``, as a culled object does, so ids agree over time
+                own = own_label(prim)
+                label = (own if own is not None else labels.get(path.GetParentPath())) or ""
+                label_id = label_id_for_class(label)
+                instance_id = ids.next(label_id) if label_id in ids.things else label_id
+                objects[path] = RenderObject(str(path), label, label_id, instance_id, len(objects) + 1)
             continue
         own = own_label(prim)
         labels[path] = own if own is not None else labels.get(path.GetParentPath())

@@ -7,9 +7,11 @@ Routes (``{op}`` is one of :data:`usdworld.serve.payloads.OPERATIONS`):
 ``GET /static/...``             its script, styles and the bundled three.js
 ``GET /api/version``            ``{"version"}``: changes whenever a layer is saved
 ``GET /api/world``              version, camera, scene facts, objects with provenance,
-                                classes (variants, allowed replacements), history
+                                classes (variants, allowed replacements), history, and
+                                ``views`` (a multi-view world's cameras, [] for one view)
 ``GET /api/scene.glb``          the composed world as glTF binary (one node per object)
-``GET /api/photo``              the source photo (404 when there is none)
+``GET /api/photo``              the source photo (404 when there is none); ``?view=NAME``
+                                the photo of a multi-view world's view NAME
 ``GET /api/files/{path}``       a file inside the world folder (e.g. layers/edits.usda)
 ``POST /api/{op}``              an edit, undo or redo; JSON body, see payloads
 ==============================  =====================================================
@@ -245,6 +247,14 @@ def create_app(
         return Response(glb, media_type="model/gltf-binary", headers={"x-usdworld-version": v})
 
     async def photo(request: Request) -> Response:
+        view = request.query_params.get("view")
+        if view is not None:
+            if view not in session.view_photos:
+                return _error(404, f"no view '{view}' in this world")
+            path = session.view_photo(view)
+            if path is None:
+                return _error(404, f"no photo of view '{view}': put it in or beside the world folder")
+            return FileResponse(path, media_type=PHOTO_SUFFIXES[path.suffix.lower()])
         if session.photo is None:
             return _error(404, "no source photo: put it in the world folder or pass --photo")
         return FileResponse(session.photo, media_type=PHOTO_SUFFIXES[session.photo.suffix.lower()])

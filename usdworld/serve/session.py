@@ -125,6 +125,11 @@ def object_json(state: ObjectState, surface: str, values: dict[str, Any]) -> dic
         }
         for i, n in enumerate(names)
     ]
+    # a multi-view world's object: its box in each view that saw it (the first, for a view seen twice)
+    view_bboxes: dict[str, Any] = {}
+    for view, box in zip(values.get("usdworld:views", []), values.get("usdworld:viewBBoxes", [])):
+        view_bboxes.setdefault(str(view), jsonable(box))
+    prov["view_bboxes_px"] = view_bboxes
     return {
         "name": state.name,
         "path": state.path,
@@ -155,6 +160,20 @@ def history_json(entry: HistoryEntry) -> dict[str, Any]:
         "forced": entry.forced,
         "violations": list(entry.violations),
     }
+
+
+def find_view_photo(folder: Path, image: str) -> Path | None:
+    """A view's photo of a multi-view world: in the world folder, else the folder above
+    (where ``build --views`` leaves the manifest's photos when the world is built beside it),
+    as ``render --camera NAME`` finds it. Only a plain PNG or JPEG file name is looked up.
+    """
+    name = Path(image).name
+    if not image or name != image or Path(name).suffix.lower() not in PHOTO_SUFFIXES:
+        return None
+    for directory in (folder, folder.parent):
+        if (directory / name).is_file():
+            return directory / name
+    return None
 
 
 def find_photo(folder: Path, source_image: str) -> Path | None:
@@ -228,6 +247,28 @@ class WorldSession:
             if photo is not None
             else find_photo(self.folder, str(scene.get("usdworld:sourceImage", "")))
         )
+        self.view_photos = self._view_photos()
+
+    def _view_photos(self) -> dict[str, Path | None]:
+        """Each view of a multi-view world (``/World/Cameras/<name>``) and its photo; {} for one view."""
+        from usdworld.authoring.rig import CAMERAS_PATH
+
+        world = self.editor.stage.GetPrimAtPath(WORLD_PATH)
+        names = world.GetAttribute("usdworld:views").Get() if world else None
+        images = world.GetAttribute("usdworld:viewImages").Get() if world else None
+        if not names:
+            return {}
+        images = list(images) if images is not None and len(images) == len(names) else [""] * len(names)
+        stage = self.editor.stage
+        return {
+            str(n): find_view_photo(self.folder, str(i))
+            for n, i in zip(names, images)
+            if stage.GetPrimAtPath(f"{CAMERAS_PATH}/{n}")
+        }
+
+    def view_photo(self, name: str) -> Path | None:
+        """The photo of the view ``name`` of a multi-view world; None when it has none or no such view."""
+        return self.view_photos.get(name)
 
     def _world_prim(self) -> bool:
         prim = self.editor.stage.GetPrimAtPath(WORLD_PATH)
@@ -262,16 +303,17 @@ class WorldSession:
 
     # --- reading -------------------------------------------------------------------------
 
-    def camera_json(self) -> dict[str, Any] | None:
-        """The source camera as three.js matrices, or None when the world has none.
+    def camera_json(self, path: str = CAMERA_PATH) -> dict[str, Any] | None:
+        """A camera (default the source camera) as three.js matrices, or None when the world has none.
 
         ``projection`` is :func:`usdworld.render.camera.gl_projection` of the camera's exact
         intrinsics (principal point and half-pixel convention included), ``world_from_glcam``
         the camera pose with GL axes (x right, y up, looking down -z), both column-major.
+        The image size is the world's (every view of a rig has its photo's size).
         """
         from usdworld.render.camera import GL_FROM_CV, camera_from_usd, gl_projection
 
-        prim = self.editor.stage.GetPrimAtPath(CAMERA_PATH)
+        prim = self.editor.stage.GetPrimAtPath(path)
         if not prim or not prim.IsActive():
             return None
         size = self.scene_values.get("usdworld:imageSize")
@@ -352,6 +394,7 @@ class WorldSession:
                 },
                 "camera": self.camera_json(),
                 "photo": self.photo is not None,
+                "views": self._views_json(),
                 "objects": self._objects_json(states),
                 "classes": self._classes_json(states),
                 "history": [history_json(e) for e in history[-HISTORY_SHOWN:]],
@@ -359,6 +402,16 @@ class WorldSession:
                 "can_undo": bool(history),
                 "can_redo": self._can_redo(),
             }
+
+    def _views_json(self) -> list[dict[str, Any]]:
+        """The views of a multi-view world, in order: name, camera (as :meth:`camera_json`), whether
+        it has a photo; [] for a single-view world."""
+        from usdworld.authoring.rig import CAMERAS_PATH
+
+        return [
+            {"name": name, "camera": self.camera_json(f"{CAMERAS_PATH}/{name}"), "photo": photo is not None}
+            for name, photo in self.view_photos.items()
+        ]
 
     def scene_glb(self) -> tuple[str, bytes]:
         """(version, GLB bytes) of the composed world; cached per version."""

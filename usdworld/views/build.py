@@ -53,7 +53,8 @@ LAYOUTS = ("manifest", "nuscenes")
 
 
 def read_view_set(path: Path, layout: str, sample: str | None) -> ViewSet:
-    """The views ``build --views PATH --layout LAYOUT [--sample TOKEN]`` names.
+    """The views ``build --views PATH --layout LAYOUT [--sample TOKEN]`` names; with ``--layout
+    nuscenes`` a folder ``PATH`` is a nuScenes dataroot (``build --dataroot``).
 
     Raises:
         InputError: an unknown layout, ``--sample`` with a manifest, or a bad file.
@@ -67,6 +68,10 @@ def read_view_set(path: Path, layout: str, sample: str | None) -> ViewSet:
         if sample is not None:
             raise InputError("--sample picks a sample of a nuScenes info file; use it with --layout nuscenes")
         return read_views_manifest(path)
+    if Path(path).is_dir():  # a nuScenes dataroot (build --dataroot), read through nuscenes-devkit
+        from usdworld.views.nuscenes_devkit import read_devkit_views
+
+        return read_devkit_views(Path(path), sample)
     return read_nuscenes_views(path, sample)
 
 

@@ -40,8 +40,9 @@ else stands: it is placed once, at the information-weighted mean of all its obse
 position at its first frame; per frame where it is seen, a time sample of its position
 *on the constant-velocity fit* (not the raw observation: single-view depth noise would
 make it jitter) and of its heading, the velocity's direction. Between and outside those
-frames USD holds and interpolates the samples linearly; the object is not hidden where it
-was not seen (a viewer shows it where it was last known).
+frames USD interpolates the samples linearly and holds the first and last; the world
+shows the object only from the first frame it is seen in to the last (its ``visibility``
+is time-sampled: :func:`usdworld.authoring.rig.visibility_samples`).
 """
 
 from __future__ import annotations

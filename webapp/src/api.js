@@ -57,5 +57,5 @@ export async function post(op, body = {}) {
 
 /** A URL for <img src> (GET requests may carry the token as a query parameter). */
 export function withToken(path) {
-  return `${path}?token=${encodeURIComponent(token)}`;
+  return `${path}${path.includes('?') ? '&' : '?'}token=${encodeURIComponent(token)}`;
 }

@@ -1,5 +1,6 @@
 // The page of `usdworld serve`: object list, selection details with provenance, edit
-// actions, undo / redo, the source photo, and live sync with the edits layer on disk.
+// actions, undo / redo, the source photo (a multi-view world: a view picker, the chosen
+// view's camera and photo), and live sync with the edits layer on disk.
 // Every edit is a POST to the server, which runs it through usdworld's editing engine;
 // a refusal comes back with the rule's reason and is shown in the message line.
 
@@ -20,6 +21,7 @@ const state = {
   refreshAgain: false,
   lastMessage: '',
   expected: null, // version an edit of ours produced
+  view: null, // the chosen view of a multi-view world (null: the world's source camera)
 };
 
 const viewer = new Viewer($('viewport'), $('canvas'));
@@ -67,26 +69,64 @@ function fillSelect(select, values, selected) {
 
 // --- loading and live sync ---------------------------------------------------------------
 
+/** The chosen view of a multi-view world ({name, camera, photo}), or null. */
+function chosenView(world = state.world) {
+  return (world && world.views.find((v) => v.name === state.view)) || null;
+}
+
+/** The camera to look through: the chosen view's, else the world's source camera. */
+function viewCamera(world = state.world) {
+  const view = chosenView(world);
+  return view ? view.camera : world.camera;
+}
+
+/** Show the chosen view's photo (or the source photo) as the backdrop and in the photo panel. */
+function showPhoto() {
+  const view = chosenView();
+  const has = view ? view.photo : state.world.photo;
+  const url = view ? withToken(`/api/photo?view=${encodeURIComponent(view.name)}`) : withToken('/api/photo');
+  $('photo-wrap').hidden = !has;
+  $('no-photo').hidden = has;
+  $('toggle-backdrop').disabled = !has;
+  if (has) {
+    $('photo').src = url;
+    viewer.setBackdrop(url, $('toggle-backdrop').checked);
+  } else {
+    $('photo').removeAttribute('src');
+    viewer.setBackdrop(null, false);
+  }
+}
+
+/** Look through the view ``name`` of a multi-view world, its photo behind. */
+function chooseView(name) {
+  state.view = name;
+  $('view-picker').value = name;
+  viewer.setSourceCamera(viewCamera());
+  showPhoto();
+  if (state.selected) renderDetails();
+  document.body.dataset.view = name;
+}
+
 async function loadWorld() {
   const world = await getJSON('/api/world');
   const first = state.world === null;
-  const cameraChanged = !first && JSON.stringify(world.camera) !== JSON.stringify(state.world.camera);
+  const cameraChanged = !first && JSON.stringify(viewCamera(world)) !== JSON.stringify(viewCamera());
   state.world = world;
-  if (cameraChanged) viewer.setSourceCamera(world.camera); // the world was rebuilt
+  if (cameraChanged) viewer.setSourceCamera(viewCamera()); // the world was rebuilt
   if (first) {
     $('world-name').textContent = `${world.world.name}/${world.world.root.split('/').pop()}`;
     $('world-name').title = world.world.root;
-    viewer.setSourceCamera(world.camera);
-    if (world.photo) {
-      $('photo').src = withToken('/api/photo');
-      viewer.setBackdrop(withToken('/api/photo'), $('toggle-backdrop').checked);
+    if (world.views.length > 1) {
+      fillSelect($('view-picker'), world.views.map((v) => v.name));
+      $('view-picker-wrap').hidden = false;
+      chooseView(world.views[0].name);
     } else {
-      $('photo-wrap').hidden = true;
-      $('no-photo').hidden = false;
+      viewer.setSourceCamera(world.camera);
+      showPhoto();
+    }
+    if (!(chosenView() ? chosenView().photo : world.photo)) {
       $('toggle-photo-panel').checked = false;
       $('photo-panel').hidden = true;
-      $('toggle-backdrop').disabled = true;
-      viewer.setBackdrop(null, false);
     }
     fillAddClasses();
   }
@@ -223,8 +263,8 @@ function renderDetails() {
   fillSelect($('replace-class'), classes, keep ? $('replace-class').value : o.class);
   $('replace-class').dataset.for = o.name;
   fillReplaceVariants();
-  // the box in the source photo
-  const box = p.image_bbox_px;
+  // the box in the photo shown: the chosen view's (none when that view did not see it)
+  const box = state.view ? p.view_bboxes_px[state.view] : p.image_bbox_px;
   const size = scene.image_size_px;
   const bbox = $('photo-bbox');
   if (box && size && (box[2] > box[0] || box[3] > box[1])) {
@@ -342,6 +382,7 @@ function rotateBy(delta) {
 }
 
 $('btn-source-view').addEventListener('click', () => viewer.sourceView());
+$('view-picker').addEventListener('change', (e) => chooseView(e.target.value));
 $('toggle-backdrop').addEventListener('change', (e) => viewer.setBackdrop(null, e.target.checked));
 $('overlay-opacity').addEventListener('input', (e) => viewer.setOverlayOpacity(Number(e.target.value)));
 $('toggle-photo-panel').addEventListener('change', (e) => {

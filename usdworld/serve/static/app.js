@@ -46,7 +46,7 @@ async function post(op, body = {}) {
   return { ok: response.ok, status: response.status, body: data };
 }
 function withToken(path) {
-  return `${path}?token=${encodeURIComponent(token)}`;
+  return `${path}${path.includes("?") ? "&" : "?"}token=${encodeURIComponent(token)}`;
 }
 
 // src/viewer.js
@@ -407,8 +407,10 @@ var state = {
   refreshing: null,
   refreshAgain: false,
   lastMessage: "",
-  expected: null
+  expected: null,
   // version an edit of ours produced
+  view: null
+  // the chosen view of a multi-view world (null: the world's source camera)
 };
 var viewer = new Viewer($("viewport"), $("canvas"));
 viewer.heightOf = (name) => {
@@ -445,26 +447,56 @@ function fillSelect(select2, values, selected) {
   select2.replaceChildren(...values.map((v) => el("option", { value: v }, v || "(none)")));
   if (selected !== void 0 && values.includes(selected)) select2.value = selected;
 }
+function chosenView(world = state.world) {
+  return world && world.views.find((v) => v.name === state.view) || null;
+}
+function viewCamera(world = state.world) {
+  const view = chosenView(world);
+  return view ? view.camera : world.camera;
+}
+function showPhoto() {
+  const view = chosenView();
+  const has = view ? view.photo : state.world.photo;
+  const url = view ? withToken(`/api/photo?view=${encodeURIComponent(view.name)}`) : withToken("/api/photo");
+  $("photo-wrap").hidden = !has;
+  $("no-photo").hidden = has;
+  $("toggle-backdrop").disabled = !has;
+  if (has) {
+    $("photo").src = url;
+    viewer.setBackdrop(url, $("toggle-backdrop").checked);
+  } else {
+    $("photo").removeAttribute("src");
+    viewer.setBackdrop(null, false);
+  }
+}
+function chooseView(name) {
+  state.view = name;
+  $("view-picker").value = name;
+  viewer.setSourceCamera(viewCamera());
+  showPhoto();
+  if (state.selected) renderDetails();
+  document.body.dataset.view = name;
+}
 async function loadWorld() {
   const world = await getJSON("/api/world");
   const first = state.world === null;
-  const cameraChanged = !first && JSON.stringify(world.camera) !== JSON.stringify(state.world.camera);
+  const cameraChanged = !first && JSON.stringify(viewCamera(world)) !== JSON.stringify(viewCamera());
   state.world = world;
-  if (cameraChanged) viewer.setSourceCamera(world.camera);
+  if (cameraChanged) viewer.setSourceCamera(viewCamera());
   if (first) {
     $("world-name").textContent = `${world.world.name}/${world.world.root.split("/").pop()}`;
     $("world-name").title = world.world.root;
-    viewer.setSourceCamera(world.camera);
-    if (world.photo) {
-      $("photo").src = withToken("/api/photo");
-      viewer.setBackdrop(withToken("/api/photo"), $("toggle-backdrop").checked);
+    if (world.views.length > 1) {
+      fillSelect($("view-picker"), world.views.map((v) => v.name));
+      $("view-picker-wrap").hidden = false;
+      chooseView(world.views[0].name);
     } else {
-      $("photo-wrap").hidden = true;
-      $("no-photo").hidden = false;
+      viewer.setSourceCamera(world.camera);
+      showPhoto();
+    }
+    if (!(chosenView() ? chosenView().photo : world.photo)) {
       $("toggle-photo-panel").checked = false;
       $("photo-panel").hidden = true;
-      $("toggle-backdrop").disabled = true;
-      viewer.setBackdrop(null, false);
     }
     fillAddClasses();
   }
@@ -587,7 +619,7 @@ function renderDetails() {
   fillSelect($("replace-class"), classes, keep ? $("replace-class").value : o.class);
   $("replace-class").dataset.for = o.name;
   fillReplaceVariants();
-  const box = p.image_bbox_px;
+  const box = state.view ? p.view_bboxes_px[state.view] : p.image_bbox_px;
   const size = scene.image_size_px;
   const bbox = $("photo-bbox");
   if (box && size && (box[2] > box[0] || box[3] > box[1])) {
@@ -691,6 +723,7 @@ function rotateBy(delta) {
   if (o) edit("rotate", { name: o.name, yaw_deg: o.yaw_deg + delta });
 }
 $("btn-source-view").addEventListener("click", () => viewer.sourceView());
+$("view-picker").addEventListener("change", (e) => chooseView(e.target.value));
 $("toggle-backdrop").addEventListener("change", (e) => viewer.setBackdrop(null, e.target.checked));
 $("overlay-opacity").addEventListener("input", (e) => viewer.setOverlayOpacity(Number(e.target.value)));
 $("toggle-photo-panel").addEventListener("change", (e) => {

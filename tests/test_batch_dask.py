@@ -112,12 +112,12 @@ def test_dask_cluster_and_local_pool_give_identical_worlds(
     assert main([*base, "-o", str(dask), "--scheduler", cluster.scheduler_address]) == 1  # type: ignore[attr-defined]
     err = capsys.readouterr().err
     assert f"batch: 5 frames on Dask scheduler {cluster.scheduler_address}" in err  # type: ignore[attr-defined]
-    assert output_bytes(dask) == output_bytes(pool)  # every layer, asset, report.json and index.usda
-    assert stable_records(dask) == stable_records(pool)
     records = json.loads((dask / "batch.json").read_text())["frames"]
     assert [(r["frame_id"], r["status"]) for r in records] == [
         (i, "failed" if i == CORRUPT else "built") for i in IDS
     ]
+    assert stable_records(dask) == stable_records(pool)
+    assert output_bytes(dask) == output_bytes(pool)  # every layer, asset, report.json and index.usda
     assert len(cluster.workers) == 2  # type: ignore[attr-defined]
     assert all(not r["worker"].endswith(f":{os.getpid()}") for r in records)  # built in the Dask workers
 

@@ -11,12 +11,16 @@ data and output paths (a shared filesystem on a cluster).
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import json
 import logging
 import os
 import socket
+import threading
 import time
 import traceback
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -97,8 +101,42 @@ def _earlier_build(folder: Path) -> tuple[int | None, tuple[str, ...]]:
         return None, ()
 
 
+_gc_lock = threading.Lock()
+_gc_holders = 0
+
+
+@contextlib.contextmanager
+def _collected_here() -> Iterator[None]:
+    """Within: no automatic garbage collection in this process; at the end, a collection in
+    this thread.
+
+    A worker of a Dask cluster builds in a task thread while its event loop runs in another.
+    The cyclic garbage collector runs in whichever thread happens to allocate, so a USD stage
+    left in a reference cycle by one frame could be destroyed by the event loop's thread while
+    the task thread composes the next stage. USD does not survive that: a worker died with
+    "FATAL ERROR: attempted member lookup on NULL TfRefPtr<Pcp_LayerStackRegistry>" (signal
+    6), about one run in six of tests/test_batch_dask.py, leaving its half-written world's
+    temporary folder behind. Collecting only here, in the thread that built the frame, keeps
+    USD's objects in the thread that made them. A counter keeps collection off until the last
+    of several concurrent frames (threads_per_worker > 1) ends.
+    """
+    global _gc_holders
+    with _gc_lock:
+        _gc_holders += 1
+        gc.disable()
+    try:
+        yield
+    finally:
+        gc.collect()
+        with _gc_lock:
+            _gc_holders -= 1
+            if _gc_holders == 0:
+                gc.enable()
+
+
 def run_frame(task: FrameTask) -> FrameRecord:
-    """Build one frame (or find it unchanged) and describe what happened.
+    """Build one frame (or find it unchanged) and describe what happened; in a worker process
+    (``task.isolated``), with garbage collection kept in this thread (:func:`_collected_here`).
 
     Args:
         task: the frame.
@@ -107,9 +145,15 @@ def run_frame(task: FrameTask) -> FrameRecord:
         Its record: ``built``, ``unchanged`` (same key as ``task.previous_key`` and a
         complete world) or ``failed`` with the error.
     """
+    if not task.isolated:
+        return _run_frame(task)
+    _prepare_isolated_process()
+    with _collected_here():
+        return _run_frame(task)
+
+
+def _run_frame(task: FrameTask) -> FrameRecord:
     start, cpu_start = time.perf_counter(), time.process_time()
-    if task.isolated:
-        _prepare_isolated_process()
     worker = f"{socket.gethostname()}:{os.getpid()}"
     key = None
     status, objects, error, warnings, trace = "failed", None, None, (), None

@@ -21,6 +21,8 @@ def _task(tmp_path: Path, isolated: bool) -> FrameTask:
 def test_no_automatic_collection_while_a_worker_builds(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     seen: list[bool] = []
     real = worker._run_frame
+    # not this test process's logging level and OpenCV threads, which a worker process sets once
+    monkeypatch.setattr(worker, "_prepare_isolated_process", lambda: None)
     monkeypatch.setattr(worker, "_run_frame", lambda task: (seen.append(gc.isenabled()), real(task))[1])
     assert gc.isenabled()
     record = run_frame(_task(tmp_path, isolated=True))

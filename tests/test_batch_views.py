@@ -126,4 +126,4 @@ def test_a_pickled_info_file_is_one_line_exit_2(tmp_path: Path, capsys: pytest.C
     path.write_bytes(pickle.dumps({"data_list": []}, protocol=4))
     assert main(["batch", str(path), "--layout", "nuscenes", "-o", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("error: infos.pkl: a Python pickle;") and "\n" not in err
+    assert err.startswith("error: infos.pkl: a Python pickle (an mmdetection3d info file?);") and "\n" not in err

@@ -177,7 +177,7 @@ def test_a_nuscenes_sample_gives_one_view_per_camera_with_its_boxes(tmp_path: Pa
 def test_a_pickled_info_file_is_refused_with_how_to_convert_it(tmp_path: Path) -> None:
     path = tmp_path / "nuscenes_infos_val.pkl"
     path.write_bytes(pickle.dumps({"data_list": []}, protocol=4))
-    with pytest.raises(InputError, match="^nuscenes_infos_val.pkl: a Python pickle .* pass that to --views$"):
+    with pytest.raises(InputError, match="^nuscenes_infos_val.pkl: a Python pickle .* pass that instead$"):
         read_nuscenes_views(path)
 
 

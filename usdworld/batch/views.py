@@ -34,7 +34,7 @@ import usdworld
 from usdworld.batch.frames import Frame, Incomplete, check_frame_id
 from usdworld.batch.resume import KEY_FORMAT, file_digest, folder_digest
 from usdworld.errors import InputError, UsdWorldError
-from usdworld.io.hashing import json_type, parse_json, read_input
+from usdworld.io.hashing import json_type
 from usdworld.parameters import DEFAULT_PARAMETERS
 
 #: The batch layouts of multi-view worlds.
@@ -190,7 +190,7 @@ def discover_nuscenes(
     Raises:
         InputError: the file cannot be read, is a pickle, or has no ``data_list`` list.
     """
-    from usdworld.io.camera_infos import is_pickle
+    from usdworld.views.nuscenes import read_info_document
 
     path = Path(source).absolute()
     if path.is_dir():
@@ -199,18 +199,10 @@ def discover_nuscenes(
         raise InputError(
             f"{path}: no such file or folder; --layout nuscenes takes an mmdetection3d info JSON or a nuScenes dataroot"
         )
-    data, file = read_input(path, "views")
-    if is_pickle(data):
-        raise InputError(
-            f"{file.name}: a Python pickle; usdworld does not unpickle files (that can run code): "
-            "convert it to JSON (numpy arrays as lists)"
-        )
-    doc = parse_json(data, file.name)
-    samples = doc.get("data_list") if isinstance(doc, dict) else None
+    doc, file = read_info_document(path)
+    samples = doc["data_list"]
     if not isinstance(samples, list):
-        raise InputError(
-            f"{file.name}: not an mmdetection3d info file (no data_list list); --layout nuscenes reads one"
-        )
+        raise InputError(f"{file.name}: data_list must be a list of samples, got {json_type(samples)}")
 
     def frames() -> Iterator[Frame | Incomplete]:
         for i, sample in enumerate(samples):

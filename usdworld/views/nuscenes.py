@@ -137,6 +137,26 @@ def _image_size(path: Path) -> tuple[int, int]:
     return image.width, image.height
 
 
+def read_info_document(path: PathLike) -> tuple[dict[str, Any], InputFile]:
+    """An mmdetection3d info JSON, parsed, and its file.
+
+    Raises:
+        InputError: unreadable, a pickle, not JSON, or not an info file (no ``data_list``).
+    """
+    data, file = read_input(path, "views")
+    if is_pickle(data):
+        raise InputError(
+            f"{file.name}: a Python pickle (an mmdetection3d info file?); usdworld does not unpickle files (that "
+            "can run code): convert it to JSON (numpy arrays as lists) and pass that instead"
+        )
+    doc = parse_info_json(data, file.name)
+    if not is_info_document(doc):
+        raise InputError(
+            f"{file.name}: not an mmdetection3d info file (no data_list); --layout nuscenes reads one"
+        )
+    return doc, file
+
+
 def read_nuscenes_views(path: PathLike, token: str | None = None) -> ViewSet:
     """The views of one nuScenes sample of an mmdetection3d info JSON (see the module docstring).
 
@@ -150,17 +170,7 @@ def read_nuscenes_views(path: PathLike, token: str | None = None) -> ViewSet:
     Raises:
         InputError: a pickle, not an info file, no such sample, a missing photo or a malformed matrix.
     """
-    data, file = read_input(path, "views")
-    if is_pickle(data):
-        raise InputError(
-            f"{file.name}: a Python pickle (an mmdetection3d info file?); usdworld does not unpickle files (that "
-            "can run code): convert it to JSON (numpy arrays as lists) and pass that to --views"
-        )
-    doc = parse_info_json(data, file.name)
-    if not is_info_document(doc):
-        raise InputError(
-            f"{file.name}: not an mmdetection3d info file (no data_list); --layout nuscenes reads one"
-        )
+    doc, file = read_info_document(path)
     index, sample = _sample(doc, file.name, token)
     meta = doc.get("metainfo") if isinstance(doc.get("metainfo"), dict) else {}
     categories = {int(v): str(k) for k, v in (meta.get("categories") or {}).items()}

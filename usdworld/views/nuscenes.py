@@ -108,9 +108,23 @@ def truncation(box_3d: np.ndarray, K: np.ndarray, width: int, height: int) -> fl
     return float(np.clip(1.0 - inside / full, 0.0, 1.0))
 
 
-def _detections(
+def info_detections(
     boxes: Any, categories: dict[int, str], K: np.ndarray, size: tuple[int, int], file: InputFile, where: str
 ) -> Detections:
+    """A camera's 2D boxes (mmdetection3d ``cam_instances`` entries: ``bbox``, ``bbox_label``,
+    optional ``bbox_3d``) as amodal detections, their truncation measured from the 3D box.
+
+    Args:
+        boxes: the entries, as parsed.
+        categories: class name by ``bbox_label``; a label not listed (-1: ignored) is skipped.
+        K: (3, 3) float64 the camera's intrinsics.
+        size: (width, height) of the photo, pixels.
+        file: the input file the detections name.
+        where: the entries' place in the input, for errors.
+
+    Raises:
+        InputError: not a list, an entry without bbox or bbox_label, or an empty box.
+    """
     if not isinstance(boxes, list):
         raise InputError(f"{where}: must be a list of boxes")
     items = []
@@ -131,7 +145,7 @@ def _detections(
     return Detections(items=tuple(items), file=file)
 
 
-def _image_size(path: Path) -> tuple[int, int]:
+def photo_size(path: Path) -> tuple[int, int]:
     """(width, height) of a photo, to measure the boxes' truncation against."""
     image = read_image(path)
     return image.width, image.height
@@ -194,11 +208,11 @@ def read_nuscenes_views(path: PathLike, token: str | None = None) -> ViewSet:
                 f"{where} -> img_path: {image.name} is not beside {file.name}; put the photos there"
             )
         dets_file = InputFile("detections", f"{file.name}#{cam}", file.sha256)
-        dets = _detections(
+        dets = info_detections(
             instances.get(cam, []),
             categories,
             K,
-            _image_size(image),
+            photo_size(image),
             dets_file,
             f"{base} -> cam_instances -> {cam}",
         )

@@ -36,7 +36,7 @@ import numpy as np
 
 from usdworld.errors import InputError
 from usdworld.io.types import Detections, InputFile
-from usdworld.views.nuscenes import _detections, _image_size
+from usdworld.views.nuscenes import info_detections, photo_size
 from usdworld.views.types import ViewSet, ViewSpec, check_pose
 
 #: The nuScenes cameras, in the order mmdetection3d's info files list them.
@@ -221,7 +221,7 @@ def read_devkit_views(dataroot: Path, token: str | None = None) -> ViewSet:
             )
         pose = ego_from_global @ _matrix(nusc.get("ego_pose", sd["ego_pose_token"])) @ _matrix(cs)
         pose = check_pose(pose, f"{version} -> {cam} pose")
-        size = _image_size(image)
+        size = photo_size(image)
         _, boxes, _ = nusc.get_sample_data(sd["token"], box_vis_level=BoxVisibility.NONE)
         labels = sorted(set(CATEGORY_CLASSES.values()))
         instances = []
@@ -230,7 +230,7 @@ def read_devkit_views(dataroot: Path, token: str | None = None) -> ViewSet:
             seen = _camera_box(box, K, size) if cls is not None else None
             if seen is not None:
                 instances.append({**seen, "bbox_label": labels.index(str(cls))})
-        dets: Detections = _detections(
+        dets: Detections = info_detections(
             instances,
             dict(enumerate(labels)),
             K,

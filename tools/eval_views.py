@@ -68,6 +68,10 @@ def _unfused(report: dict) -> list[tuple[str, str, np.ndarray]]:
     return out
 
 
+def _metres(value: float | None) -> str:
+    return "-" if value is None else f"{value:.2f} m"
+
+
 def _observations(report: dict) -> dict[str, list[tuple[str, list[float]]]]:
     """Each fused object's observations as (view, image box), from ``report.json``."""
     return {
@@ -245,7 +249,8 @@ def main(argv: list[str] | None = None) -> int:
         f"{identity['boxes_placed_more']} boxes placed by more than one object, "
         f"{identity['objects_of_several_boxes']} objects fused from different boxes; "
         f"of the pairs within 2 m, {identity['pairs_one_box']} are one box twice, "
-        f"{identity['pairs_two_boxes']} two boxes"
+        f"{identity['pairs_two_boxes']} two boxes; placed once within the gate "
+        f"{identity['placed_once_within_gate']}, median BEV error {_metres(identity['median_error_m'])}"
     )
     if args.boxes:
         print(_account(result.report, after, boxes))

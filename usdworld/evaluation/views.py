@@ -209,8 +209,10 @@ def identity_duplicates(
     objects: Sequence[tuple[str, str, np.ndarray, Sequence[tuple[str, Sequence[float]]]]],
     boxes: Sequence[BevBox],
     duplicate_m: float = 2.0,
+    gate_min_m: float = 2.0,
+    gate_rel: float = 0.15,
 ) -> dict[str, Any]:
-    """Duplicates by identity: which ground-truth box each object's observations are.
+    """Duplicates and errors by identity: which ground-truth box each object's observations are.
 
     A rig built from the sample's own camera boxes says, for every object, which boxes
     placed it (each observation's view and image box), so whether two objects are one box
@@ -220,12 +222,18 @@ def identity_duplicates(
         objects: (name, class, (2,) float64 BEV position, observations as (view, (4,) image box)).
         boxes: the ground truth (:func:`read_bev_boxes`).
         duplicate_m: the distance under which two objects of one class are a pair.
+        gate_min_m: smallest gate of ``placed_once_within_gate``, metres (as :func:`evaluate_bev`).
+        gate_rel: the gate's share of the box's range.
 
     Returns:
         JSON-ready: ``boxes_placed_more`` (boxes whose observations went to more than one
         object), ``objects_of_several_boxes`` (objects fused from observations of different
         boxes), ``pairs_one_box`` and ``pairs_two_boxes`` (the pairs within ``duplicate_m``:
-        one box twice, or two boxes), ``unidentified`` (observations that name no box).
+        one box twice, or two boxes), ``unidentified`` (observations that name no box),
+        ``placed_once_within_gate`` (seen boxes held by one object, that object within the
+        gate of :func:`evaluate_bev`) and ``median_error_m`` (over every seen box some object
+        holds, missed ones included, the BEV distance to the nearest that does; None if
+        none): no matching, so no pairing of neighbours crosswise.
     """
     ids: list[set[int]] = []
     unidentified = 0
@@ -238,10 +246,17 @@ def identity_duplicates(
             else:
                 found.add(j)
         ids.append(found)
-    holders: dict[int, int] = {}
-    for found in ids:
+    holders: dict[int, list[int]] = {}
+    for i, found in enumerate(ids):
         for j in found:
-            holders[j] = holders.get(j, 0) + 1
+            holders.setdefault(j, []).append(i)
+    errors, once = [], 0
+    for b in boxes:
+        if not b.seen_by or b.index not in holders:
+            continue
+        d = min(float(np.linalg.norm(np.asarray(objects[i][2]) - b.centre_ego)) for i in holders[b.index])
+        errors.append(d)
+        once += len(holders[b.index]) == 1 and d <= max(gate_min_m, gate_rel * b.gate_range_m)
     one, two = 0, 0
     for a in range(len(objects)):
         for b in range(a + 1, len(objects)):
@@ -254,11 +269,13 @@ def identity_duplicates(
             else:
                 two += 1
     return {
-        "boxes_placed_more": sum(n > 1 for n in holders.values()),
+        "boxes_placed_more": sum(len(h) > 1 for h in holders.values()),
         "objects_of_several_boxes": sum(len(f) > 1 for f in ids),
         "pairs_one_box": one,
         "pairs_two_boxes": two,
         "unidentified": unidentified,
+        "placed_once_within_gate": once,
+        "median_error_m": float(np.median(errors)) if errors else None,
     }
 
 

@@ -133,3 +133,25 @@ def test_render_camera_by_view_name_resolves_to_the_rig_camera(rig: tuple[Path, 
     assert rig_view(stage, "left") == ("/World/Cameras/left", "left.png")
     assert rig_view(stage, None) == (None, None)
     assert rig_view(stage, "/World/SourceCamera") == ("/World/SourceCamera", None)
+
+
+def test_people_on_a_raised_walkway_stand_where_their_height_says(tmp_path: Path, rig: tuple[Path, Path]) -> None:
+    """Four pedestrians on the road ahead and three on a walkway 0.6 m above it to the left: their
+    contacts put the raised ones 1.7x too far (the ray meets the road plane beyond them). The views'
+    objects measure the ground's spread and every pedestrian stands within 1 m of its truth (the raised
+    ones were 6-12 m off; the level ones, exact by their contacts before, now lean on their heights
+    too and give up to 0.9 m); a rig on flat ground measures none."""
+    from usdworld.views.build import build_rig_model
+
+    size = (0.6, 0.6, 1.75)
+    people = [(12.0, -3.0), (18.0, -2.0), (26.0, -4.0), (32.0, -2.5), (16.0, 4.0), (22.0, 5.0), (28.0, 6.0)]
+    ground_z = (0.0, 0.0, 0.0, 0.0, 0.6, 0.6, 0.6)
+    manifest = write_rig(tmp_path, tuple(("person", x, y, 0.0, size) for x, y in people), ground_z)
+    model = build_rig_model(ViewsRequest(read_views_manifest(manifest), tmp_path / "world", jobs=1))
+    assert 0.3 < model.ground_spread_m < 0.6
+    placed = np.array([o.placement.position_world[:2] for o in model.objects])
+    assert len(placed) == len(people)
+    for truth in people:
+        assert float(np.min(np.linalg.norm(placed - np.array(truth), axis=1))) < 1.0
+    report = json.loads((rig[1] / "report.json").read_text())
+    assert report["views"]["ground_spread_m"] == 0.0

@@ -40,14 +40,16 @@ def world_from_cam(position: tuple[float, float, float], heading_deg: float) -> 
     return T
 
 
-def box_corners(x: float, y: float, yaw_deg: float, size: tuple[float, float, float]) -> np.ndarray:
-    """(8, 3) corners of an object's box standing on the ground."""
+def box_corners(
+    x: float, y: float, yaw_deg: float, size: tuple[float, float, float], ground_z: float = 0.0
+) -> np.ndarray:
+    """(8, 3) corners of an object's box standing on the ground (``ground_z`` above the plane z = 0)."""
     l, w, h = size
     c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
     out = []
     for dx in (-l / 2, l / 2):
         for dy in (-w / 2, w / 2):
-            for z in (0.0, h):
+            for z in (ground_z, ground_z + h):
                 out.append((x + c * dx - s * dy, y + s * dx + c * dy, z))
     return np.array(out)
 
@@ -66,14 +68,19 @@ def image_box(pose: np.ndarray, corners: np.ndarray) -> list[float] | None:
     return [float(x0), float(y0), float(x1), float(y1)]
 
 
-def write_rig(folder: Path) -> Path:
-    """Write the rig's photos, detections and manifest into ``folder``; return the manifest."""
+def write_rig(folder: Path, objects: tuple = OBJECTS, ground_z: tuple[float, ...] | None = None) -> Path:
+    """Write the rig's photos, detections and manifest into ``folder``; return the manifest.
+
+    ``objects`` are (class, x, y, yaw in degrees, size) as :data:`OBJECTS`; ``ground_z`` the height
+    of the ground each stands on (default: all on the plane z = 0).
+    """
     views = []
+    heights = ground_z if ground_z is not None else (0.0,) * len(objects)
     for name, (position, heading) in CAMERAS.items():
         pose = world_from_cam(position, heading)
         dets = []
-        for cls, x, y, yaw, size in OBJECTS:
-            box = image_box(pose, box_corners(x, y, yaw, size))
+        for (cls, x, y, yaw, size), z0 in zip(objects, heights):
+            box = image_box(pose, box_corners(x, y, yaw, size, z0))
             if box is not None:
                 dets.append({"class": cls, "box": box, "amodal": True})
         cv2.imwrite(str(folder / f"{name}.png"), np.full((HEIGHT, WIDTH, 3), 128, np.uint8))

@@ -39,7 +39,7 @@ sys.path.insert(0, str(REPO))
 
 import numpy as np
 
-from usdworld.evaluation.views import evaluate_bev, read_bev_boxes
+from usdworld.evaluation.views import BevBox, box_identity, evaluate_bev, identity_duplicates, read_bev_boxes
 from usdworld.resources import evaluation_data_dir
 
 
@@ -66,6 +66,51 @@ def _unfused(report: dict) -> list[tuple[str, str, np.ndarray]]:
         for ob in entry["observations"]:
             out.append((f"{ob['view']}:{name}", cls, np.array(ob["position_world"][:2])))
     return out
+
+
+def _metres(value: float | None) -> str:
+    return "-" if value is None else f"{value:.2f} m"
+
+
+def _observations(report: dict) -> dict[str, list[tuple[str, list[float]]]]:
+    """Each fused object's observations as (view, image box), from ``report.json``."""
+    return {
+        name: [(ob["view"], ob["image_bbox"]) for ob in entry["observations"]]
+        for name, entry in report["views"]["objects"].items()
+    }
+
+
+def _account(report: dict, result: dict, boxes: list[BevBox]) -> str:
+    """Per seen box: how often it is placed, its error, and every view's observation of it
+    (its error along and across the view's ray, in metres and in its stated sigmas)."""
+    cameras = {c["name"]: np.array(c["world_from_cam"])[:2, 3] for c in report["views"]["cameras"]}
+    by_index = {b.index: b for b in boxes}
+    obs_of: dict[int, list[str]] = {}
+    for name, entry in report["views"]["objects"].items():
+        for ob in entry["observations"]:
+            j = box_identity(ob["view"], ob["image_bbox"], boxes)
+            if j is None:
+                continue
+            b = by_index[j]
+            ray = b.centre_ego - cameras[ob["view"]]
+            ray = ray / np.linalg.norm(ray)
+            err = np.array(ob["position_world"][:2]) - b.centre_ego
+            along, across = float(err @ ray), float(err @ np.array([-ray[1], ray[0]]))
+            obs_of.setdefault(j, []).append(
+                f"    {ob['view']:16s} -> {name:28s} along {along:+7.2f} m "
+                f"({along / ob['sigma_range_m']:+5.1f} sigma), across {across:+6.2f} m "
+                f"({across / ob['sigma_lateral_m']:+5.1f} sigma), "
+                f"depth {ob['depth_m']:6.2f} m by {ob['depth_method']}"
+            )
+    lines = ["per box: index class range views count error (objects), then each observation of it"]
+    for r in result["boxes"]:
+        err = "-" if r["error_m"] is None else f"{r['error_m']:.2f} m"
+        lines.append(
+            f"{r['index']:3d} {r['class']:20s} {r['range_m']:6.1f} m {','.join(r['views']):30s} "
+            f"placed {r['count']} error {err} ({', '.join(r['objects'])})"
+        )
+        lines.extend(obs_of.get(r["index"], []))
+    return "\n".join(lines)
 
 
 def _table(title: str, result: dict) -> str:
@@ -130,12 +175,16 @@ def _drive_main(manifest: Path, out_arg: Path | None, jobs: int | None, as_json:
         out = out_arg or Path(tmp) / "world"
         views = read_views_manifest(manifest)
         start = time.perf_counter()
-        build_views(ViewsRequest(views, out, jobs=jobs))
+        built = build_views(ViewsRequest(views, out, jobs=jobs))
         seconds = time.perf_counter() - start
         objects = _drive_objects(out)
     result = evaluate_drive(objects, gt, DRIVE_CLASSES)
     n = len(views.views)
-    print(f"{manifest.name}: {n} frames built in {seconds:.1f} s ({seconds / n:.2f} s per frame)")
+    spread = built.report["views"]["ground_spread_m"]
+    print(
+        f"{manifest.name}: {n} frames built in {seconds:.1f} s ({seconds / n:.2f} s per frame); "
+        f"ground spread measured {spread:.2f} m"
+    )
     print(_table("standing objects (seen in some frame)", result["standing"]))
     m = result["moving"]
     med = "-" if m["median_track_error_m"] is None else f"{m['median_track_error_m']:.2f} m"
@@ -146,7 +195,7 @@ def _drive_main(manifest: Path, out_arg: Path | None, jobs: int | None, as_json:
     )
     print(f"world objects moving but paired with no moving object: {len(result['false_moving'])}")
     if as_json:
-        print(json.dumps({"seconds": seconds, "frames": n, **result}))
+        print(json.dumps({"seconds": seconds, "frames": n, "ground_spread_m": spread, **result}))
     return 0
 
 
@@ -160,6 +209,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--jobs", type=int, default=None, help="worker processes for the views")
     parser.add_argument("--json", action="store_true", help="print the results as one JSON line at the end")
+    parser.add_argument(
+        "--boxes",
+        action="store_true",
+        help="print every seen box's placements and each view's observation of it",
+    )
     parser.add_argument(
         "--drive", type=Path, default=None, help="a synthetic drive's views manifest (usdworld synth --sequence)"
     )
@@ -179,15 +233,29 @@ def main(argv: list[str] | None = None) -> int:
         fused = _world_objects(out)
     boxes = read_bev_boxes(info, args.sample)
     after = evaluate_bev(fused, boxes)
-    before = evaluate_bev(_unfused(result.report), boxes)
+    unfused = _unfused(result.report)
+    before = evaluate_bev(unfused, boxes)
+    observed = _observations(result.report)
+    identity = identity_duplicates([(n, c, xy, observed.get(n, [])) for n, c, xy in fused], boxes)
     print(
         f"{info.name}: {len(result.report['views']['cameras'])} views built in {seconds:.1f} s; "
-        f"fusion {result.report['views']['fusion']}"
+        f"fusion {result.report['views']['fusion']}; ground spread measured "
+        f"{result.report['views']['ground_spread_m']:.2f} m"
     )
     print(_table("before fusion (every view's objects)", before))
     print(_table("world (fused)", after))
+    print(
+        "by identity (each object's observations name their camera boxes): "
+        f"{identity['boxes_placed_more']} boxes placed by more than one object, "
+        f"{identity['objects_of_several_boxes']} objects fused from different boxes; "
+        f"of the pairs within 2 m, {identity['pairs_one_box']} are one box twice, "
+        f"{identity['pairs_two_boxes']} two boxes; placed once within the gate "
+        f"{identity['placed_once_within_gate']}, median BEV error {_metres(identity['median_error_m'])}"
+    )
+    if args.boxes:
+        print(_account(result.report, after, boxes))
     if args.json:
-        print(json.dumps({"seconds": seconds, "fused": after, "before_fusion": before}))
+        print(json.dumps({"seconds": seconds, "fused": after, "before_fusion": before, "identity": identity}))
     return 0
 
 

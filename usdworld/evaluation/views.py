@@ -15,6 +15,8 @@ paired and has no second placement, *placed more than once* when it has; its BEV
 the distance to its paired object. *Duplicates* follow the issue:
 pairs of objects of one class within ``duplicate_m`` of each other; the ground truth's own
 pairs that close are counted beside them, since two real pedestrians may stand that close.
+:func:`identity_duplicates` says which of those pairs are one box placed twice: the rig's
+detections are the sample's camera boxes, so each object's observations name their boxes.
 """
 
 from __future__ import annotations
@@ -32,6 +34,8 @@ from usdworld.perception.classes import placed_class_for_label
 
 #: Largest distance between a LiDAR box and a camera box of one annotation, metres (float32 round trip).
 SAME_BOX_M = 0.05
+#: Largest difference of a side between a camera box and the detection made of it, pixels (rounding).
+SAME_BOX_PX = 1.0
 
 
 @dataclass(frozen=True)
@@ -44,6 +48,9 @@ class BevBox:
         centre_ego: (2,) float64 BEV centre (x forward, y left), metres.
         seen_by: the cameras whose boxes hold it.
         range_m: its range for the matching gate, or None for its distance from the ego origin.
+        boxes_px: each seeing camera's 2D box of it, ``(camera, (u0, v0, u1, v1))``: the
+            detections a rig built from the sample's camera boxes places, so an object's
+            observations name the boxes they are.
     """
 
     index: int
@@ -51,6 +58,7 @@ class BevBox:
     centre_ego: np.ndarray
     seen_by: tuple[str, ...]
     range_m: float | None = None
+    boxes_px: tuple[tuple[str, tuple[float, float, float, float]], ...] = ()
 
     @property
     def gate_range_m(self) -> float:
@@ -78,7 +86,7 @@ def read_bev_boxes(info: Path, token: str | None = None) -> list[BevBox]:
         )
         for b in boxes:
             c = ego_from_cam @ np.array([*b["bbox_3d"][:3], 1.0])
-            seen_centres.append((cam, c[:3]))
+            seen_centres.append((cam, c[:3], tuple(float(v) for v in b["bbox"])))
     lookups = label_lookups()
     out = []
     for i, inst in enumerate(sample["instances"]):
@@ -86,8 +94,9 @@ def read_bev_boxes(info: Path, token: str | None = None) -> list[BevBox]:
         if cls is None:
             continue
         centre = (ego_from_lidar @ np.array([*inst["bbox_3d"][:3], 1.0]))[:3]
-        seen = tuple(sorted({cam for cam, c in seen_centres if np.linalg.norm(c - centre) < SAME_BOX_M}))
-        out.append(BevBox(i, cls, centre[:2].copy(), seen))
+        mine = [(cam, box) for cam, c, box in seen_centres if np.linalg.norm(c - centre) < SAME_BOX_M]
+        seen = tuple(sorted({cam for cam, _ in mine}))
+        out.append(BevBox(i, cls, centre[:2].copy(), seen, boxes_px=tuple(mine)))
     return out
 
 
@@ -177,6 +186,96 @@ def evaluate_bev(
         "gate": {"min_m": gate_min_m, "rel": gate_rel},
         "boxes": rows,
         "unmatched": [n for n, _ in unmatched],
+    }
+
+
+def box_identity(
+    view: str, box_px: Sequence[float], boxes: Sequence[BevBox], tolerance_px: float = SAME_BOX_PX
+) -> int | None:
+    """The ground-truth box whose camera box ``view`` saw as ``box_px`` (within ``tolerance_px``
+    on every side: detections are rounded to whole pixels), or None."""
+    best: tuple[float, int] | None = None
+    for b in boxes:
+        for cam, px in b.boxes_px:
+            if cam != view:
+                continue
+            d = float(np.max(np.abs(np.asarray(px) - np.asarray(box_px, dtype=np.float64))))
+            if d <= tolerance_px and (best is None or d < best[0]):
+                best = (d, b.index)
+    return None if best is None else best[1]
+
+
+def identity_duplicates(
+    objects: Sequence[tuple[str, str, np.ndarray, Sequence[tuple[str, Sequence[float]]]]],
+    boxes: Sequence[BevBox],
+    duplicate_m: float = 2.0,
+    gate_min_m: float = 2.0,
+    gate_rel: float = 0.15,
+) -> dict[str, Any]:
+    """Duplicates and errors by identity: which ground-truth box each object's observations are.
+
+    A rig built from the sample's own camera boxes says, for every object, which boxes
+    placed it (each observation's view and image box), so whether two objects are one box
+    placed twice needs no distance: it is read off.
+
+    Args:
+        objects: (name, class, (2,) float64 BEV position, observations as (view, (4,) image box)).
+        boxes: the ground truth (:func:`read_bev_boxes`).
+        duplicate_m: the distance under which two objects of one class are a pair.
+        gate_min_m: smallest gate of ``placed_once_within_gate``, metres (as :func:`evaluate_bev`).
+        gate_rel: the gate's share of the box's range.
+
+    Returns:
+        JSON-ready: ``boxes_placed_more`` (boxes whose observations went to more than one
+        object), ``objects_of_several_boxes`` (objects fused from observations of different
+        boxes), ``pairs_one_box`` and ``pairs_two_boxes`` (the pairs within ``duplicate_m``:
+        one box twice, or two boxes), ``unidentified`` (observations that name no box),
+        ``placed_once_within_gate`` (seen boxes held by one object, that object within the
+        gate of :func:`evaluate_bev`) and ``median_error_m`` (over every seen box some object
+        holds, missed ones included, the BEV distance to the nearest that does; None if
+        none): no matching, so no pairing of neighbours crosswise.
+    """
+    ids: list[set[int]] = []
+    unidentified = 0
+    for _, _, _, observations in objects:
+        found = set()
+        for view, box_px in observations:
+            j = box_identity(view, box_px, boxes)
+            if j is None:
+                unidentified += 1
+            else:
+                found.add(j)
+        ids.append(found)
+    holders: dict[int, list[int]] = {}
+    for i, found in enumerate(ids):
+        for j in found:
+            holders.setdefault(j, []).append(i)
+    errors, once = [], 0
+    for b in boxes:
+        if not b.seen_by or b.index not in holders:
+            continue
+        d = min(float(np.linalg.norm(np.asarray(objects[i][2]) - b.centre_ego)) for i in holders[b.index])
+        errors.append(d)
+        once += len(holders[b.index]) == 1 and d <= max(gate_min_m, gate_rel * b.gate_range_m)
+    one, two = 0, 0
+    for a in range(len(objects)):
+        for b in range(a + 1, len(objects)):
+            if objects[a][1] != objects[b][1]:
+                continue
+            if float(np.linalg.norm(np.asarray(objects[a][2]) - np.asarray(objects[b][2]))) >= duplicate_m:
+                continue
+            if ids[a] & ids[b]:
+                one += 1
+            else:
+                two += 1
+    return {
+        "boxes_placed_more": sum(len(h) > 1 for h in holders.values()),
+        "objects_of_several_boxes": sum(len(f) > 1 for f in ids),
+        "pairs_one_box": one,
+        "pairs_two_boxes": two,
+        "unidentified": unidentified,
+        "placed_once_within_gate": once,
+        "median_error_m": float(np.median(errors)) if errors else None,
     }
 
 

@@ -18,9 +18,11 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
+import math
 import os
 import shutil
 import tempfile
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -45,6 +47,7 @@ from usdworld.views.fusion import FusedObject, fuse, observations
 from usdworld.views.ground import rig_surfaces
 from usdworld.views.rig import ground_pose, world_from_ground
 from usdworld.views.types import ViewSet, ViewSpec
+from usdworld.views.unevenness import ground_height_spread, ground_heights
 
 log = logging.getLogger(__name__)
 
@@ -153,6 +156,9 @@ class RigModel:
         drive: for a drive (:func:`usdworld.views.drive.frame_times`), each object's track, in
             the order of ``objects``; None for a rig of one moment.
         frame_times: for a drive, each view's frame time, seconds; else None.
+        ground_spread_m: the ground's height spread about the plane under the car that the
+            views' objects measure (:func:`measured_ground_spread`), metres; 0 when they
+            agree with a flat ground within their cues' spreads.
     """
 
     model: WorldModel
@@ -162,6 +168,7 @@ class RigModel:
     world_from_ground: tuple[np.ndarray, ...] = field(repr=False)
     drive: tuple[DriveObject, ...] | None = field(default=None, repr=False)
     frame_times: list[float] | None = field(default=None, repr=False)
+    ground_spread_m: float = 0.0
 
 
 def view_camera_spec(view: ViewSpec, source: InputFile) -> CameraSpec:
@@ -201,9 +208,32 @@ def _view_models(request: ViewsRequest) -> list[WorldModel]:
         return list(pool.map(view_model, [request] * n, range(n)))
 
 
+def measured_ground_spread(view_models: Sequence[WorldModel]) -> float:
+    """The rig's ground height spread about the plane under the car, metres, measured from every
+    view's objects (:mod:`usdworld.views.unevenness`)."""
+    return ground_height_spread(ground_heights((m.placements, m.camera.camera.height_m) for m in view_models))
+
+
+def _uneven_request(request: ViewsRequest, spread_m: float) -> ViewsRequest:
+    """``request`` with the measured ground spread added, in quadrature, to the contact cues' unevenness."""
+    given = request.params.placement.ground_height_sigma_m
+    params = request.params.replace(placement={"ground_height_sigma_m": float(math.hypot(given, spread_m))})
+    return dataclasses.replace(request, params=params)
+
+
 def build_rig_model(request: ViewsRequest) -> RigModel:
-    """Build every view, move its objects into the world, fuse them and make one ground (no output written)."""
+    """Build every view, move its objects into the world, fuse them and make one ground (no output written).
+
+    The views are built once with the request's parameters; when their objects measure a
+    ground that departs from the plane under the car (:func:`measured_ground_spread` > 0),
+    they are built again with that spread widening their contact cues, so each object's
+    depth leans on its class height where its contact is unsure (:attr:`RigModel.ground_spread_m`).
+    """
     view_models = _view_models(request)
+    spread = measured_ground_spread(view_models)
+    if spread > 0.0:
+        request = _uneven_request(request, spread)
+        view_models = _view_models(request)
     views = request.views.views
     poses = [
         world_from_ground(v.world_from_cam, m.camera.camera.world_from_cam())
@@ -236,12 +266,15 @@ def build_rig_model(request: ViewsRequest) -> RigModel:
         inputs=tuple(inputs),
         warnings=tuple(warnings),
     )
-    return RigModel(model, tuple(objects), request.views, tuple(view_models), tuple(poses), drive, times)
+    return RigModel(
+        model, tuple(objects), request.views, tuple(view_models), tuple(poses), drive, times, spread
+    )
 
 
 def rig_report(rig: RigModel, request: ViewsRequest) -> dict[str, Any]:
     """``report.json`` of a rig: the single-image report of the fused world plus ``views``."""
-    report = make_report(rig.model, request.parameters)
+    used = _uneven_request(request, rig.ground_spread_m) if rig.ground_spread_m > 0.0 else request
+    report = make_report(rig.model, used.parameters)
     methods = [o.method for o in rig.objects]
     report["views"] = {
         "frame": rig.views.frame,
@@ -276,6 +309,7 @@ def rig_report(rig: RigModel, request: ViewsRequest) -> dict[str, Any]:
             for o in rig.objects
         },
         "fusion": {m: methods.count(m) for m in ("single", "fused", "triangulated", "tracked")},
+        "ground_spread_m": rig.ground_spread_m,
         **({"drive": _drive_report(rig.drive)} if rig.drive is not None else {}),
         "parameters": {row["name"]: plain(row["value"]) for row in section_rows(request.views_params)},
     }

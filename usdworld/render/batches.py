@@ -125,10 +125,15 @@ class MeshBatch:
         pts = self._used_points
         lo = np.full(3, np.inf, dtype=np.float32)
         hi = np.full(3, -np.inf, dtype=np.float32)
-        for m in self.world_from_local:
-            placed = (pts @ m[:3, :3].T + m[:3, 3]).astype(np.float32)  # as place_mesh computes it
-            lo = np.minimum(lo, placed.min(axis=0))
-            hi = np.maximum(hi, placed.max(axis=0))
+        chunk = max(1, 1_000_000 // max(1, len(pts)))
+        for s in range(0, self.n_instances, chunk):
+            m = self.world_from_local[s : s + chunk]
+            # the product place_mesh makes (points @ linear.T + t), for a chunk of instances at once
+            placed = (np.matmul(pts[None], np.transpose(m[:, :3, :3], (0, 2, 1))) + m[:, None, :3, 3]).astype(
+                np.float32
+            )
+            lo = np.minimum(lo, placed.min(axis=(0, 1)))
+            hi = np.maximum(hi, placed.max(axis=(0, 1)))
         return np.stack([lo, hi]).astype(np.float64)
 
 

@@ -108,8 +108,8 @@ def prototype_key(prim: Usd.Prim, local_ids: frozenset[str], local_layers: list[
             continue
         if len(spec.nameChildren):
             return None
-        names = "\n" + "\n".join(spec.properties.keys())  # noqa: SIM118  (iterating the view gives specs)
-        if any("\n" + prefix in names for prefix in _INHERITED_PREFIXES):
+        # the "properties" field lists the names without making a spec of each (4x faster)
+        if any(name.startswith(_INHERITED_PREFIXES) for name in spec.GetInfo("properties")):
             return None
     return tuple(
         (s.layer.identifier, s.path)

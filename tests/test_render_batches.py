@@ -181,3 +181,41 @@ def test_a_culled_scene_draws_exactly_the_objects_inside_the_view(tmp_path) -> N
     names = {o.path.rsplit("/", 1)[1] for o in scene.objects if o.index in drawn}
     # behind, far to the sides and just behind the camera: out; far ahead and near: in
     assert {"far_3", "far_4", "thing_0"} <= names and not names & {"far_0", "far_1", "far_2", "far_5"}
+
+
+def test_a_renderer_still_draws_after_another_was_made_and_closed() -> None:
+    """Each Renderer makes its own GL context current before it draws and before it releases."""
+    stage = new_stage()
+    box(stage, "/World/Objects/wall", (8, -2, 0), (9, 2, 3), color=(0.8, 0.2, 0.1), cls="wall")
+    scene = RenderScene.from_stage(stage)
+    cam = camera()
+    with Renderer(W, H) as first:
+        before = first.render(scene, cam.K, cam.world_from_cam())
+        with Renderer(W, H) as second:  # made current when it was created, released on exit
+            second.render(scene, cam.K, cam.world_from_cam())
+        after = first.render(scene, cam.K, cam.world_from_cam())
+        first.update_shadow_map(scene, cam.K, cam.world_from_cam())
+        again = first.render(scene, cam.K, cam.world_from_cam())
+    assert np.any(before.class_ids == 12)
+    for name in ("rgb", "class_ids", "instance_ids", "object_ids", "depth_m"):
+        assert np.array_equal(getattr(before, name), getattr(after, name)), name
+        assert np.array_equal(getattr(before, name), getattr(again, name)), name
+
+
+def test_the_fly_through_clears_the_tallest_thing_near_its_circle(tmp_path) -> None:
+    from usdworld.render.flythrough import FlythroughPath, clear_path
+
+    stage = _street(tmp_path)
+    # a 40 m tower near the circle (the cars' asset, stretched), another one beyond it
+    for name, (x, y) in (("tower", (30.0, 10.0)), ("beyond", (120.0, 0.0))):
+        xf = obj(stage, name, "building", (x, y, 0.0))
+        xf.AddScaleOp().Set(Gf.Vec3f(1.0, 1.0, 40.0 / 1.8))
+        xf.GetPrim().GetReferences().AddReference(str(tmp_path / "painted.usda"))
+    scene = RenderScene.from_stage(stage)
+    cam = camera(pitch=0.0, roll=0.0, yaw=0.0)
+    cleared = clear_path(FlythroughPath(), scene, cam.world_from_cam())
+    p = scene.positions_world
+    focus = cam.world_from_cam()[:2, 3] + np.array([1.0, 0.0]) * 25.0
+    near = np.linalg.norm(p[:, :2] - focus, axis=1) <= 29.0
+    assert cleared.aerial_height_m == float(p[near, 2].max()) + 6.0
+    assert abs(cleared.aerial_height_m - 46.0) < 1e-3  # the tower, not the one beyond

@@ -15,6 +15,7 @@ placing every part on the CPU (:func:`~usdworld.render.usd_mesh.place_mesh`), in
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -120,18 +121,26 @@ class MeshBatch:
             colors = np.tile(self.instance_colors[i], (self.n_corners, 1))
         return LocalMesh(self.topology, self.normals_local, colors)
 
-    def bounds_world(self) -> np.ndarray:
-        """(2, 3) float64 ``[min, max]`` of every instance's corners, as float32 positions give them."""
+    def placed_points(self, max_points: int = 1_000_000) -> Iterator[np.ndarray]:
+        """The points its triangles use, placed by every instance, in chunks of instances.
+
+        Yields:
+            (n, P, 3) float32 points of n instances, the same values as the corners in the
+            flat arrays (the product place_mesh makes, points @ linear.T + t, done for a chunk
+            of instances at once).
+        """
         pts = self._used_points
-        lo = np.full(3, np.inf, dtype=np.float32)
-        hi = np.full(3, -np.inf, dtype=np.float32)
-        chunk = max(1, 1_000_000 // max(1, len(pts)))
+        chunk = max(1, max_points // max(1, len(pts)))
         for s in range(0, self.n_instances, chunk):
             m = self.world_from_local[s : s + chunk]
-            # the product place_mesh makes (points @ linear.T + t), for a chunk of instances at once
-            placed = (np.matmul(pts[None], np.transpose(m[:, :3, :3], (0, 2, 1))) + m[:, None, :3, 3]).astype(
-                np.float32
-            )
+            placed = np.matmul(pts[None], np.transpose(m[:, :3, :3], (0, 2, 1))) + m[:, None, :3, 3]
+            yield placed.astype(np.float32)
+
+    def bounds_world(self) -> np.ndarray:
+        """(2, 3) float64 ``[min, max]`` of every instance's corners, as float32 positions give them."""
+        lo = np.full(3, np.inf, dtype=np.float32)
+        hi = np.full(3, -np.inf, dtype=np.float32)
+        for placed in self.placed_points():
             lo = np.minimum(lo, placed.min(axis=(0, 1)))
             hi = np.maximum(hi, placed.max(axis=(0, 1)))
         return np.stack([lo, hi]).astype(np.float64)

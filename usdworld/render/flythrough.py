@@ -172,10 +172,15 @@ def clear_path(
     heading = np.array([axis[0], axis[1]])
     heading = heading / np.linalg.norm(heading) if np.linalg.norm(heading) > 1e-6 else np.array([1.0, 0.0])
     focus = T0[:2, 3] + heading * path.focus_m
-    p = scene.positions_world
     reach = max(path.focus_m - path.forward_m, path.aerial_radius_m) + 5.0
-    near = np.linalg.norm(p[:, :2] - focus, axis=1) <= reach
-    top = float(p[near, 2].max()) if near.any() else 0.0
+    top = -np.inf
+    for batch in scene.batches:  # every corner of the scene, without placing the triangles
+        for p in batch.placed_points():
+            p = p.reshape(-1, 3)
+            near = np.linalg.norm(p[:, :2] - focus, axis=1) <= reach
+            if near.any():
+                top = max(top, float(p[near, 2].max()))
+    top = top if np.isfinite(top) else 0.0
     if top + margin_m <= path.aerial_height_m:
         return path
     return replace(path, aerial_height_m=top + margin_m)

@@ -214,6 +214,7 @@ def test_the_fly_through_clears_the_tallest_thing_near_its_circle(tmp_path) -> N
     scene = RenderScene.from_stage(stage)
     cam = camera(pitch=0.0, roll=0.0, yaw=0.0)
     cleared = clear_path(FlythroughPath(), scene, cam.world_from_cam())
+    assert "_flat" not in vars(scene)  # read from the batches: no triangle placed on the CPU
     p = scene.positions_world
     focus = cam.world_from_cam()[:2, 3] + np.array([1.0, 0.0]) * 25.0
     near = np.linalg.norm(p[:, :2] - focus, axis=1) <= 29.0

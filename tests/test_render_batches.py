@@ -1,4 +1,4 @@
-"""Instanced drawing (one batch per asset mesh) against drawing every placed triangle, and the culling test."""
+"""Instanced drawing (a batch per asset mesh) against drawing every placed triangle; the culling test."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from usdworld.render.instancing import box_corners
 
 
 def _painted_asset(path) -> str:
-    """A car of three meshes: a painted body, a grey roof and a two-coloured (displayColor per face) bumper."""
+    """A car of three meshes: a painted body, a grey roof, a two-coloured (per-face displayColor) bumper."""
     asset = Usd.Stage.CreateNew(str(path))
     UsdGeom.SetStageUpAxis(asset, UsdGeom.Tokens.z)
     root = UsdGeom.Xform.Define(asset, "/thing").GetPrim()
@@ -51,8 +51,9 @@ def _street(tmp_path) -> Usd.Stage:
         xf.AddScaleOp().Set(Gf.Vec3f(1.0 + 0.08 * i, -1.0 if i == 5 else 1.0, 0.9 + 0.05 * i))
         xf.GetPrim().GetReferences().AddReference(ref)
         if i % 2:
-            paint = UsdShade.Shader(stage.OverridePrim(f"/World/Objects/thing_{i}/Looks/paint/PreviewSurface"))
-            paint.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.1 * i, 0.2, 0.9 - 0.1 * i))
+            over = stage.OverridePrim(f"/World/Objects/thing_{i}/Looks/paint/PreviewSurface")
+            colour = Gf.Vec3f(0.1 * i, 0.2, 0.9 - 0.1 * i)
+            UsdShade.Shader(over).CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(colour)
     return stage
 
 
@@ -125,9 +126,11 @@ def test_the_flat_arrays_are_the_placed_triangles_in_stage_order(tmp_path) -> No
 
 
 def _boxes(data: st.DataObject, n: int) -> np.ndarray:
-    centres = data.draw(st.lists(st.tuples(*[st.floats(-80, 80)] * 2, st.floats(-2, 10)), min_size=n, max_size=n))
+    centre = st.tuples(st.floats(-80, 80), st.floats(-80, 80), st.floats(-2, 10))
+    centres = data.draw(st.lists(centre, min_size=n, max_size=n))
     sizes = data.draw(st.lists(st.tuples(*[st.floats(0.1, 20)] * 3), min_size=n, max_size=n))
-    return np.array([box_corners(np.array([np.subtract(c, s), np.add(c, s)])) for c, s in zip(centres, sizes)])
+    boxes = [np.array([np.subtract(c, h), np.add(c, h)]) for c, h in zip(centres, sizes)]
+    return np.array([box_corners(b) for b in boxes])
 
 
 def _outside_one_by_one(cull: ViewCull, pts: np.ndarray) -> bool:
@@ -162,7 +165,8 @@ def test_culling_many_boxes_at_once_is_culling_each(data, elevation, azimuth) ->
 def test_a_culled_scene_draws_exactly_the_objects_inside_the_view(tmp_path) -> None:
     stage = _street(tmp_path)
     ref = str(tmp_path / "painted.usda")
-    for k, (x, y) in enumerate([(-30.0, 0.0), (20.0, 90.0), (20.0, -90.0), (400.0, 0.0), (12.0, 2.0), (-3.0, 6.0)]):
+    places = [(-30.0, 0.0), (20.0, 90.0), (20.0, -90.0), (400.0, 0.0), (12.0, 2.0), (-3.0, 6.0)]
+    for k, (x, y) in enumerate(places):
         obj(stage, f"far_{k}", "car", (x, y, 0.0)).GetPrim().GetReferences().AddReference(ref)
     cam = camera()
     cull = ViewCull(cam.K, cam.world_from_cam(), W, H, None)

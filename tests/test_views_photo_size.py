@@ -27,9 +27,17 @@ def _photo(path: Path, orientation: int | None = None) -> Path:
 
 @pytest.mark.parametrize(
     ("name", "orientation", "size"),
-    [("a.png", None, (50, 30)), ("b.jpg", None, (50, 30)), ("c.jpg", 1, (50, 30)), ("d.jpg", 6, (30, 50)), ("e.jpg", 8, (30, 50))],
+    [
+        ("a.png", None, (50, 30)),
+        ("b.jpg", None, (50, 30)),
+        ("c.jpg", 1, (50, 30)),
+        ("d.jpg", 6, (30, 50)),
+        ("e.jpg", 8, (30, 50)),
+    ],
 )
-def test_photo_size_is_the_decoded_size_without_decoding(tmp_path, monkeypatch, name, orientation, size) -> None:
+def test_photo_size_is_the_decoded_size_without_decoding(
+    tmp_path, monkeypatch, name, orientation, size
+) -> None:
     path = _photo(tmp_path / name, orientation)
     decoded = read_image(path)
     assert (decoded.width, decoded.height) == size

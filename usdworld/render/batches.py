@@ -77,7 +77,8 @@ class MeshBatch:
 
     def __post_init__(self) -> None:
         n = len(self.world_from_local)
-        object.__setattr__(self, "world_from_local", _frozen(self.world_from_local, np.float64).reshape(n, 4, 4))
+        transforms = _frozen(self.world_from_local, np.float64).reshape(n, 4, 4)
+        object.__setattr__(self, "world_from_local", transforms)
         for name in ("class_ids", "instance_ids", "object_ids"):
             a = _frozen(getattr(self, name), np.int32)
             if a.shape != (n,):
@@ -86,7 +87,8 @@ class MeshBatch:
         if (self.vertex_colors is None) == (self.instance_colors is None):
             raise ValueError("MeshBatch: exactly one of vertex_colors and instance_colors is needed")
         if self.instance_colors is not None and np.shape(self.instance_colors) != (n, 3):
-            raise ValueError(f"MeshBatch.instance_colors: shape {np.shape(self.instance_colors)}, expected ({n}, 3)")
+            shape = np.shape(self.instance_colors)
+            raise ValueError(f"MeshBatch.instance_colors: shape {shape}, expected ({n}, 3)")
         used = np.zeros(len(self.topology.points), dtype=bool)
         used[self.topology.triangles.reshape(-1)] = True
         object.__setattr__(self, "_used_points", self.topology.points[used])

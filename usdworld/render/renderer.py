@@ -116,9 +116,10 @@ class _BatchBuffers:
         ibo = ctx.buffer((last_first + np.arange(3, dtype=np.int32)).ravel().tobytes())
         self.buffers = [pos, nrm, inst, inst_rev, ibo]
         place = f"{_ROWS} {_INSTANCE.itemsize - 96}x/i"
+        placed = [(pos, "3f8", "in_pos"), (inst, place, *_ROW_NAMES)]
         self.vaos: dict[str, Any] = {
-            "shadow": ctx.vertex_array(programs["shadow"], [(pos, "3f8", "in_pos"), (inst, place, *_ROW_NAMES)]),
-            "depth": ctx.vertex_array(programs["depth"], [(pos, "3f8", "in_pos"), (inst, place, *_ROW_NAMES)]),
+            "shadow": ctx.vertex_array(programs["shadow"], placed),
+            "depth": ctx.vertex_array(programs["depth"], placed),
             "label": ctx.vertex_array(
                 programs["label"],
                 [(pos, "3f8", "in_pos"), (inst, f"{_ROWS} 36x 3i 12x/i", *_ROW_NAMES, "in_ids")],

@@ -281,7 +281,8 @@ def _extract(
                     l2w = xf_cache.GetLocalToWorldTransform(prim)
                     part_ids = []
                     for part in proto.parts:
-                        class_id = label_id_for_class(part.label if part.label is not None else owner.class_name)
+                        own_class = part.label if part.label is not None else owner.class_name
+                        class_id = label_id_for_class(own_class)
                         part_ids.append((class_id, *ids.of_part(owner, class_id)))
                     entries.append(_Pending(proto, l2w, world_T @ matrix_from_gf(l2w), part_ids))
                     continue
@@ -339,7 +340,8 @@ def _place(
             m = e.l2w
             for local in part.chain:
                 m = local * m
-            parts.append(ScenePart(part.mesh, world_T @ matrix_from_gf(m), class_id, instance_id, object_index))
+            world_from_local = world_T @ matrix_from_gf(m)
+            parts.append(ScenePart(part.mesh, world_from_local, class_id, instance_id, object_index))
     return parts, culled
 
 

@@ -42,13 +42,15 @@ def _painted_asset(path) -> str:
 
 
 def _street(tmp_path) -> Usd.Stage:
-    """Eight cars of one asset: turned, scaled (one mirrored), four painted their own colour."""
+    """Nine cars of one asset: turned, scaled (one mirrored, one flattened), four painted their own colour."""
     ref = _painted_asset(tmp_path / "painted.usda")
     stage = new_stage()
-    for i in range(8):
-        xf = obj(stage, f"thing_{i}", "car", (9.0 + 3.5 * i, -5.0 + 1.6 * i, 0.05 * i))
+    for i in range(9):
+        place = (6.0, 1.0, 0.3) if i == 8 else (9.0 + 3.5 * i, -5.0 + 1.6 * i, 0.05 * i)
+        xf = obj(stage, f"thing_{i}", "car", place)
         xf.AddRotateZOp().Set(17.0 * i)
-        xf.AddScaleOp().Set(Gf.Vec3f(1.0 + 0.08 * i, -1.0 if i == 5 else 1.0, 0.9 + 0.05 * i))
+        height = 0.0 if i == 8 else 0.9 + 0.05 * i  # the last one flattened
+        xf.AddScaleOp().Set(Gf.Vec3f(1.0 + 0.08 * i, -1.0 if i == 5 else 1.0, height))
         xf.GetPrim().GetReferences().AddReference(ref)
         if i % 2:
             over = stage.OverridePrim(f"/World/Objects/thing_{i}/Looks/paint/PreviewSurface")
@@ -98,7 +100,7 @@ def test_instanced_draw_gives_the_image_of_the_placed_triangles(tmp_path) -> Non
     placed = _placed(scene)
     # body (one colour: per instance, all eight cars), roof, bumper (two colours: per corner, shared)
     shared = sorted(b.n_instances for b in scene.batches)
-    assert shared[-3:] == [8, 8, 8], shared
+    assert shared[-3:] == [9, 9, 9], shared
     assert np.array_equal(placed.bounds_world(), scene.bounds_world())
     cam = camera(pitch=0.1)
     lighting = Lighting(sun_direction_world=sun_direction(200.0, 35.0))
@@ -107,7 +109,7 @@ def test_instanced_draw_gives_the_image_of_the_placed_triangles(tmp_path) -> Non
         b = renderer.render(placed, cam.K, cam.world_from_cam())
     for name in ("class_ids", "instance_ids", "object_ids", "depth_m"):
         assert np.array_equal(getattr(a, name), getattr(b, name)), name
-    assert len(np.unique(a.object_ids)) == 9  # every car is in view
+    assert len(np.unique(a.object_ids)) == 10  # every car is in view, the flat one too
     # normals by the inverse transpose, not the placed face: a level at most, in a few pixels
     diff = np.abs(a.rgb.astype(int) - b.rgb.astype(int))
     assert diff.max() <= 1 and np.count_nonzero(diff.max(axis=2)) <= 0.001 * W * H

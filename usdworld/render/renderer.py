@@ -71,7 +71,7 @@ def _write(prog: Any, name: str, value: np.ndarray | float) -> None:
 
 
 #: One instance's record in the instance buffer: the top three rows of world_from_local
-#: (double), the columns of the inverse transpose of its linear part, its ids and its colour.
+#: (double), the columns of its linear part's cofactor matrix (normals), its ids and its colour.
 _INSTANCE = np.dtype(
     [("rows", "<f8", (3, 4)), ("normal", "<f4", (3, 3)), ("ids", "<i4", 3), ("color", "<f4", 3)]
 )
@@ -84,13 +84,11 @@ def _instance_records(batch: MeshBatch, reverse: bool) -> bytes:
     rec = np.zeros(n, dtype=_INSTANCE)
     m = batch.world_from_local
     rec["rows"] = m[:, :3, :]
-    linear = m[:, :3, :3]
-    with np.errstate(all="ignore"):
-        det = np.linalg.det(linear)
-        good = np.abs(det) > 0
-        inv_t = np.zeros_like(linear)
-        inv_t[good] = np.transpose(np.linalg.inv(linear[good]), (0, 2, 1))
-    rec["normal"] = np.transpose(inv_t, (0, 2, 1))  # columns, as GLSL's mat3(c0, c1, c2) takes them
+    c0, c1, c2 = (m[:, :3, k] for k in range(3))  # the linear part's columns
+    # its cofactor matrix, det * inverse transpose (columns c1 x c2, c2 x c0, c0 x c1): it turns a
+    # normal as the inverse transpose does, up to length and sign, and a flattening scale too
+    cofactor = np.stack([np.cross(c1, c2), np.cross(c2, c0), np.cross(c0, c1)], axis=2)
+    rec["normal"] = np.transpose(cofactor, (0, 2, 1))  # columns, as GLSL's mat3(c0, c1, c2) takes them
     rec["ids"] = np.stack([batch.class_ids, batch.instance_ids, batch.object_ids], axis=1)
     if batch.instance_colors is not None:
         rec["color"] = batch.instance_colors

@@ -83,9 +83,10 @@ void main() { gl_Position = u_view_proj * vec4(world_position(), 1.0); }
 
 DEPTH_FS = SHADOW_FS
 
-# The normal is the mesh's (authored, or the face's) times the inverse transpose of the
-# instance's linear part (``in_n0..2``, its columns): the placed triangle's normal up to length
-# and sign (the fragment shader normalises it and turns it to the eye).
+# The normal is the mesh's (authored, or the face's) times the cofactor matrix of the
+# instance's linear part (``in_n0..2``, its columns; det times the inverse transpose): the
+# placed triangle's normal up to length and sign (the fragment shader normalises it and turns
+# it to the eye), also for a scale that flattens the mesh.
 LIT_VS = (
     """
 #version 410

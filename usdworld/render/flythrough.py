@@ -30,7 +30,7 @@ from usdworld.render.lighting import Lighting
 from usdworld.render.world_lights import lighting_from_stage
 from usdworld.render.outputs import view_camera, world_image_size
 from usdworld.render.renderer import Renderer
-from usdworld.render.scene import RenderScene
+from usdworld.render.scene import RenderScene, StaticCache
 from usdworld.render.timing import scene_at
 from usdworld.render.video import Mp4Writer, check_video_size
 
@@ -397,13 +397,14 @@ def render_flythrough(
         Mp4Writer(output, width, height, fps=fps) as video,
     ):
         prototypes: dict = {}
+        still = StaticCache()  # a drive's parked cars, buildings and trees: read at the first frame only
         if all(code is None for code in codes):
             # The scene is static along the path: one shadow map, drawn once, serves every frame.
             # (A drive's movers make each frame another scene, whose shadow box follows its view.)
             renderer.fix_shadow_box(scene, K, poses)
         for i, pose in enumerate(poses):
             if codes[i] is not None:  # the drive's movers where they are at the frame's time
-                scene = scene_at(stage, codes[i], prototypes=prototypes)
+                scene = scene_at(stage, codes[i], prototypes=prototypes, static=still)
             t0 = time.perf_counter()
             frame = renderer.render_rgb(scene, K, pose)
             render_s += time.perf_counter() - t0

@@ -23,6 +23,7 @@ The world frame is Z up, metres: stages authored Y up or in other units are conv
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass, field
 
@@ -172,6 +173,7 @@ class RenderScene:
         cull: ViewCull | None = None,
         time: Usd.TimeCode | None = None,
         prototypes: dict[tuple, Prototype | None] | None = None,
+        static: StaticCache | None = None,
     ) -> RenderScene:
         """Collect every renderable mesh of the composed stage.
 
@@ -191,8 +193,11 @@ class RenderScene:
             prototypes: a cache of the assets' meshes (read at the default time) that
                 several calls on one unchanged stage share, so that reading the scene at
                 many times reads each asset once; None reads them afresh.
+            static: the objects that stand still, kept by several calls on one unchanged
+                stage at different times (:class:`StaticCache`), so that each of them is read
+                once; None reads every object.
         """
-        return _extract(stage, objects_path, cull, time, prototypes)
+        return _extract(stage, objects_path, cull, time, prototypes, static)
 
 
 def world_from_stage(stage: Usd.Stage) -> np.ndarray:
@@ -217,6 +222,57 @@ def _default_objects_path(stage: Usd.Stage) -> str:
     return "/World/Objects"
 
 
+@dataclass(frozen=True)
+class _StillObject:
+    """An object that stands still, as read once: its label and its entries (ids as read then)."""
+
+    label: str
+    entries: tuple[ScenePart | _Pending, ...]
+
+
+@dataclass
+class StaticCache:
+    """The objects of a stage that stand still, read once and shared by reads at several times.
+
+    An object stands still when neither it, nor a prim below it, nor the objects scope or a
+    prim above it has a time-varying transform or visibility: its meshes and transforms are
+    then the same at every time. Its ids are counted again at every read, in stage order
+    (a mover hidden at one time has no rider ids then, which moves later riders' ids), so a
+    read with the cache gives the same scene as one without.
+    """
+
+    objects: dict[Sdf.Path, _StillObject] = field(default_factory=dict)
+    moving: set[Sdf.Path] = field(default_factory=set)
+    prototype_moves: dict[tuple, bool] = field(default_factory=dict)
+    scope_moves: bool | None = None
+
+
+def _moves(prim: Usd.Prim) -> bool:
+    """True when the prim's transform or visibility might vary over time."""
+    xformable = UsdGeom.Xformable(prim)
+    if xformable and xformable.TransformMightBeTimeVarying():
+        return True
+    imageable = UsdGeom.Imageable(prim)
+    return bool(imageable) and imageable.GetVisibilityAttr().ValueMightBeTimeVarying()
+
+
+def _subtree_moves(prim: Usd.Prim, predicate: object) -> bool:
+    return any(_moves(p) for p in Usd.PrimRange(prim, predicate))
+
+
+def _replay(still: _StillObject, owner: RenderObject, ids: _Ids) -> list[ScenePart | _Pending]:
+    """A still object's entries with its ids counted now (in the order they were first counted)."""
+    out: list[ScenePart | _Pending] = []
+    for e in still.entries:
+        if isinstance(e, ScenePart):
+            instance_id, object_index = ids.of_part(owner, e.class_id)
+            out.append(dataclasses.replace(e, instance_id=instance_id, object_index=object_index))
+        else:
+            part_ids = [(c, *ids.of_part(owner, c)) for c, _, _ in e.ids]
+            out.append(_Pending(e.proto, e.l2w, e.world_from_object, part_ids))
+    return out
+
+
 @dataclass
 class _Pending:
     """An object drawn as a prototype, waiting for the (vectorised) culling test."""
@@ -233,6 +289,7 @@ def _extract(
     cull: ViewCull | None,
     time: Usd.TimeCode | None,
     cache: dict[tuple, Prototype | None] | None,
+    static: StaticCache | None = None,
 ) -> RenderScene:
     objects_sdf = Sdf.Path(objects_path or _default_objects_path(stage))
     world_T = world_from_stage(stage)
@@ -248,10 +305,27 @@ def _extract(
     geometry: GeometryCache = {}  # asset meshes, shared by prototypes and by objects read on their own
 
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+    if static is not None and static.scope_moves is None:
+        scope = stage.GetPrimAtPath(objects_sdf)
+        static.scope_moves = bool(scope) and any(_moves(p) for p in _self_and_ancestors(scope))
+    keep = static is not None and not static.scope_moves
+    first_entry: dict[Sdf.Path, int] = {}  # where each object's entries start
+    to_keep: set[Sdf.Path] = set()  # the objects read now that stand still
     it = iter(Usd.PrimRange(stage.GetPseudoRoot(), predicate))
     for prim in it:
         path = prim.GetPath()
         if prim.IsPseudoRoot():
+            continue
+        still = static.objects.get(path) if keep and static is not None else None
+        if still is not None:  # read before: only its ids are counted again
+            it.PruneChildren()
+            labels[path] = still.label
+            label_id = label_id_for_class(still.label)
+            instance_id = ids.next(label_id) if label_id in ids.things else label_id
+            owner = RenderObject(str(path), still.label, label_id, instance_id, len(objects) + 1)
+            objects[path] = owner
+            first_entry[path] = len(entries)
+            entries.extend(_replay(still, owner, ids))
             continue
         if pruned(prim, t):
             it.PruneChildren()
@@ -272,6 +346,18 @@ def _extract(
             instance_id = ids.next(label_id) if label_id in ids.things else label_id
             owner = objects[path] = RenderObject(str(path), label, label_id, instance_id, len(objects) + 1)
             key = prototype_key(prim, local_ids, local_layers)
+            if keep and static is not None and path not in static.moving:
+                if key is not None and key in prototypes and prototypes[key] is not None:
+                    if key not in static.prototype_moves:
+                        static.prototype_moves[key] = _subtree_moves(prim, predicate)
+                    moves = _moves(prim) or static.prototype_moves[key]
+                else:
+                    moves = _subtree_moves(prim, predicate)
+                if moves:
+                    static.moving.add(path)
+                else:
+                    to_keep.add(path)
+            first_entry[path] = len(entries)
             if key is not None:
                 if key not in prototypes:
                     prototypes[key] = read_prototype(prim, predicate, geometry)
@@ -295,6 +381,8 @@ def _extract(
         class_id = label_id_for_class(labels[path])
         instance_id, object_index = ids.of_part(_owner(path, objects_sdf, objects), class_id)
         entries.append(ScenePart(local, world_from_local, class_id, instance_id, object_index))
+    if static is not None and to_keep:
+        _keep_still(static, first_entry, to_keep, objects, entries)
     parts, culled = _place(entries, world_T, cull)
     batches, order = group_parts(parts)
     culled_box = None
@@ -302,6 +390,36 @@ def _extract(
         pts = np.concatenate(culled)
         culled_box = np.stack([pts.min(axis=0), pts.max(axis=0)])
     return RenderScene(batches, order, tuple(objects.values()), culled_box)
+
+
+def _self_and_ancestors(prim: Usd.Prim) -> list[Usd.Prim]:
+    out = []
+    while prim and not prim.IsPseudoRoot():
+        out.append(prim)
+        prim = prim.GetParent()
+    return out
+
+
+def _keep_still(
+    static: StaticCache,
+    first_entry: dict[Sdf.Path, int],
+    to_keep: set[Sdf.Path],
+    objects: dict[Sdf.Path, RenderObject],
+    entries: list[ScenePart | _Pending],
+) -> None:
+    """Put the still objects read now into the cache: each one's entries, up to the next object's."""
+    starts = sorted(first_entry.items(), key=lambda item: item[1])
+    for k, (path, start) in enumerate(starts):
+        if path not in to_keep:
+            continue
+        end = starts[k + 1][1] if k + 1 < len(starts) else len(entries)
+        owner = objects[path]
+        mine = tuple(
+            e
+            for e in entries[start:end]
+            if isinstance(e, _Pending) or e.object_index == owner.index  # a _Pending is the object itself
+        )
+        static.objects[path] = _StillObject(owner.class_name, mine)
 
 
 def _place(

@@ -101,6 +101,32 @@ def test_a_hidden_mover_keeps_its_id_so_ids_agree_over_time(drive: Path) -> None
     assert hidden in set(scenes[2.0].object_ids.tolist())
 
 
+def test_a_drive_read_over_time_reads_what_stands_still_once(drive: Path, monkeypatch) -> None:
+    import usdworld.render.scene as scene_module
+    from usdworld.render.scene import StaticCache
+    from usdworld.render.timing import scene_at
+
+    stage = Usd.Stage.Open(str(drive / "world.usda"))
+    codes = [0.0, 1.5, 3.0, 4.0, 2.0]
+    fresh = [scene_at(stage, code) for code in codes]
+    keys = []
+    real = scene_module.prototype_key
+    counted = lambda prim, *a: (keys.append(prim.GetPath()), real(prim, *a))[1]  # noqa: E731
+    monkeypatch.setattr(scene_module, "prototype_key", counted)
+    still, prototypes = StaticCache(), {}
+    for k, (code, want) in enumerate(zip(codes, fresh)):
+        keys.clear()
+        got = scene_at(stage, code, prototypes=prototypes, static=still)
+        assert got.objects == want.objects  # (the batches may split alike meshes read at other times)
+        assert np.array_equal(got.bounds_world(), want.bounds_world())
+        for name in ("positions_world", "normals_world", "colors", "class_ids", "instance_ids", "object_ids"):
+            assert np.array_equal(getattr(got, name), getattr(want, name)), (code, name)
+        if k:  # after the first read only the movers are read again
+            assert set(map(str, keys)) == set(map(str, still.moving))
+    assert LATE in {str(p) for p in still.moving}
+    assert len(still.objects) > 3 * len(still.moving)  # the parked cars, buildings, trees
+
+
 def test_render_time_draws_the_ego_view_then(
     drive: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -207,7 +207,7 @@ def evaluate_world(
         if own:
             r.close()
     if classes is None:
-        classes = sorted(int(c) for c in np.unique(scene.class_ids) if c != 0)
+        classes = [c for c in scene.label_ids_present() if c != 0]
     per_class: dict[str, float] = {}
     inter: dict[str, int] = {}
     union: dict[str, int] = {}

@@ -12,7 +12,8 @@ log = logging.getLogger(__name__)
 #: Debian packages that provide EGL and the Mesa llvmpipe (CPU) OpenGL driver.
 GL_PACKAGES = "libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libgbm1"
 INSTALL_HINT = f"apt-get install -y --no-install-recommends {GL_PACKAGES}"
-MIN_GL_VERSION = 330
+#: OpenGL 4.1: double-precision vertex attributes (the instanced draw places corners in double).
+MIN_GL_VERSION = 410
 
 
 class RenderError(UsdWorldError):
@@ -25,7 +26,7 @@ def create_context() -> Any:
     """A standalone moderngl context on EGL (no display needed).
 
     Raises:
-        RenderError: moderngl is missing, or EGL / OpenGL 3.3 cannot start; the message
+        RenderError: moderngl is missing, or EGL / OpenGL 4.1 cannot start; the message
             says what to install.
     """
     try:
@@ -39,7 +40,7 @@ def create_context() -> Any:
     except Exception as exc:  # noqa: BLE001  (glcontext raises plain Exceptions with the driver's text)
         reason = " ".join(str(exc).split()) or type(exc).__name__
         raise RenderError(
-            f"headless OpenGL (EGL, GL >= 3.3) could not start ({reason}); install the Debian packages: {INSTALL_HINT}"
+            f"headless OpenGL (EGL, GL >= 4.1) could not start ({reason}); install the Debian packages: {INSTALL_HINT}"
         ) from None
     log.debug("OpenGL context: %s, %s", ctx.info.get("GL_RENDERER"), ctx.info.get("GL_VERSION"))
     return ctx

@@ -30,7 +30,7 @@ from usdworld.render.lighting import Lighting
 from usdworld.render.world_lights import lighting_from_stage
 from usdworld.render.outputs import view_camera, world_image_size
 from usdworld.render.renderer import Renderer
-from usdworld.render.scene import RenderScene
+from usdworld.render.scene import RenderScene, StaticCache
 from usdworld.render.timing import scene_at
 from usdworld.render.video import Mp4Writer, check_video_size
 
@@ -172,10 +172,15 @@ def clear_path(
     heading = np.array([axis[0], axis[1]])
     heading = heading / np.linalg.norm(heading) if np.linalg.norm(heading) > 1e-6 else np.array([1.0, 0.0])
     focus = T0[:2, 3] + heading * path.focus_m
-    p = scene.positions_world
     reach = max(path.focus_m - path.forward_m, path.aerial_radius_m) + 5.0
-    near = np.linalg.norm(p[:, :2] - focus, axis=1) <= reach
-    top = float(p[near, 2].max()) if near.any() else 0.0
+    top = -np.inf
+    for batch in scene.batches:  # every corner of the scene, without placing the triangles
+        for p in batch.placed_points():
+            p = p.reshape(-1, 3)
+            near = np.linalg.norm(p[:, :2] - focus, axis=1) <= reach
+            if near.any():
+                top = max(top, float(p[near, 2].max()))
+    top = top if np.isfinite(top) else 0.0
     if top + margin_m <= path.aerial_height_m:
         return path
     return replace(path, aerial_height_m=top + margin_m)
@@ -392,13 +397,14 @@ def render_flythrough(
         Mp4Writer(output, width, height, fps=fps) as video,
     ):
         prototypes: dict = {}
+        still = StaticCache()  # a drive's parked cars, buildings and trees: read at the first frame only
         if all(code is None for code in codes):
             # The scene is static along the path: one shadow map, drawn once, serves every frame.
             # (A drive's movers make each frame another scene, whose shadow box follows its view.)
             renderer.fix_shadow_box(scene, K, poses)
         for i, pose in enumerate(poses):
             if codes[i] is not None:  # the drive's movers where they are at the frame's time
-                scene = scene_at(stage, codes[i], prototypes=prototypes)
+                scene = scene_at(stage, codes[i], prototypes=prototypes, static=still)
             t0 = time.perf_counter()
             frame = renderer.render_rgb(scene, K, pose)
             render_s += time.perf_counter() - t0

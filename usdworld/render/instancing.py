@@ -106,9 +106,10 @@ def prototype_key(prim: Usd.Prim, local_ids: frozenset[str], local_layers: list[
         spec = layer.GetPrimAtPath(path)
         if not spec:
             continue
-        if len(spec.nameChildren) or any(
-            name.startswith(_INHERITED_PREFIXES) for name in spec.properties.keys()  # noqa: SIM118  (iterating the view gives specs)
-        ):
+        if len(spec.nameChildren):
+            return None
+        # the "properties" field lists the names without making a spec of each (4x faster)
+        if any(name.startswith(_INHERITED_PREFIXES) for name in spec.GetInfo("properties")):
             return None
     return tuple(
         (s.layer.identifier, s.path)
@@ -207,19 +208,31 @@ class ViewCull:
         Args:
             corners_world: (N, 3) float64 points (a box's corners), world frame.
         """
+        return bool(self.outside_all(np.asarray(corners_world, dtype=np.float64)[None])[0])
+
+    def outside_all(self, corners_world: np.ndarray) -> np.ndarray:
+        """:meth:`outside` of many point sets at once.
+
+        Args:
+            corners_world: (M, N, 3) float64 points (M boxes' corners), world frame.
+
+        Returns:
+            (M,) bool, True where that set and its shadows lie wholly outside one plane.
+        """
         pts = np.asarray(corners_world, dtype=np.float64)
         d = self.sun_direction_world
         if d is not None and d[2] > 1e-6:
             # each point's shadow down to 1 m below the ground: the hull holds the shadow volume
-            pts = np.concatenate([pts, pts - np.outer((pts[:, 2] + 1.0) / d[2], d)])
+            shadow = pts - ((pts[..., 2] + 1.0) / d[2])[..., None] * np.asarray(d, dtype=np.float64)
+            pts = np.concatenate([pts, shadow], axis=1)
         cam = pts @ self._cam_from_world[:3, :3].T + self._cam_from_world[:3, 3]
-        z = cam[:, 2]
+        z = cam[..., 2]
         uvw = cam @ np.asarray(self.K, dtype=np.float64).T  # (u z, v z, z)
         m = CULL_MARGIN_PX
-        return bool(
-            np.all(z < self.near_m)
-            or np.all(uvw[:, 0] < -m * z)
-            or np.all(uvw[:, 0] > (self.width + m) * z)
-            or np.all(uvw[:, 1] < -m * z)
-            or np.all(uvw[:, 1] > (self.height + m) * z)
+        return (
+            np.all(z < self.near_m, axis=1)
+            | np.all(uvw[..., 0] < -m * z, axis=1)
+            | np.all(uvw[..., 0] > (self.width + m) * z, axis=1)
+            | np.all(uvw[..., 1] < -m * z, axis=1)
+            | np.all(uvw[..., 1] > (self.height + m) * z, axis=1)
         )

@@ -32,6 +32,7 @@ from usdworld.render import shaders
 from usdworld.render.camera import check_intrinsics, gl_projection, gl_view
 from usdworld.render.context import RenderError, create_context
 from usdworld.render.lighting import Lighting, PathShadow, path_shadow, sun_view_projection
+from usdworld.render.batches import MeshBatch
 from usdworld.render.scene import RenderScene
 
 log = logging.getLogger(__name__)
@@ -69,40 +70,71 @@ def _write(prog: Any, name: str, value: np.ndarray | float) -> None:
         prog[name].value = value
 
 
-class _SceneBuffers:
-    """The GPU copy of one RenderScene (kept while the same scene object is rendered)."""
+#: One instance's record in the instance buffer: the top three rows of world_from_local
+#: (double), the columns of its linear part's cofactor matrix (normals), its ids and its colour.
+_INSTANCE = np.dtype(
+    [("rows", "<f8", (3, 4)), ("normal", "<f4", (3, 3)), ("ids", "<i4", 3), ("color", "<f4", 3)]
+)
+_ROWS = "4f8 4f8 4f8"
+_ROW_NAMES = ("in_r0", "in_r1", "in_r2")
 
-    def __init__(self, ctx: Any, scene: RenderScene, programs: dict[str, Any]) -> None:
-        self.scene = scene
-        self.n_vertices = len(scene.positions_world)
-        self.vaos: dict[str, Any] = {}
-        self.buffers: list[Any] = []
-        if self.n_vertices == 0:
-            return
-        floats = np.concatenate([scene.positions_world, scene.normals_world, scene.colors], axis=1)
-        ints = np.stack([scene.class_ids, scene.instance_ids, scene.object_ids], axis=1)
-        vbo_f = ctx.buffer(np.ascontiguousarray(floats, dtype="f4").tobytes())
-        vbo_i = ctx.buffer(np.ascontiguousarray(ints, dtype="i4").tobytes())
-        self.buffers = [vbo_f, vbo_i]
-        self.vaos["shadow"] = ctx.vertex_array(programs["shadow"], [(vbo_f, "3f 24x", "in_pos")])
-        self.vaos["depth"] = ctx.vertex_array(programs["depth"], [(vbo_f, "3f 24x", "in_pos")])
+
+def _instance_records(batch: MeshBatch, reverse: bool) -> bytes:
+    n = batch.n_instances
+    rec = np.zeros(n, dtype=_INSTANCE)
+    m = batch.world_from_local
+    rec["rows"] = m[:, :3, :]
+    c0, c1, c2 = (m[:, :3, k] for k in range(3))  # the linear part's columns
+    # its cofactor matrix, det * inverse transpose (columns c1 x c2, c2 x c0, c0 x c1): it turns a
+    # normal as the inverse transpose does, up to length and sign, and a flattening scale too
+    cofactor = np.stack([np.cross(c1, c2), np.cross(c2, c0), np.cross(c0, c1)], axis=2)
+    rec["normal"] = np.transpose(cofactor, (0, 2, 1))  # columns, as GLSL's mat3(c0, c1, c2) takes them
+    rec["ids"] = np.stack([batch.class_ids, batch.instance_ids, batch.object_ids], axis=1)
+    if batch.instance_colors is not None:
+        rec["color"] = batch.instance_colors
+    return (rec[::-1] if reverse else rec).tobytes()
+
+
+class _BatchBuffers:
+    """One batch on the GPU: its corners once, its instances, a vertex array per pass."""
+
+    def __init__(self, ctx: Any, batch: MeshBatch, programs: dict[str, Any]) -> None:
+        self.n_instances = batch.n_instances
+        corners = batch.corners_local()
+        normals = batch.normals_local if batch.normals_local is not None else batch.flat_normals_local()
+        pos = ctx.buffer(np.ascontiguousarray(corners, dtype="f8").tobytes())
+        nrm = ctx.buffer(np.ascontiguousarray(normals, dtype="f4").tobytes())
+        inst = ctx.buffer(_instance_records(batch, reverse=False))
+        inst_rev = ctx.buffer(_instance_records(batch, reverse=True))
         # The colour pass draws the triangles last to first after a depth pre-pass: with the "<="
         # test the last of the fragments at the nearest depth wins, which in reverse order is the
         # first, as in one "<" pass (so where two surfaces tie in depth the same one shows).
-        n_tri = self.n_vertices // 3
+        n_tri = len(corners) // 3
         last_first = np.arange(n_tri - 1, -1, -1, dtype=np.int32)[:, None] * 3
-        reverse = (last_first + np.arange(3, dtype=np.int32)).ravel()
-        ibo = ctx.buffer(reverse.tobytes())
-        self.buffers.append(ibo)
-        self.vaos["lit"] = ctx.vertex_array(
-            programs["lit"],
-            [(vbo_f, "3f 3f 3f", "in_pos", "in_normal", "in_color")],
-            index_buffer=ibo,
-            index_element_size=4,
-        )
-        self.vaos["label"] = ctx.vertex_array(
-            programs["label"], [(vbo_f, "3f 24x", "in_pos"), (vbo_i, "3i", "in_ids")]
-        )
+        ibo = ctx.buffer((last_first + np.arange(3, dtype=np.int32)).ravel().tobytes())
+        self.buffers = [pos, nrm, inst, inst_rev, ibo]
+        place = f"{_ROWS} {_INSTANCE.itemsize - 96}x/i"
+        placed = [(pos, "3f8", "in_pos"), (inst, place, *_ROW_NAMES)]
+        self.vaos: dict[str, Any] = {
+            "shadow": ctx.vertex_array(programs["shadow"], placed),
+            "depth": ctx.vertex_array(programs["depth"], placed),
+            "label": ctx.vertex_array(
+                programs["label"],
+                [(pos, "3f8", "in_pos"), (inst, f"{_ROWS} 36x 3i 12x/i", *_ROW_NAMES, "in_ids")],
+            ),
+        }
+        lit = [(pos, "3f8", "in_pos"), (nrm, "3f", "in_normal")]
+        names = (*_ROW_NAMES, "in_n0", "in_n1", "in_n2")
+        if batch.vertex_colors is not None:
+            col = ctx.buffer(np.ascontiguousarray(batch.vertex_colors, dtype="f4").tobytes())
+            self.buffers.append(col)
+            lit += [(col, "3f", "in_color"), (inst_rev, f"{_ROWS} 3f 3f 3f 24x/i", *names)]
+        else:
+            lit += [(inst_rev, f"{_ROWS} 3f 3f 3f 12x 3f/i", *names, "in_color")]
+        self.vaos["lit"] = ctx.vertex_array(programs["lit"], lit, index_buffer=ibo, index_element_size=4)
+
+    def render(self, ctx: Any, name: str) -> None:
+        self.vaos[name].render(mode=ctx.TRIANGLES, instances=self.n_instances)
 
     def release(self) -> None:
         for vao in self.vaos.values():
@@ -110,6 +142,25 @@ class _SceneBuffers:
         for buf in self.buffers:
             buf.release()
         self.vaos, self.buffers = {}, []
+
+
+class _SceneBuffers:
+    """The GPU copy of one RenderScene (kept while the same scene object is rendered)."""
+
+    def __init__(self, ctx: Any, scene: RenderScene, programs: dict[str, Any]) -> None:
+        self.scene = scene
+        self.batches = [_BatchBuffers(ctx, b, programs) for b in scene.batches if b.n_instances]
+        self.n_vertices = sum(b.n_corners * b.n_instances for b in scene.batches)
+
+    def draw(self, ctx: Any, name: str) -> None:
+        """One pass over every batch: in scene order, the lit pass last to first (see above)."""
+        for b in reversed(self.batches) if name == "lit" else self.batches:
+            b.render(ctx, name)
+
+    def release(self) -> None:
+        for b in self.batches:
+            b.release()
+        self.batches = []
 
 
 class Renderer:
@@ -244,10 +295,10 @@ class Renderer:
             # Depth first, then shade only the fragment that is seen (no shading of hidden ones).
             _write(self._programs["depth"], "u_view_proj", view_proj)
             self._color_fbo.color_mask = (False, False, False, False)
-            buffers.vaos["depth"].render(mode=ctx.TRIANGLES)
+            buffers.draw(ctx, "depth")
             self._color_fbo.color_mask = (True, True, True, True)
             ctx.depth_func = "<="
-            buffers.vaos["lit"].render(mode=ctx.TRIANGLES)
+            buffers.draw(ctx, "lit")
             ctx.depth_func = "<"
         data = self._color_fbo.read(components=3, alignment=1)
         ctx.finish()
@@ -270,7 +321,7 @@ class Renderer:
             _write(prog, "u_view_proj", self._view_proj(scene, K, world_from_cam))
             _write(prog, "u_view", gl_view(world_from_cam))
             ctx.enable(ctx.DEPTH_TEST)
-            buffers.vaos["label"].render(mode=ctx.TRIANGLES)
+            buffers.draw(ctx, "label")
         out = []
         for i, dtype in enumerate(("i4", "i4", "i4", "f4")):
             raw = self._label_fbo.read(components=1, attachment=i, dtype=dtype, alignment=1)
@@ -407,4 +458,4 @@ class Renderer:
         self._shadow_fbo.clear(depth=1.0)
         ctx.enable(ctx.DEPTH_TEST)
         _write(self._programs["shadow"], "u_sun_vp", sun_vp)
-        buffers.vaos["shadow"].render(mode=ctx.TRIANGLES)
+        buffers.draw(ctx, "shadow")

@@ -23,11 +23,14 @@ The world frame is Z up, metres: stages authored Y up or in other units are conv
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom
 
+from usdworld.render.batches import MeshBatch, ScenePart, expand, group_parts
 from usdworld.render.classes import label_id_for_class, thing_label_ids
 from usdworld.render.instancing import (
     Prototype,
@@ -39,7 +42,7 @@ from usdworld.render.instancing import (
     pruned,
     read_prototype,
 )
-from usdworld.render.usd_mesh import GeometryCache, MeshTriangles, mesh_triangles, place_mesh
+from usdworld.render.usd_mesh import GeometryCache, read_local_mesh
 
 
 @dataclass(frozen=True)
@@ -61,57 +64,47 @@ class RenderObject:
     index: int
 
 
-def _frozen(a: np.ndarray, dtype: type) -> np.ndarray:
-    a = np.ascontiguousarray(a, dtype=dtype)
-    a.setflags(write=False)
-    return a
-
-
 @dataclass(frozen=True, eq=False)
 class RenderScene:
-    """All triangles of a stage, unindexed (3 corners per triangle), world frame.
+    """All meshes of a stage, batched by asset mesh (:mod:`usdworld.render.batches`), world frame.
+
+    The renderer draws the batches (one instanced draw per batch and pass). The flat,
+    unindexed arrays below (3 corners per triangle, in stage order) are the same triangles
+    placed on the CPU; they are made on first use.
 
     Attributes:
-        positions_world: (V, 3) float32 corner positions, metres (V = 3 * triangles).
-        normals_world: (V, 3) float32 unit normals.
-        colors: (V, 3) float32 linear RGB.
-        class_ids: (V,) int32 Cityscapes label id per corner.
-        instance_ids: (V,) int32 Cityscapes instance id per corner.
-        object_ids: (V,) int32 1-based index into ``objects`` (0: no object).
+        batches: the meshes and the places they are drawn at.
+        part_order: (P, 2) int64 batch and instance index of each mesh part, in stage order.
         objects: the top-level objects, in stage order (culled ones too).
         culled_bounds_world: (2, 3) float64 ``[min, max]`` of the boxes of the objects
             culled when the scene was read, or None (they still cast the scene's extent:
             the far plane and the shadow box are the same as without culling, up to boxes).
     """
 
-    positions_world: np.ndarray
-    normals_world: np.ndarray
-    colors: np.ndarray
-    class_ids: np.ndarray
-    instance_ids: np.ndarray
-    object_ids: np.ndarray
+    batches: tuple[MeshBatch, ...]
+    part_order: np.ndarray
     objects: tuple[RenderObject, ...]
     culled_bounds_world: np.ndarray | None = None
     _bounds: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        n = len(self.positions_world)
-        for name, dtype, cols in (
-            ("positions_world", np.float32, 3),
-            ("normals_world", np.float32, 3),
-            ("colors", np.float32, 3),
-            ("class_ids", np.int32, 0),
-            ("instance_ids", np.int32, 0),
-            ("object_ids", np.int32, 0),
-        ):
-            a = _frozen(getattr(self, name), dtype)
-            if len(a) != n or (cols and a.shape != (n, cols)) or (not cols and a.ndim != 1):
-                raise ValueError(f"RenderScene.{name}: shape {a.shape} does not match {n} corners")
-            object.__setattr__(self, name, a)
-        if n % 3:
-            raise ValueError(f"RenderScene: {n} corners is not a whole number of triangles")
-        p = self.positions_world
-        bounds = np.stack([p.min(axis=0), p.max(axis=0)]).astype(np.float64) if n else np.zeros((2, 3))
+        order = np.ascontiguousarray(self.part_order, dtype=np.int64).reshape(-1, 2)
+        order.setflags(write=False)
+        object.__setattr__(self, "part_order", order)
+        counts = np.zeros(len(self.batches), dtype=np.int64)
+        if len(order):
+            if order[:, 0].min() < 0 or order[:, 0].max() >= len(self.batches):
+                raise ValueError("RenderScene.part_order: batch index out of range")
+            counts = np.bincount(order[:, 0], minlength=len(self.batches))
+        if any(int(c) != b.n_instances for c, b in zip(counts, self.batches)):
+            raise ValueError("RenderScene.part_order must name every instance of every batch once")
+        boxes = [b.bounds_world() for b in self.batches if b.n_instances]
+        n = bool(boxes)
+        bounds = (
+            np.stack([np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)])
+            if n
+            else np.zeros((2, 3))
+        )
         if self.culled_bounds_world is not None:
             # float32 like the positions, so an exact box gives the same bounds as its triangles
             c = np.asarray(self.culled_bounds_world, dtype=np.float32).astype(np.float64).reshape(2, 3)
@@ -121,7 +114,48 @@ class RenderScene:
 
     @property
     def n_triangles(self) -> int:
-        return len(self.positions_world) // 3
+        return sum(b.n_corners // 3 * b.n_instances for b in self.batches)
+
+    @functools.cached_property
+    def _flat(self) -> dict[str, np.ndarray]:
+        arrays = expand(self.batches, self.part_order)
+        for a in arrays.values():
+            a.setflags(write=False)
+        return arrays
+
+    @property
+    def positions_world(self) -> np.ndarray:
+        """(V, 3) float32 corner positions, metres (V = 3 * triangles), in stage order."""
+        return self._flat["positions_world"]
+
+    @property
+    def normals_world(self) -> np.ndarray:
+        """(V, 3) float32 unit normals per corner."""
+        return self._flat["normals_world"]
+
+    @property
+    def colors(self) -> np.ndarray:
+        """(V, 3) float32 linear RGB per corner."""
+        return self._flat["colors"]
+
+    @property
+    def class_ids(self) -> np.ndarray:
+        """(V,) int32 Cityscapes label id per corner."""
+        return self._flat["class_ids"]
+
+    @property
+    def instance_ids(self) -> np.ndarray:
+        """(V,) int32 Cityscapes instance id per corner."""
+        return self._flat["instance_ids"]
+
+    @property
+    def object_ids(self) -> np.ndarray:
+        """(V,) int32 1-based index into ``objects`` per corner (0: no object)."""
+        return self._flat["object_ids"]
+
+    def label_ids_present(self) -> list[int]:
+        """The Cityscapes label ids the scene's meshes carry, sorted (without expanding the arrays)."""
+        return sorted({int(c) for b in self.batches for c in b.class_ids})
 
     def bounds_world(self) -> np.ndarray:
         """(2, 3) float64 axis-aligned bounds ``[min, max]``; zeros for an empty scene."""
@@ -139,11 +173,13 @@ class RenderScene:
         cull: ViewCull | None = None,
         time: Usd.TimeCode | None = None,
         prototypes: dict[tuple, Prototype | None] | None = None,
+        static: StaticCache | None = None,
     ) -> RenderScene:
         """Collect every renderable mesh of the composed stage.
 
         Objects referencing the same asset meshes share one read of them
-        (:mod:`usdworld.render.instancing`); the triangles are the same either way.
+        (:mod:`usdworld.render.instancing`) and one batch per mesh
+        (:mod:`usdworld.render.batches`); the triangles are the same either way.
 
         Args:
             stage: an open stage; its current composition is read (edits, variants, active).
@@ -157,8 +193,11 @@ class RenderScene:
             prototypes: a cache of the assets' meshes (read at the default time) that
                 several calls on one unchanged stage share, so that reading the scene at
                 many times reads each asset once; None reads them afresh.
+            static: the objects that stand still, kept by several calls on one unchanged
+                stage at different times (:class:`StaticCache`), so that each of them is read
+                once; None reads every object.
         """
-        return _extract(stage, objects_path, cull, time, prototypes)
+        return _extract(stage, objects_path, cull, time, prototypes, static)
 
 
 def world_from_stage(stage: Usd.Stage) -> np.ndarray:
@@ -183,12 +222,74 @@ def _default_objects_path(stage: Usd.Stage) -> str:
     return "/World/Objects"
 
 
+@dataclass(frozen=True)
+class _StillObject:
+    """An object that stands still, as read once: its label and its entries (ids as read then)."""
+
+    label: str
+    entries: tuple[ScenePart | _Pending, ...]
+
+
+@dataclass
+class StaticCache:
+    """The objects of a stage that stand still, read once and shared by reads at several times.
+
+    An object stands still when neither it, nor a prim below it, nor the objects scope or a
+    prim above it has a time-varying transform or visibility: its meshes and transforms are
+    then the same at every time. Its ids are counted again at every read, in stage order
+    (a mover hidden at one time has no rider ids then, which moves later riders' ids), so a
+    read with the cache gives the same scene as one without.
+    """
+
+    objects: dict[Sdf.Path, _StillObject] = field(default_factory=dict)
+    moving: set[Sdf.Path] = field(default_factory=set)
+    prototype_moves: dict[tuple, bool] = field(default_factory=dict)
+    scope_moves: bool | None = None
+
+
+def _moves(prim: Usd.Prim) -> bool:
+    """True when the prim's transform or visibility might vary over time."""
+    xformable = UsdGeom.Xformable(prim)
+    if xformable and xformable.TransformMightBeTimeVarying():
+        return True
+    imageable = UsdGeom.Imageable(prim)
+    return bool(imageable) and imageable.GetVisibilityAttr().ValueMightBeTimeVarying()
+
+
+def _subtree_moves(prim: Usd.Prim, predicate: object) -> bool:
+    return any(_moves(p) for p in Usd.PrimRange(prim, predicate))
+
+
+def _replay(still: _StillObject, owner: RenderObject, ids: _Ids) -> list[ScenePart | _Pending]:
+    """A still object's entries with its ids counted now (in the order they were first counted)."""
+    out: list[ScenePart | _Pending] = []
+    for e in still.entries:
+        if isinstance(e, ScenePart):
+            instance_id, object_index = ids.of_part(owner, e.class_id)
+            out.append(dataclasses.replace(e, instance_id=instance_id, object_index=object_index))
+        else:
+            part_ids = [(c, *ids.of_part(owner, c)) for c, _, _ in e.ids]
+            out.append(_Pending(e.proto, e.l2w, e.world_from_object, part_ids))
+    return out
+
+
+@dataclass
+class _Pending:
+    """An object drawn as a prototype, waiting for the (vectorised) culling test."""
+
+    proto: Prototype
+    l2w: Gf.Matrix4d
+    world_from_object: np.ndarray
+    ids: list[tuple[int, int, int]]  # (class, instance, object index) of each part
+
+
 def _extract(
     stage: Usd.Stage,
     objects_path: str | None,
     cull: ViewCull | None,
     time: Usd.TimeCode | None,
     cache: dict[tuple, Prototype | None] | None,
+    static: StaticCache | None = None,
 ) -> RenderScene:
     objects_sdf = Sdf.Path(objects_path or _default_objects_path(stage))
     world_T = world_from_stage(stage)
@@ -197,18 +298,34 @@ def _extract(
     ids = _Ids(thing_label_ids())
     labels: dict[Sdf.Path, str | None] = {}
     objects: dict[Sdf.Path, RenderObject] = {}
-    parts: list[tuple[MeshTriangles, int, int, int]] = []
-    culled: list[np.ndarray] = []
+    entries: list[ScenePart | _Pending] = []
     local_layers = list(stage.GetLayerStack(includeSessionLayers=True))
     local_ids = local_layer_ids(stage)
     prototypes: dict[tuple, Prototype | None] = {} if cache is None else cache
     geometry: GeometryCache = {}  # asset meshes, shared by prototypes and by objects read on their own
 
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+    if static is not None and static.scope_moves is None:
+        scope = stage.GetPrimAtPath(objects_sdf)
+        static.scope_moves = bool(scope) and any(_moves(p) for p in _self_and_ancestors(scope))
+    keep = static is not None and not static.scope_moves
+    first_entry: dict[Sdf.Path, int] = {}  # where each object's entries start
+    to_keep: set[Sdf.Path] = set()  # the objects read now that stand still
     it = iter(Usd.PrimRange(stage.GetPseudoRoot(), predicate))
     for prim in it:
         path = prim.GetPath()
         if prim.IsPseudoRoot():
+            continue
+        still = static.objects.get(path) if keep and static is not None else None
+        if still is not None:  # read before: only its ids are counted again
+            it.PruneChildren()
+            labels[path] = still.label
+            label_id = label_id_for_class(still.label)
+            instance_id = ids.next(label_id) if label_id in ids.things else label_id
+            owner = RenderObject(str(path), still.label, label_id, instance_id, len(objects) + 1)
+            objects[path] = owner
+            first_entry[path] = len(entries)
+            entries.extend(_replay(still, owner, ids))
             continue
         if pruned(prim, t):
             it.PruneChildren()
@@ -227,27 +344,123 @@ def _extract(
             label = labels[path] or ""
             label_id = label_id_for_class(label)
             instance_id = ids.next(label_id) if label_id in ids.things else label_id
-            objects[path] = RenderObject(str(path), label, label_id, instance_id, len(objects) + 1)
+            owner = objects[path] = RenderObject(str(path), label, label_id, instance_id, len(objects) + 1)
             key = prototype_key(prim, local_ids, local_layers)
+            if keep and static is not None and path not in static.moving:
+                if key is not None and key in prototypes and prototypes[key] is not None:
+                    if key not in static.prototype_moves:
+                        static.prototype_moves[key] = _subtree_moves(prim, predicate)
+                    moves = _moves(prim) or static.prototype_moves[key]
+                else:
+                    moves = _subtree_moves(prim, predicate)
+                if moves:
+                    static.moving.add(path)
+                else:
+                    to_keep.add(path)
+            first_entry[path] = len(entries)
             if key is not None:
                 if key not in prototypes:
                     prototypes[key] = read_prototype(prim, predicate, geometry)
                 proto = prototypes[key]
                 if proto is not None:
                     it.PruneChildren()
-                    _place(proto, objects[path], xf_cache.GetLocalToWorldTransform(prim), world_T, ids, cull, parts, culled)
+                    l2w = xf_cache.GetLocalToWorldTransform(prim)
+                    part_ids = []
+                    for part in proto.parts:
+                        own_class = part.label if part.label is not None else owner.class_name
+                        class_id = label_id_for_class(own_class)
+                        part_ids.append((class_id, *ids.of_part(owner, class_id)))
+                    entries.append(_Pending(proto, l2w, world_T @ matrix_from_gf(l2w), part_ids))
                     continue
         if not prim.IsA(UsdGeom.Mesh):
             continue
-        world_from_local = world_T @ matrix_from_gf(xf_cache.GetLocalToWorldTransform(prim))
-        tris = mesh_triangles(UsdGeom.Mesh(prim), world_from_local, geometry)
-        if tris is None:
+        local = read_local_mesh(UsdGeom.Mesh(prim), geometry)
+        if local is None:
             continue
+        world_from_local = world_T @ matrix_from_gf(xf_cache.GetLocalToWorldTransform(prim))
         class_id = label_id_for_class(labels[path])
-        owner = _owner(path, objects_sdf, objects)
-        instance_id, object_index = ids.of_part(owner, class_id)
-        parts.append((tris, class_id, instance_id, object_index))
-    return _concatenate(parts, tuple(objects.values()), culled)
+        instance_id, object_index = ids.of_part(_owner(path, objects_sdf, objects), class_id)
+        entries.append(ScenePart(local, world_from_local, class_id, instance_id, object_index))
+    if static is not None and to_keep:
+        _keep_still(static, first_entry, to_keep, objects, entries)
+    parts, culled = _place(entries, world_T, cull)
+    batches, order = group_parts(parts)
+    culled_box = None
+    if culled:
+        pts = np.concatenate(culled)
+        culled_box = np.stack([pts.min(axis=0), pts.max(axis=0)])
+    return RenderScene(batches, order, tuple(objects.values()), culled_box)
+
+
+def _self_and_ancestors(prim: Usd.Prim) -> list[Usd.Prim]:
+    out = []
+    while prim and not prim.IsPseudoRoot():
+        out.append(prim)
+        prim = prim.GetParent()
+    return out
+
+
+def _keep_still(
+    static: StaticCache,
+    first_entry: dict[Sdf.Path, int],
+    to_keep: set[Sdf.Path],
+    objects: dict[Sdf.Path, RenderObject],
+    entries: list[ScenePart | _Pending],
+) -> None:
+    """Put the still objects read now into the cache: each one's entries, up to the next object's."""
+    starts = sorted(first_entry.items(), key=lambda item: item[1])
+    for k, (path, start) in enumerate(starts):
+        if path not in to_keep:
+            continue
+        end = starts[k + 1][1] if k + 1 < len(starts) else len(entries)
+        owner = objects[path]
+        mine = tuple(
+            e
+            for e in entries[start:end]
+            if isinstance(e, _Pending) or e.object_index == owner.index  # a _Pending is the object itself
+        )
+        static.objects[path] = _StillObject(owner.class_name, mine)
+
+
+def _place(
+    entries: list[ScenePart | _Pending], world_T: np.ndarray, cull: ViewCull | None
+) -> tuple[list[ScenePart], list[np.ndarray]]:
+    """The parts in stage order, the culled objects left out; and the culled objects' box corners.
+
+    A prototype's part is placed by exactly the products ``UsdGeom.XformCache`` makes (each
+    prim's local transform times its parent's), so it has the same bits as when read on its own.
+    """
+    pending = [e for e in entries if isinstance(e, _Pending) and e.proto.parts]
+    out: set[int] = set()
+    culled: list[np.ndarray] = []
+    if cull is not None and pending:
+        box: dict[int, np.ndarray] = {}
+        corners = []
+        for e in pending:
+            local = box.get(id(e.proto))
+            if local is None:
+                local = box[id(e.proto)] = box_corners(e.proto.box_local)
+            w = e.world_from_object
+            corners.append(local @ w[:3, :3].T + w[:3, 3])
+        outside = cull.outside_all(np.stack(corners))
+        for e, c, o in zip(pending, corners, outside):
+            if o:
+                out.add(id(e))
+                culled.append(c)
+    parts: list[ScenePart] = []
+    for e in entries:
+        if isinstance(e, ScenePart):
+            parts.append(e)
+            continue
+        if id(e) in out:
+            continue
+        for part, (class_id, instance_id, object_index) in zip(e.proto.parts, e.ids):
+            m = e.l2w
+            for local in part.chain:
+                m = local * m
+            world_from_local = world_T @ matrix_from_gf(m)
+            parts.append(ScenePart(part.mesh, world_from_local, class_id, instance_id, object_index))
+    return parts, culled
 
 
 class _Ids:
@@ -279,34 +492,6 @@ class _Ids:
         return self.parts[key], owner.index
 
 
-def _place(
-    proto: Prototype,
-    owner: RenderObject,
-    l2w: Gf.Matrix4d,
-    world_T: np.ndarray,
-    ids: _Ids,
-    cull: ViewCull | None,
-    parts: list[tuple[MeshTriangles, int, int, int]],
-    culled: list[np.ndarray],
-) -> None:
-    """One instance of a prototype: its triangles, or only its ids and box when culled."""
-    classes = [label_id_for_class(p.label if p.label is not None else owner.class_name) for p in proto.parts]
-    if cull is not None and proto.parts:
-        world_from_object = world_T @ matrix_from_gf(l2w)
-        corners = box_corners(proto.box_local) @ world_from_object[:3, :3].T + world_from_object[:3, 3]
-        if cull.outside(corners):
-            for class_id in classes:
-                ids.of_part(owner, class_id)  # the ids of later objects stay as without culling
-            culled.append(corners)
-            return
-    for part, class_id in zip(proto.parts, classes):
-        m = l2w
-        for local in part.chain:
-            m = local * m
-        tris = place_mesh(part.mesh, world_T @ matrix_from_gf(m))
-        instance_id, object_index = ids.of_part(owner, class_id)
-        parts.append((tris, class_id, instance_id, object_index))
-
 
 def _owner(
     path: Sdf.Path, objects_sdf: Sdf.Path, objects: dict[Sdf.Path, RenderObject]
@@ -318,25 +503,3 @@ def _owner(
     return objects.get(prefixes[depth]) if len(prefixes) > depth else None
 
 
-def _concatenate(
-    parts: list[tuple[MeshTriangles, int, int, int]], objects: tuple[RenderObject, ...], culled: list[np.ndarray]
-) -> RenderScene:
-    culled_box = None
-    if culled:
-        pts = np.concatenate(culled)
-        culled_box = np.stack([pts.min(axis=0), pts.max(axis=0)])
-    if not parts:
-        empty3 = np.zeros((0, 3))
-        empty = np.zeros(0)
-        return RenderScene(empty3, empty3, empty3, empty, empty, empty, objects, culled_box)
-    sizes = [len(t.positions_world) for t, _, _, _ in parts]
-    return RenderScene(
-        positions_world=np.concatenate([t.positions_world for t, _, _, _ in parts]),
-        normals_world=np.concatenate([t.normals_world for t, _, _, _ in parts]),
-        colors=np.concatenate([t.colors for t, _, _, _ in parts]),
-        class_ids=np.repeat([c for _, c, _, _ in parts], sizes),
-        instance_ids=np.repeat([i for _, _, i, _ in parts], sizes),
-        object_ids=np.repeat([o for _, _, _, o in parts], sizes),
-        objects=objects,
-        culled_bounds_world=culled_box,
-    )

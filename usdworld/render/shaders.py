@@ -1,22 +1,47 @@
-"""GLSL 330 sources of the renderer's programs (shadow, sky, lit colour, labels + depth)."""
+"""GLSL 410 sources of the renderer's programs (shadow, sky, lit colour, labels + depth).
+
+The mesh programs draw one batch of instances (:mod:`usdworld.render.batches`): each
+vertex is a corner of the mesh in its own frame (``in_pos``, double precision) and each
+instance brings the top three rows of its world_from_local transform (``in_r0..2``,
+double precision). The corner is placed in double precision and then rounded to float,
+which gives the same float32 world position as placing it on the CPU in float64 (as
+:func:`~usdworld.render.usd_mesh.place_mesh` does), so the instanced draw rasterises the
+same triangles as drawing the placed ones.
+"""
 
 from __future__ import annotations
 
-SHADOW_VS = """
-#version 330
-uniform mat4 u_sun_vp;
-in vec3 in_pos;
-void main() { gl_Position = u_sun_vp * vec4(in_pos, 1.0); }
+#: Placing one corner (shared by every mesh program, so that all compute the same position).
+_PLACE = """
+in dvec3 in_pos;
+in dvec4 in_r0;
+in dvec4 in_r1;
+in dvec4 in_r2;
+vec3 world_position() {
+    dmat4 m = transpose(dmat4(in_r0, in_r1, in_r2, dvec4(0.0, 0.0, 0.0, 1.0)));
+    return vec3((m * dvec4(in_pos, 1.0)).xyz);
+}
 """
 
+SHADOW_VS = (
+    """
+#version 410
+uniform mat4 u_sun_vp;
+"""
+    + _PLACE
+    + """
+void main() { gl_Position = u_sun_vp * vec4(world_position(), 1.0); }
+"""
+)
+
 SHADOW_FS = """
-#version 330
+#version 410
 void main() {}
 """
 
 # Full-screen triangle; each pixel's viewing ray gives its elevation -> sky gradient.
 SKY_VS = """
-#version 330
+#version 410
 out vec2 v_ndc;
 void main() {
     vec2 p = vec2((gl_VertexID == 1) ? 3.0 : -1.0, (gl_VertexID == 2) ? 3.0 : -1.0);
@@ -26,7 +51,7 @@ void main() {
 """
 
 SKY_FS = """
-#version 330
+#version 410
 uniform mat3 u_world_from_px;   // R_world_from_cam * inverse(K), applied to (u, v, 1)
 uniform vec2 u_size;            // image width, height
 uniform vec3 u_zenith;
@@ -44,36 +69,52 @@ void main() {
 # Depth only, for the colour pass's depth pre-pass: ``invariant`` here and in LIT_VS makes
 # both programs compute the same gl_Position, so the lit pass's "<=" test passes exactly the
 # surface that is seen and shades each pixel once.
-DEPTH_VS = """
-#version 330
+DEPTH_VS = (
+    """
+#version 410
 invariant gl_Position;
 uniform mat4 u_view_proj;
-in vec3 in_pos;
-void main() { gl_Position = u_view_proj * vec4(in_pos, 1.0); }
 """
+    + _PLACE
+    + """
+void main() { gl_Position = u_view_proj * vec4(world_position(), 1.0); }
+"""
+)
 
 DEPTH_FS = SHADOW_FS
 
-LIT_VS = """
-#version 330
+# The normal is the mesh's (authored, or the face's) times the cofactor matrix of the
+# instance's linear part (``in_n0..2``, its columns; det times the inverse transpose): the
+# placed triangle's normal up to length and sign (the fragment shader normalises it and turns
+# it to the eye), also for a scale that flattens the mesh.
+LIT_VS = (
+    """
+#version 410
 invariant gl_Position;
 uniform mat4 u_view_proj;
-in vec3 in_pos;
 in vec3 in_normal;
+in vec3 in_n0;
+in vec3 in_n1;
+in vec3 in_n2;
 in vec3 in_color;
 out vec3 v_pos;
 out vec3 v_normal;
 out vec3 v_color;
+"""
+    + _PLACE
+    + """
 void main() {
-    v_pos = in_pos;
-    v_normal = in_normal;
+    vec3 p = world_position();
+    v_pos = p;
+    v_normal = mat3(in_n0, in_n1, in_n2) * in_normal;
     v_color = in_color;
-    gl_Position = u_view_proj * vec4(in_pos, 1.0);
+    gl_Position = u_view_proj * vec4(p, 1.0);
 }
 """
+)
 
 LIT_FS = """
-#version 330
+#version 410
 uniform sampler2DShadow u_shadow_map;
 uniform mat4 u_sun_vp;
 uniform vec3 u_sun_dir;
@@ -117,23 +158,28 @@ void main() {
 }
 """
 
-LABEL_VS = """
-#version 330
+LABEL_VS = (
+    """
+#version 410
 uniform mat4 u_view_proj;
 uniform mat4 u_view;
-in vec3 in_pos;
-in ivec3 in_ids;          // class, instance, object
+in ivec3 in_ids;          // class, instance, object (per instance)
 flat out ivec3 v_ids;
 out float v_depth;
+"""
+    + _PLACE
+    + """
 void main() {
+    vec3 p = world_position();
     v_ids = in_ids;
-    v_depth = -(u_view * vec4(in_pos, 1.0)).z;   // OpenCV camera z, metres
-    gl_Position = u_view_proj * vec4(in_pos, 1.0);
+    v_depth = -(u_view * vec4(p, 1.0)).z;   // OpenCV camera z, metres
+    gl_Position = u_view_proj * vec4(p, 1.0);
 }
 """
+)
 
 LABEL_FS = """
-#version 330
+#version 410
 flat in ivec3 v_ids;
 in float v_depth;
 layout(location = 0) out int f_class;

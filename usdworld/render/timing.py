@@ -15,7 +15,7 @@ from pxr import Usd
 
 from usdworld.errors import InputError
 from usdworld.render.instancing import Prototype, ViewCull
-from usdworld.render.scene import RenderScene
+from usdworld.render.scene import RenderScene, StaticCache
 
 
 def parse_time(stage: Usd.Stage, text: str) -> float:
@@ -70,6 +70,7 @@ def scene_at(
     code: float | None,
     cull: ViewCull | None = None,
     prototypes: dict[tuple, Prototype | None] | None = None,
+    static: StaticCache | None = None,
 ) -> RenderScene:
     """The scene at a time code: movers at their time-sampled places, hidden where they are not seen.
 
@@ -78,6 +79,8 @@ def scene_at(
         code: the time code, or None for the default time (every object at its default place).
         cull: as :meth:`RenderScene.from_stage`.
         prototypes: a cache of the assets' meshes shared by the calls on one unchanged stage.
+        static: the objects that stand still, shared by the calls on one unchanged stage
+            (:class:`~usdworld.render.scene.StaticCache`): each is read once.
     """
     time = None if code is None else Usd.TimeCode(float(code))
-    return RenderScene.from_stage(stage, cull=cull, time=time, prototypes=prototypes)
+    return RenderScene.from_stage(stage, cull=cull, time=time, prototypes=prototypes, static=static)

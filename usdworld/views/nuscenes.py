@@ -145,10 +145,35 @@ def info_detections(
     return Detections(items=tuple(items), file=file)
 
 
+#: EXIF orientations that turn a JPEG by 90 degrees (OpenCV applies them when it decodes).
+_QUARTER_TURNS = frozenset({5, 6, 7, 8})
+
+
 def photo_size(path: Path) -> tuple[int, int]:
-    """(width, height) of a photo, to measure the boxes' truncation against."""
-    image = read_image(path)
-    return image.width, image.height
+    """(width, height) of a photo as :func:`~usdworld.io.images.read_image` gives it, to
+    measure the boxes' truncation against.
+
+    Only the file's header is read (nothing is decoded: about 1 ms against 30 ms for a
+    1600x900 JPEG); a JPEG whose EXIF orientation turns it by 90 degrees has the two
+    swapped, as decoding it gives. A file whose header Pillow cannot read is read whole,
+    so that its error is ``read_image``'s.
+
+    Raises:
+        InputError: the photo is missing or unreadable.
+    """
+    from PIL import Image  # imported where first needed, as in io/exif.py
+
+    try:
+        with Image.open(path) as image:
+            width, height = image.size
+            turned = image.format == "JPEG" and image.getexif().get(0x0112) in _QUARTER_TURNS
+    except Exception:  # noqa: BLE001  (any failure: read_image says what is wrong with the file)
+        image_rgb = read_image(path)
+        return image_rgb.width, image_rgb.height
+    if width <= 0 or height <= 0:
+        image_rgb = read_image(path)
+        return image_rgb.width, image_rgb.height
+    return (height, width) if turned else (width, height)
 
 
 def read_info_document(path: PathLike) -> tuple[dict[str, Any], InputFile]:

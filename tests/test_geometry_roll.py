@@ -61,7 +61,13 @@ def test_a_wrong_vanishing_point_does_not_roll_the_world():
 
 
 @settings(max_examples=30, deadline=None)
-@given(roll_deg=st.floats(-5.0, 5.0), pitch_deg=st.floats(-5.0, 5.0), x=st.floats(5.0, 60.0), y=st.floats(-10.0, 10.0), z=st.floats(0.0, 3.0))
+@given(
+    roll_deg=st.floats(-5.0, 5.0),
+    pitch_deg=st.floats(-5.0, 5.0),
+    x=st.floats(5.0, 60.0),
+    y=st.floats(-10.0, 10.0),
+    z=st.floats(0.0, 3.0),
+)
 def test_derolled_points_are_the_level_cameras(roll_deg, pitch_deg, x, y, z):
     rolled = PinholeCamera(W_IMG, H_IMG, K, 1.6, math.radians(pitch_deg), math.radians(roll_deg), 0.0)
     level = rolled.replace(roll=0.0)

@@ -22,12 +22,14 @@ def test_the_lanes_entry_records_each_pair_and_the_height_it_implies():
 
 
 def test_the_roll_entry_says_whether_the_measurement_was_used():
-    used = _roll_entry(fuse_roll(RollMeasurement(math.radians(1.0), math.radians(1.0), "the vertical of 9 upright segments")))
+    measured = RollMeasurement(math.radians(1.0), math.radians(1.0), "the vertical of 9 upright segments")
+    used = _roll_entry(fuse_roll(measured))
     assert used["used"] is True
     assert used["measured_deg"] == pytest.approx(1.0)
     assert 0.0 < used["roll_deg"] < 1.0
     dropped = _roll_entry(fuse_roll(RollMeasurement(math.radians(12.0), math.radians(0.5), "a facade")))
-    assert dropped["used"] is False and dropped["roll_deg"] == 0.0 and dropped["measured_deg"] == pytest.approx(12.0)
+    assert dropped["used"] is False and dropped["roll_deg"] == 0.0
+    assert dropped["measured_deg"] == pytest.approx(12.0)
     none = _roll_entry(fuse_roll(None))
     assert none["measured_deg"] is None and none["source"] == ""
     assert _roll_entry(None) is None

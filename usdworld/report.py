@@ -56,7 +56,8 @@ def _lanes_entry(lanes) -> dict | None:
 
 
 def _roll_entry(roll) -> dict | None:
-    """How the roll was obtained (the vertical vanishing point fused with a level prior), or None when given."""
+    """How the roll was obtained (the vertical vanishing point fused with a level prior), or None
+    when the camera file gave it."""
     if roll is None:
         return None
     m = roll.measurement

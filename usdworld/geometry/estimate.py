@@ -542,7 +542,8 @@ def estimate_camera(
             implied = ", ".join(f"{x:.2f}" for x in lane_cue.heights_m(p_est))
             notes.append(
                 f"height also from {len(lane_cue)} pair(s) of lane lines of {params.lane_width_m:g} +- "
-                f"{params.lane_width_std_m:g} m spacing (implied {implied} m; +-{100 * float(np.min(lane_cue.sigma_log)):.0f} % each)"
+                f"{params.lane_width_std_m:g} m spacing (implied {implied} m; "
+                f"+-{100 * float(np.min(lane_cue.sigma_log)):.0f} % each)"
             )
         height_m, pitch = h_est, p_est
     method = "; ".join(notes) if notes else "all camera parameters given"

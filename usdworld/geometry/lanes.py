@@ -108,7 +108,9 @@ class LaneMarkings:
 NO_MARKINGS = LaneMarkings((), (), 0.0)
 
 
-def derolled_markings(markings: LaneMarkings, roll: float, center_px: np.ndarray, params: CameraParams = DEFAULT_CAMERA) -> LaneMarkings:
+def derolled_markings(
+    markings: LaneMarkings, roll: float, center_px: np.ndarray, params: CameraParams = DEFAULT_CAMERA
+) -> LaneMarkings:
     """The markings as a level camera would see them (:func:`usdworld.geometry.roll.deroll_points`
     of each line's ends and of the vanishing column), paired again.
 
@@ -125,7 +127,8 @@ def derolled_markings(markings: LaneMarkings, roll: float, center_px: np.ndarray
         v = np.array([ln.v_min, ln.v_max])
         (u0, v0), (u1, v1) = deroll_points(np.column_stack([ln.u_at(v), v]), roll, center_px)
         b = (u1 - u0) / (v1 - v0)
-        lines.append(LaneLine(float(u0 - b * v0), float(b), ln.b_sigma, float(min(v0, v1)), float(max(v0, v1)), ln.n_rows))
+        top, bottom = float(min(v0, v1)), float(max(v0, v1))
+        lines.append(LaneLine(float(u0 - b * v0), float(b), ln.b_sigma, top, bottom, ln.n_rows))
     lines.sort(key=lambda ln: ln.b)
     # the vanishing column moves with the turn; its row is not needed (the cue uses the column only)
     u_vp = float(deroll_points(np.array([[markings.vanishing_u, center_px[1]]]), roll, center_px)[0, 0])
@@ -288,7 +291,8 @@ def find_lane_markings(
     gray = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY)
     u0, v0 = vanishing.u, vanishing.v
     # rows far enough below the horizon that a marking is a few pixels wide
-    px_per_m = (np.arange(height) - v0) / params.height_prior_mean_m  # lateral pixels per metre of road, any focal
+    # lateral pixels per metre of road at each row, whatever the focal length (module docstring)
+    px_per_m = (np.arange(height) - v0) / params.height_prior_mean_m
     rows = np.nonzero(px_per_m * params.lane_marking_width_m[0] >= params.lane_min_stripe_px)[0]
     if rows.size < params.lane_min_rows:
         return NO_MARKINGS
@@ -301,7 +305,8 @@ def find_lane_markings(
         mask &= np.asarray(road_mask, dtype=bool)
     for x0, y0, x1, y1 in np.asarray(exclude_boxes_px, dtype=np.float64).reshape(-1, 4):
         pad = params.lane_box_margin_fraction * (x1 - x0)
-        mask[max(0, int(y0)) : max(0, int(math.ceil(y1 + pad))), max(0, int(x0 - pad)) : max(0, int(math.ceil(x1 + pad)))] = False
+        rows_box = slice(max(0, int(y0)), max(0, int(math.ceil(y1 + pad))))
+        mask[rows_box, max(0, int(x0 - pad)) : max(0, int(math.ceil(x1 + pad)))] = False
     u, v = _stripe_centres(mask, gray, px_per_m, params)
     if v.size == 0:
         return NO_MARKINGS
@@ -323,7 +328,9 @@ def find_lane_markings(
     return LaneMarkings(tuple(lines), lane_pairs(lines, params), float(u0))
 
 
-def lane_pairs(lines: list[LaneLine] | tuple[LaneLine, ...], params: CameraParams = DEFAULT_CAMERA) -> tuple[LanePair, ...]:
+def lane_pairs(
+    lines: list[LaneLine] | tuple[LaneLine, ...], params: CameraParams = DEFAULT_CAMERA
+) -> tuple[LanePair, ...]:
     """Neighbouring lines (sorted by slope) that are one lane apart by the evidence of the photo:
     two neighbouring pairs (three lines) whose spacings agree, as the lanes of one road do, within
     ``lane_agreement_sigma`` combined ``lane_width_within_std_m`` spreads, and whose spacing a lane
@@ -421,7 +428,9 @@ class LaneWidthCue:
         return self.lane_width_m * math.cos(pitch) / (np.asarray(self.k) * float(self._cos_psi(pitch)))
 
 
-def lane_width_cue(markings: LaneMarkings, K: np.ndarray, params: CameraParams = DEFAULT_CAMERA) -> LaneWidthCue | None:
+def lane_width_cue(
+    markings: LaneMarkings, K: np.ndarray, params: CameraParams = DEFAULT_CAMERA
+) -> LaneWidthCue | None:
     """The height cue of the markings' pairs for a camera matrix ``K`` ((3, 3) float64); None without pairs."""
     if not markings.pairs:
         return None

@@ -52,7 +52,9 @@ class RollMeasurement:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.roll) and math.isfinite(self.sigma) and self.sigma > 0):
-            raise CalibrationError(f"roll measurement: roll must be finite and sigma > 0, got {self.roll}, {self.sigma}")
+            raise CalibrationError(
+                f"roll measurement: roll must be finite and sigma > 0, got {self.roll}, {self.sigma}"
+            )
 
 
 @dataclass(frozen=True)
@@ -79,7 +81,8 @@ class RollEstimate:
         seen = f"{math.degrees(m.roll):.2f} +- {math.degrees(m.sigma):.2f} deg from {m.source}"
         if not self.used:
             return f"roll assumed level (0): {seen} dropped as inconsistent with a level camera"
-        return f"roll {math.degrees(self.roll):.2f} +- {math.degrees(self.sigma):.2f} deg ({seen}, fused with a level prior)"
+        fused = f"roll {math.degrees(self.roll):.2f} +- {math.degrees(self.sigma):.2f} deg"
+        return f"{fused} ({seen}, fused with a level prior)"
 
 
 def roll_of_down_ray(point_h: np.ndarray, center_px: np.ndarray) -> float:
@@ -118,9 +121,8 @@ def roll_from_vertical(
         r = roll_of_down_ray(_refine_h(pick, c, scale), c)
         rolls.append((r - roll + math.pi) % (2 * math.pi) - math.pi)
     spread = float(np.std(rolls))
-    sigma = math.sqrt(
-        spread**2 + math.radians(params.roll_vertical_sigma_deg) ** 2 + math.radians(params.roll_road_crossfall_deg) ** 2
-    )
+    plumb, crossfall = math.radians(params.roll_vertical_sigma_deg), math.radians(params.roll_road_crossfall_deg)
+    sigma = math.sqrt(spread**2 + plumb**2 + crossfall**2)
     return RollMeasurement(roll, sigma, f"the vertical of {n} upright segments")
 
 

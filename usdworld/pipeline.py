@@ -400,13 +400,15 @@ def read_scene_head(
     if spec is None or spec.K is None:  # no intrinsics given: the photo's own cues (EXIF, lines, vehicles)
         exif = read_exif_focal(request.image, image.width, image.height)
         focal = estimate_focal(image.width, image.height, objects, table, vanishing, segments, exif, params.camera)
-    lanes = find_lane_markings(
-        image.rgb,
-        vanishing,
-        np.array([o.box_px for o in objects if o.is_thing], dtype=np.float64).reshape(-1, 4),
-        _label_mask(seg, "road"),
-        params.camera,
-    )
+    lanes = None
+    if params.camera.lane_height_cue:
+        lanes = find_lane_markings(
+            image.rgb,
+            vanishing,
+            np.array([o.box_px for o in objects if o.is_thing], dtype=np.float64).reshape(-1, 4),
+            _label_mask(seg, "road"),
+            params.camera,
+        )
     roll = None
     if spec is None or spec.roll is None:  # no roll given: the photo's verticals measure it
         vertical = find_vertical_vanishing_point(segments, image.width, image.height, params.camera)

@@ -241,6 +241,16 @@ def _hough(
     return votes, slopes, u_ref
 
 
+def _line_fit(u: np.ndarray, v: np.ndarray) -> tuple[float, float]:
+    """``(a, b)`` of the least-squares ``u = a + b v`` ((N,) float64 each), from exactly rounded sums
+    (``math.fsum``) so that the result does not depend on how BLAS splits a long dot product."""
+    n = len(u)
+    mv, mu = math.fsum(v) / n, math.fsum(u) / n
+    dv = v - mv
+    b = math.fsum(dv * (u - mu)) / max(math.fsum(dv * dv), 1e-12)
+    return mu - b * mv, b
+
+
 def _fit_line(u: np.ndarray, v: np.ndarray, params: CameraParams) -> LaneLine | None:
     """Least-squares ``u = a + b v`` over stripe pixels, refitted twice without residuals above
     ``lane_fit_tol_px``; None when fewer than ``lane_min_rows`` distinct rows remain."""
@@ -248,8 +258,7 @@ def _fit_line(u: np.ndarray, v: np.ndarray, params: CameraParams) -> LaneLine | 
     for _ in range(3):
         if np.unique(v[keep]).size < params.lane_min_rows:
             return None
-        A = np.column_stack([np.ones(keep.sum()), v[keep]])
-        coef, *_ = np.linalg.lstsq(A, u[keep], rcond=None)
+        coef = _line_fit(u[keep], v[keep])
         resid = u - (coef[0] + coef[1] * v)
         keep = np.abs(resid) <= params.lane_fit_tol_px
     rows = np.unique(v[keep])

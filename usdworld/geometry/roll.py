@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdworld.errors import CalibrationError
-from usdworld.geometry.vanishing import VerticalVanishingPoint, _refine_h
+from usdworld.geometry.vanishing import VerticalVanishingPoint, _lines
 from usdworld.parameters.camera import DEFAULT_CAMERA, CameraParams
 
 
@@ -99,10 +99,36 @@ def roll_of_down_ray(point_h: np.ndarray, center_px: np.ndarray) -> float:
     return math.atan2(x, y)
 
 
+def _plumb_point(segments: np.ndarray, center: np.ndarray, scale: float) -> np.ndarray:
+    """Length-weighted least-squares homogeneous intersection of segments, bit for bit the same
+    whatever the BLAS threads: the 3 x 3 normal matrix is summed exactly (``math.fsum``) and
+    its smallest eigenvector taken (an SVD of the N x 3 system splits its products over threads).
+
+    Args:
+        segments: (N, 4) float64 ``u0, v0, u1, v1`` pixels.
+        center: (2,) float64 the normalisation centre, pixels.
+        scale: the normalisation scale, pixels.
+
+    Returns:
+        (3,) float64 homogeneous point ``(u, v, w)`` pixels, unit norm, ``w >= 0``.
+    """
+    seg = ((segments.reshape(-1, 2) - center) / scale).reshape(-1, 4)
+    lines = _lines(seg)
+    length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+    normal = np.array([[math.fsum(length * lines[:, i] * lines[:, j]) for j in range(3)] for i in range(3)])
+    _, vectors = np.linalg.eigh(normal)
+    p = vectors[:, 0]
+    p_px = np.array([p[0] * scale + center[0] * p[2], p[1] * scale + center[1] * p[2], p[2]])
+    p_px /= math.sqrt(math.fsum(p_px**2))
+    return p_px if p_px[2] >= 0 else -p_px
+
+
 def roll_from_vertical(
     vertical: VerticalVanishingPoint, width: int, height: int, params: CameraParams = DEFAULT_CAMERA
 ) -> RollMeasurement:
-    """The roll the vertical vanishing point measures (module docstring), principal point at the centre.
+    """The roll the vertical vanishing point measures (module docstring), principal point at the centre:
+    the intersection of its supporting segments (refitted exactly, :func:`_plumb_point`) and a
+    bootstrap over them.
 
     Args:
         vertical: the vertical's point and its supporting segments.
@@ -111,16 +137,17 @@ def roll_from_vertical(
         params: bootstrap resamples and the plumb spread.
     """
     c = np.array([width / 2.0, height / 2.0])
-    roll = roll_of_down_ray(vertical.point_h, c)
-    rng = np.random.default_rng(0)
     scale = float(np.hypot(width, height))
+    roll = roll_of_down_ray(_plumb_point(vertical.inliers, c, scale), c)
+    rng = np.random.default_rng(0)
     n = len(vertical.inliers)
     rolls = []
     for _ in range(params.vertical_bootstrap):
         pick = vertical.inliers[rng.integers(0, n, n)]
-        r = roll_of_down_ray(_refine_h(pick, c, scale), c)
+        r = roll_of_down_ray(_plumb_point(pick, c, scale), c)
         rolls.append((r - roll + math.pi) % (2 * math.pi) - math.pi)
-    spread = float(np.std(rolls))
+    mean = math.fsum(rolls) / len(rolls)
+    spread = math.sqrt(math.fsum((r - mean) ** 2 for r in rolls) / len(rolls))
     plumb, crossfall = math.radians(params.roll_vertical_sigma_deg), math.radians(params.roll_road_crossfall_deg)
     sigma = math.sqrt(spread**2 + plumb**2 + crossfall**2)
     return RollMeasurement(roll, sigma, f"the vertical of {n} upright segments")

@@ -37,7 +37,14 @@ from usdworld.geometry.camera import PinholeCamera, ground_correspondences
 from usdworld.geometry.estimate import CameraEstimate, PosePrior, estimate_camera
 from usdworld.geometry.focal import FocalEstimate
 from usdworld.geometry.homography import HomographyFit, estimate_homography
-from usdworld.geometry.vanishing import VanishingPoint, detect_segments, find_vanishing_point
+from usdworld.geometry.lanes import LaneMarkings, find_lane_markings
+from usdworld.geometry.roll import RollMeasurement, roll_from_vertical
+from usdworld.geometry.vanishing import (
+    VanishingPoint,
+    detect_segments,
+    find_vanishing_point,
+    find_vertical_vanishing_point,
+)
 from usdworld.io.asset_catalogue import AssetCatalogue
 from usdworld.io.camera_files import read_camera
 from usdworld.io.class_table import ClassTable, load_class_table
@@ -289,6 +296,8 @@ def _camera(
     table: ClassTable,
     params: Parameters,
     focal: FocalEstimate | None = None,
+    lanes: LaneMarkings | None = None,
+    roll: RollMeasurement | None = None,
 ) -> CameraEstimate:
     pose_prior = None
     if spec is None:
@@ -317,6 +326,8 @@ def _camera(
         params=params.camera,
         focal=focal,
         pose_prior=pose_prior,
+        lanes=lanes,
+        roll_measurement=roll,
     )
 
 
@@ -389,7 +400,21 @@ def read_scene_head(
     if spec is None or spec.K is None:  # no intrinsics given: the photo's own cues (EXIF, lines, vehicles)
         exif = read_exif_focal(request.image, image.width, image.height)
         focal = estimate_focal(image.width, image.height, objects, table, vanishing, segments, exif, params.camera)
-    camera = _camera(spec, image, objects, seg, catalogue, vanishing, table, params, focal)
+    lanes = None
+    if params.camera.lane_height_cue:
+        lanes = find_lane_markings(
+            image.rgb,
+            vanishing,
+            np.array([o.box_px for o in objects if o.is_thing], dtype=np.float64).reshape(-1, 4),
+            _label_mask(seg, "road"),
+            params.camera,
+        )
+    roll = None
+    if spec is None or spec.roll is None:  # no roll given: the photo's verticals measure it
+        vertical = find_vertical_vanishing_point(segments, image.width, image.height, params.camera)
+        if vertical is not None:
+            roll = roll_from_vertical(vertical, image.width, image.height, params.camera)
+    camera = _camera(spec, image, objects, seg, catalogue, vanishing, table, params, focal, lanes, roll)
     inferred, why = None, ""
     boxes_given = request.detections is not None or request.detection_items is not None
     if seg is None and boxes_given and request.infer_streets:

@@ -41,6 +41,36 @@ def _focal_entry(focal) -> dict | None:
     }
 
 
+def _lanes_entry(lanes) -> dict | None:
+    """The lane-line pairs that measured the camera height (their spacing), or None when none did."""
+    if lanes is None:
+        return None
+    return {
+        "pairs": len(lanes),
+        "k_per_row": [_num(k) for k in lanes.k],
+        "sigma_log": [_num(s) for s in lanes.sigma_log],
+        "implied_height_m": [_num(h) for h in lanes.heights_m()],
+        "lane_width_m": _num(lanes.lane_width_m),
+        "lane_width_sigma_log": _num(lanes.width_sigma_log),
+    }
+
+
+def _roll_entry(roll) -> dict | None:
+    """How the roll was obtained (the vertical vanishing point fused with a level prior), or None
+    when the camera file gave it."""
+    if roll is None:
+        return None
+    m = roll.measurement
+    return {
+        "roll_deg": _num(np.degrees(roll.roll)),
+        "sigma_deg": _num(np.degrees(roll.sigma)),
+        "measured_deg": None if m is None else _num(np.degrees(m.roll)),
+        "measured_sigma_deg": None if m is None else _num(np.degrees(m.sigma)),
+        "source": "" if m is None else m.source,
+        "used": roll.used,
+    }
+
+
 def _num(x: float | None) -> float | None:
     """A JSON number: rounded to 6 decimals, None when missing or not finite.
 
@@ -135,6 +165,8 @@ def make_report(model: WorldModel, params: Parameters) -> dict[str, Any]:
             "sigma_pitch_deg": _num(np.degrees(model.camera.sigma_pitch)),
             "method": model.camera.method,
             "focal": _focal_entry(model.camera.focal),
+            "lanes": _lanes_entry(model.camera.lanes),
+            "roll": _roll_entry(model.camera.roll),
         },
         "dlt": {
             "source": model.dlt_source,

@@ -20,13 +20,15 @@ The priors, noise levels and grids are fields of :class:`~usdworld.parameters.Ca
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from usdworld.errors import CalibrationError
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.geometry.focal import FocalEstimate, fuse_focal, principal_point, prior_cue
+from usdworld.geometry.lanes import LaneMarkings, LaneWidthCue, derolled_markings, lane_width_cue
+from usdworld.geometry.roll import RollEstimate, RollMeasurement, deroll_points, fuse_roll
 from usdworld.geometry.vanishing import VanishingPoint, horizon_measurement
 from usdworld.parameters.camera import DEFAULT_CAMERA, CameraParams
 
@@ -125,6 +127,10 @@ class CameraEstimate:
         sigma_height_m: standard deviation of the camera height (0 when it was given).
         sigma_pitch: standard deviation of the pitch, radians (0 when it was given).
         focal: how the focal length was estimated (its cues, fused), or None when K was given.
+        lanes: the lane-line pairs that measured the camera height (their spacing), or None
+            when no markings showed or the height was given.
+        roll: how the roll was obtained (the vertical vanishing point fused with a level
+            prior), or None when it was given.
     """
 
     camera: PinholeCamera
@@ -135,6 +141,8 @@ class CameraEstimate:
     sigma_height_m: float = 0.0
     sigma_pitch: float = 0.0
     focal: FocalEstimate | None = None
+    lanes: LaneWidthCue | None = None
+    roll: RollEstimate | None = None
 
 
 #: (candidate, object) pairs evaluated at once by :func:`_object_cost`: 16k float64 = 128 KiB per
@@ -263,10 +271,12 @@ def _cost(
     evidence: HorizonEvidence,
     params: CameraParams,
     prior: PosePrior | None = None,
+    lanes: LaneWidthCue | None = None,
 ) -> np.ndarray:
     """Negative log posterior (up to a constant) of each candidate; (G,) float64.
 
-    The prior is ``prior`` when the pose was measured, else the vehicle-camera priors of ``params``.
+    The prior is ``prior`` when the pose was measured, else the vehicle-camera priors of ``params``;
+    ``lanes`` adds the lane-line pairs' robust (Cauchy) height terms.
     """
     if prior is None:
         mean_h, std_h = params.height_prior_m
@@ -282,6 +292,8 @@ def _cost(
         cost = cost + 0.5 * (excess / params.road_top_sigma_px) ** 2
     if evidence.vanishing_v is not None:
         cost = cost + np.log1p(((horizon - evidence.vanishing_v) / evidence.vanishing_sigma_px) ** 2)
+    if lanes is not None:
+        cost = cost + lanes.cost(h, pitch)
     return cost
 
 
@@ -293,6 +305,7 @@ def _search(
     fixed_pitch: float | None,
     params: CameraParams,
     prior: PosePrior | None = None,
+    lanes: LaneWidthCue | None = None,
 ) -> tuple[float, float]:
     """Coarse-to-fine grid search of the (height, pitch) posterior."""
     h_lo, h_hi = params.height_range_m
@@ -303,7 +316,7 @@ def _search(
         hs = np.array([fixed_h]) if fixed_h is not None else np.arange(h_lo, h_hi + 1e-9, h_step)
         ps = np.array([fixed_pitch]) if fixed_pitch is not None else np.arange(p_lo, p_hi + 1e-12, p_step)
         H, P = np.meshgrid(hs, ps, indexing="ij")
-        cost = _cost(H.ravel(), P.ravel(), K, obs, evidence, params, prior)
+        cost = _cost(H.ravel(), P.ravel(), K, obs, evidence, params, prior, lanes)
         k = int(np.argmin(cost))
         best_h, best_p = float(H.ravel()[k]), float(P.ravel()[k])
         h_lo, h_hi = best_h - 2 * h_step, best_h + 2 * h_step
@@ -321,6 +334,7 @@ def _posterior_moments(
     free: tuple[bool, bool],
     params: CameraParams,
     prior: PosePrior | None = None,
+    lanes: LaneWidthCue | None = None,
 ) -> tuple[float, float, float, float]:
     """Posterior mean and standard deviation of height and pitch, summed on a grid round the mode.
 
@@ -346,7 +360,7 @@ def _posterior_moments(
     else:
         ps = np.array([p0])
     H, P = np.meshgrid(hs, ps, indexing="ij")
-    cost = _cost(H.ravel(), P.ravel(), K, obs, evidence, params, prior)
+    cost = _cost(H.ravel(), P.ravel(), K, obs, evidence, params, prior, lanes)
     w = np.exp(-(cost - cost.min()))
     w /= w.sum()
     # Exactly rounded sums (math.fsum), not ``w @ x``: BLAS splits a long dot product over its
@@ -380,6 +394,30 @@ def _fit_subset(obs: HeightObservations, max_objects: int) -> HeightObservations
     )
 
 
+def _derolled(
+    obs: HeightObservations,
+    vanishing: VanishingPoint | None,
+    lanes: LaneMarkings | None,
+    roll: float,
+    K: np.ndarray,
+    params: CameraParams,
+) -> tuple[HeightObservations, VanishingPoint | None, LaneMarkings | None]:
+    """The objects' contacts and tops, the street's vanishing point and the lane lines as the level
+    camera sees them (turned back by ``roll`` about the principal point of ``K``)."""
+    c = np.asarray(K)[:2, 2]
+    bottom = deroll_points(np.column_stack([obs.u, obs.v_bottom]), roll, c)
+    top = deroll_points(np.column_stack([obs.u, obs.v_top]), roll, c)
+    obs = HeightObservations(
+        bottom[:, 0], bottom[:, 1], top[:, 1], obs.height_m, obs.height_std_m, obs.top_near_m, obs.top_far_m
+    )
+    if vanishing is not None:
+        (u, v), = deroll_points(np.array([[vanishing.u, vanishing.v]]), roll, c)
+        vanishing = replace(vanishing, u=float(u), v=float(v))
+    if lanes is not None:
+        lanes = derolled_markings(lanes, roll, c, params)
+    return obs, vanishing, lanes
+
+
 def estimate_camera(
     width: int,
     height: int,
@@ -394,6 +432,8 @@ def estimate_camera(
     params: CameraParams = DEFAULT_CAMERA,
     focal: FocalEstimate | None = None,
     pose_prior: PosePrior | None = None,
+    lanes: LaneMarkings | None = None,
+    roll_measurement: RollMeasurement | None = None,
 ) -> CameraEstimate:
     """Complete a partially known camera.
 
@@ -405,7 +445,8 @@ def estimate_camera(
             alone, with the principal point at the image centre.
         height_m: camera height in metres, or None to estimate.
         pitch: radians (positive looking down), or None to estimate.
-        roll: radians, or None (then 0 is assumed).
+        roll: radians, or None: then ``roll_measurement`` fused with a level prior
+            (:func:`usdworld.geometry.roll.fuse_roll`), 0 without one.
         yaw: radians, or None (then 0: the world's X axis is the camera's heading).
         observations: upright objects with visible bottom and top.
         road_top_v: highest image row (smallest v) of the road region, or None.
@@ -415,6 +456,13 @@ def estimate_camera(
         pose_prior: a measured height and pitch with their uncertainty (a road plane), fused
             with the objects in place of the vehicle-camera priors; only with ``height_m``
             and ``pitch`` None.
+        lanes: the photo's lane lines (:func:`usdworld.geometry.lanes.find_lane_markings`); their
+            neighbouring pairs measure the camera height (:class:`~usdworld.geometry.lanes.LaneWidthCue`)
+            when it is estimated.
+        roll_measurement: the roll the vertical vanishing point measures, or None; used only
+            when ``roll`` is None. The objects, the vanishing point and the lines are turned
+            back by the fused roll (:func:`usdworld.geometry.roll.deroll_points`) before the
+            level camera's height and pitch are fitted to them.
 
     Returns:
         The camera and a record of what was estimated and how.
@@ -436,15 +484,20 @@ def estimate_camera(
         notes.append(f"intrinsics estimated, centred principal point: {focal.describe()}")
     else:
         focal = None
+    roll_estimate = None
     if roll is None:
         estimated.append("roll")
-        notes.append("roll assumed level (0)")
-        roll = 0.0
+        roll_estimate = fuse_roll(roll_measurement, params)
+        notes.append(roll_estimate.describe())
+        roll = roll_estimate.roll
+        if roll != 0.0:
+            observations, vanishing, lanes = _derolled(observations, vanishing, lanes, roll, np.asarray(K), params)
     if yaw is None:
         yaw = 0.0
     residual = 0.0
     n_used = 0
     sigma_h = sigma_p = 0.0
+    lane_cue = None
     if height_m is None or pitch is None:
         if height_m is None:
             estimated.append("height_m")
@@ -453,9 +506,11 @@ def estimate_camera(
         usable = _fit_subset(observations, params.max_fit_objects)
         v_vp = horizon_measurement(vanishing, float(np.asarray(K)[1, 1]), params) if vanishing is not None else None
         evidence = HorizonEvidence(road_top_v, *(v_vp or (None, 1.0)))
-        mode = _search(np.asarray(K), usable, evidence, height_m, pitch, params, pose_prior)
+        if height_m is None and lanes is not None:
+            lane_cue = lane_width_cue(lanes, np.asarray(K), params)
+        mode = _search(np.asarray(K), usable, evidence, height_m, pitch, params, pose_prior, lane_cue)
         h_est, p_est, sigma_h, sigma_p = _posterior_moments(
-            np.asarray(K), usable, evidence, mode, (height_m is None, pitch is None), params, pose_prior
+            np.asarray(K), usable, evidence, mode, (height_m is None, pitch is None), params, pose_prior, lane_cue
         )
         n_used = len(usable)
         if pose_prior is not None:
@@ -483,7 +538,16 @@ def estimate_camera(
             notes.append(
                 f"nothing to go on: default camera height {params.height_prior_mean_m:g} m and level pitch"
             )
+        if lane_cue is not None:
+            implied = ", ".join(f"{x:.2f}" for x in lane_cue.heights_m(p_est))
+            notes.append(
+                f"height also from {len(lane_cue)} pair(s) of lane lines of {params.lane_width_m:g} +- "
+                f"{params.lane_width_std_m:g} m spacing (implied {implied} m; "
+                f"+-{100 * float(np.min(lane_cue.sigma_log)):.0f} % each)"
+            )
         height_m, pitch = h_est, p_est
     method = "; ".join(notes) if notes else "all camera parameters given"
     camera = PinholeCamera(width, height, np.asarray(K), float(height_m), float(pitch), float(roll), float(yaw))
-    return CameraEstimate(camera, tuple(estimated), method, n_used, residual, sigma_h, sigma_p, focal)
+    return CameraEstimate(
+        camera, tuple(estimated), method, n_used, residual, sigma_h, sigma_p, focal, lane_cue, roll_estimate
+    )

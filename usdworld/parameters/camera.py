@@ -313,6 +313,157 @@ class CameraParams:
         2, "count", "Fewest vehicles whose box shape measures the focal length.", "convention: one is not robust"
     )
 
+    # --- the roll from the vertical vanishing point (geometry/roll.py) ---
+    roll_level_std_deg: float = param(
+        1.0,
+        "deg",
+        "Prior spread of a vehicle camera's roll about level, fused with the vertical vanishing point's roll.",
+        "convention: a camera mounted level on a car; the body rolls under 1 deg in ordinary driving "
+        "(lateral acceleration 0.3 g at a roll gradient of about 3 deg/g would roll it more, on bends only)",
+    )
+    roll_vertical_sigma_deg: float = param(
+        0.5,
+        "deg",
+        "Spread of the roll the vertical vanishing point measures beyond its segments' bootstrap: poles and "
+        "building edges that do not stand plumb, lens distortion near the image edge.",
+        "convention: street furniture and facades stand plumb to about half a degree",
+    )
+    roll_road_crossfall_deg: float = param(
+        1.15,
+        "deg",
+        "Spread of the road's tilt across the street against gravity: the vertical vanishing point measures the "
+        "roll against gravity, the world's ground is the road (the car sits on it), so this is added to the "
+        "measurement's spread.",
+        "published: road crossfall 1.5-2.5 % each side of the crown (AASHTO, A Policy on Geometric Design of "
+        "Highways and Streets, 2018, sec. 4.2.2); atan(0.02)",
+    )
+    roll_outlier_sigma: float = param(
+        3.0,
+        "sigma",
+        "A vanishing point's roll further than this from level (their combined sigma) is dropped: the camera "
+        "stays level.",
+        "convention: three sigmas, as focal_outlier_sigma",
+    )
+    # --- lane markings and the camera height their spacing measures (geometry/lanes.py) ---
+    lane_height_cue: bool = param(
+        False,
+        "flag",
+        "Whether the photo's painted lane lines (their spacing) enter the camera-height fit. Measured on all "
+        "real data it did not help: the lane width's spread and lines that are rails or kerbs outweigh what it "
+        "adds to the objects' heights, so it is off until lane widths are known per road.",
+        "tuned: KITTI 25 frames and nuScenes front, median depth error with / without it: 4.70 / 4.70 % with the "
+        "calibration, 7.89 / 7.40 % without a camera file, 5.06 / 4.83 % with road planes, nuScenes 5.97 / 5.97 % "
+        "(session 9, lanes.bench.md)",
+    )
+    lane_width_m: float = param(
+        3.25,
+        "m",
+        "Mean centre-to-centre spacing of neighbouring lane lines (the lane-width height cue).",
+        "published: urban lane widths 2.75-3.75 m, 3.25 m the common main-road value (FGSV RASt 06, "
+        "Richtlinien fuer die Anlage von Stadtstrassen, lane widths); US 10-12 ft = 3.0-3.6 m "
+        "(AASHTO, A Policy on Geometric Design of Highways and Streets, 2018, lane widths)",
+    )
+    lane_width_std_m: float = param(
+        0.3,
+        "m",
+        "Spread of that spacing: 2.75-3.75 m is its mean +- 1.7 sigma.",
+        "published: the ranges of lane_width_m (RASt 06; AASHTO 2018)",
+    )
+    lane_width_within_std_m: float = param(
+        0.15,
+        "m",
+        "Spread of one lane's width about the width of its road's lanes (edge and turning lanes are narrower, "
+        "a marking's own width), on top of each pair's fit; the road's width itself varies by lane_width_std_m.",
+        "convention: half the step between RASt 06's lane widths (3.00, 3.25, 3.50 m)",
+    )
+    lane_agreement_sigma: float = param(
+        2.5,
+        "sigma",
+        "Two neighbouring pairs of lines (three lines) count as lanes only when their spacings agree within this "
+        "many combined lane_width_within_std_m spreads; a lone pair is not used.",
+        "convention: two and a half sigmas, a 2 % false rejection for two lanes of one road",
+    )
+    lane_pair_inlier_fraction: float = param(
+        0.5,
+        "fraction",
+        "Prior probability that two neighbouring lines found are one lane apart; the rest (a kerb, a rail, a "
+        "parking or bus lane, a line missed between two) are uniform over the spacings the searched heights "
+        "allow, a robust mixture.",
+        "convention: an even prior, as uncertain as a mixture weight can be",
+    )
+    lane_marking_width_m: tuple[float, float] = param(
+        (0.10, 0.30),
+        "m",
+        "Narrowest and widest painted line along the street: the top-hat keeps stripes up to "
+        "lane_kernel_factor times the widest, and rows where the narrowest is under lane_min_stripe_px "
+        "are not searched.",
+        "published: German lines 0.12 m (narrow) and 0.25 m (broad) (FGSV RMS-1, Richtlinien fuer die Markierung von Strassen); "
+        "US 4-6 in, wide lines 8 in (MUTCD 2009, sec. 3A.06)",
+    )
+    lane_kernel_factor: float = param(
+        2.5,
+        "1",
+        "Top-hat width as a multiple of the widest marking's width at that row: wider bright things (kerbs, "
+        "car bodies, sunlit road) are dropped.",
+        "convention: a stripe must fit with road on both sides",
+    )
+    lane_min_stripe_px: float = param(
+        2.0, "px", "Rows where the narrowest marking is thinner than this are not searched.",
+        "convention: a stripe must span two pixels to be told from noise",
+    )
+    lane_min_contrast: float = param(
+        30.0,
+        "grey level",
+        "Least brightness of a stripe above the road round it (white top-hat of the 8-bit grey image).",
+        "convention: white or yellow paint on asphalt is 60-150 levels brighter in daylight; 30 keeps worn "
+        "lines and drops the road's texture (checked by eye on KITTI frames 4, 7, 9)",
+    )
+    lane_run_slack: float = param(
+        2.0,
+        "1",
+        "A run of stripe pixels along a row counts as a marking when its width is within this factor of the "
+        "narrowest and widest marking's width at that row (the camera-height prior sets the scale).",
+        "convention: the camera height prior's 20 % and a pixel of blur either side",
+    )
+    lane_flank_max_std: float = param(
+        12.0,
+        "grey level",
+        "Largest grey-level spread of the road beside a stripe: paint lies on plain asphalt, rails on gravel, "
+        "paving joints and grass blades on textured ground.",
+        "convention: asphalt's grain in 8-bit daylight photos is 3-8 levels (checked by eye on KITTI frames 4, 7, 9, 13)",
+    )
+    lane_box_margin_fraction: float = param(
+        0.1, "fraction", "Objects' boxes are widened by this fraction of their width on each side and below "
+        "before their pixels are left out of the marking search.", "convention: a wheel or a shadow's edge",
+    )
+    lane_vote_step_deg: float = param(
+        0.5, "deg", "Angle (from the image vertical) bins of the lines' vote.", "convention: resolution only"
+    )
+    lane_fit_tol_px: float = param(
+        3.0, "px", "Stripe pixels further than this from a line's fit are dropped and refitted.",
+        "convention: half a narrow marking's width near the camera",
+    )
+    lane_edge_noise_px: float = param(
+        1.0, "px", "Noise of a stripe's centre column per row, added to the fit's scatter.",
+        "convention: one pixel of quantisation",
+    )
+    lane_min_rows: int = param(
+        20, "count", "Fewest distinct image rows a lane line must cover.", "convention: a line, not a spot"
+    )
+    lane_vp_tol_fraction: float = param(
+        0.05,
+        "fraction",
+        "A line's column at the vanishing row must be within this fraction of the image width of the street's "
+        "vanishing point (lines along the street pass through it, up to the point's error and a gentle bend).",
+        "convention: a few times the vanishing point's scatter on KITTI (30 px of 1242 seen on frame 1)",
+    )
+    lane_min_extent_fraction: float = param(
+        0.15,
+        "fraction",
+        "A line must span at least this fraction of the rows between the horizon and the image's bottom.",
+        "convention: a dashed line shows at least two dashes",
+    )
+
     @property
     def height_prior_m(self) -> tuple[float, float]:
         """(mean, spread) of the camera-height prior, metres."""

@@ -72,7 +72,8 @@ def evidence(
         h_true=h_true,
         h_class=1.5,
         h_class_std=0.12,
-        partial=account.is_partial(truncated, occluded, "fused"),
+        partial=account.is_partial(truncated, "fused"),
+        occluded=occluded >= 2,
     )
 
 
@@ -92,10 +93,18 @@ def test_exact_everything_misses_nothing():
 
 def test_a_cut_off_label_is_cut_off():
     assert account.depth_cause(evidence(build_height_m=1.35, truncated=0.4)) == "cut_off"
-    assert account.depth_cause(evidence(h_true=1.86, occluded=2)) == "cut_off"
-    assert account.is_partial(0.0, 0, "contact_partial")
-    assert account.is_partial(0.0, 0, "behind_car_0001")
-    assert not account.is_partial(0.0, 1, "fused")
+    assert account.is_partial(0.0, "contact_partial")
+    assert account.is_partial(0.0, "behind_car_0001")
+    assert not account.is_partial(0.0, "fused")
+
+
+def test_a_largely_occluded_label_is_cut_off_only_when_its_box_misreads():
+    """Largely occluded: a wrong class height stays class height; a cue misread from the box is the occlusion's."""
+    assert account.depth_cause(evidence(h_true=1.86, occluded=2)) == "class_height"
+    misread = replace(evidence(occluded=2), height=20.0 * 0.85)
+    misread = replace(misread, depth_pred=misread.height)
+    assert account.depth_cause(misread) == "cut_off"
+    assert account.depth_cause(replace(misread, occluded=False)) == "box"
 
 
 def test_a_tall_car_with_an_exact_camera_is_class_height():

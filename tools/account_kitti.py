@@ -34,14 +34,16 @@ ordering rules, collisions and clamps added (``log(d/z)`` less the weighted cues
 
 Depth causes (:data:`DEPTH_CAUSES`), the first that applies:
 
-1. ``cut_off``: the label says truncated (> 0) or largely occluded (KITTI occluded >= 2), or the
-   build placed it from partial cues (``cut_off``, ``*_partial``, ``top_row``, ``behind_*``,
-   ``street_line``): the decomposition assumes whole boxes and does not apply.
+1. ``cut_off``: the label says truncated (> 0), or the build placed it from partial cues
+   (``cut_off``, ``*_partial``, ``top_row``, ``behind_*``, ``street_line``): the decomposition
+   assumes whole boxes and does not apply.
 2. otherwise the largest contribution in magnitude among ``intrinsics`` (focal length and
    principal point), ``camera`` (height/pitch, shared by the frame), ``off_plane`` (the object's
    ground off the camera's plane: crossfall, kerbs), ``class_height`` (the true height against
-   the class prior; the row flags whether it exceeds the class's published spread), ``box``
-   (the cue's own measurement) and ``other`` (fusion, ordering rules, collisions).
+   the class prior; the row flags with ``*`` whether it exceeds the class's published spread),
+   ``box`` (the cue's own measurement) and ``other`` (fusion, ordering rules, collisions);
+   when that is ``box`` and the label says largely occluded (KITTI occluded >= 2), ``cut_off``
+   (the box's edges are the annotator's guess behind what hides it).
 
 Heading causes (vehicles off by more than 30 deg; :data:`HEADING_CAUSES`): ``not_placed``;
 ``cut_off`` (as above); ``front_back_flip`` (right within 30 deg modulo 180: the axis is right,
@@ -135,7 +137,8 @@ class DepthEvidence:
         h_true: the label's height, metres.
         h_class: the class prior's height, metres.
         h_class_std: the class's published spread of heights, metres.
-        partial: the object is cut off or largely hidden (label flags or the build's method).
+        partial: the object is cut off (label flag or the build's method).
+        occluded: the label says it is largely occluded.
     """
 
     depth_pred: float
@@ -152,6 +155,7 @@ class DepthEvidence:
     h_class: float
     h_class_std: float
     partial: bool
+    occluded: bool = False
 
 
 def depth_contributions(ev: DepthEvidence) -> dict[str, float]:
@@ -195,7 +199,8 @@ def depth_cause(ev: DepthEvidence) -> str:
     if ev.partial:
         return "cut_off"
     parts = depth_contributions(ev)
-    return max(DEPTH_CAUSES[1:], key=lambda k: abs(parts[k]))
+    cause = max(DEPTH_CAUSES[1:], key=lambda k: abs(parts[k]))
+    return "cut_off" if cause == "box" and ev.occluded else cause
 
 
 def heading_cause(placed: bool, partial: bool, yaw_error_mod180_deg: float) -> str:
@@ -218,9 +223,9 @@ def lineup_cause(placed: bool, iou_true_focal: float, iou_own_camera: float) -> 
     return "placement"
 
 
-def is_partial(truncated: float, occluded: int, method: str) -> bool:
-    """True when the label flags the object cut off or largely hidden, or the build placed it from partial cues."""
-    return truncated > 0 or occluded >= _LARGELY_OCCLUDED or method.startswith(_PARTIAL_METHODS)
+def is_partial(truncated: float, method: str) -> bool:
+    """True when the label flags the object cut off by the image's edge, or the build placed it from partial cues."""
+    return truncated > 0 or method.startswith(_PARTIAL_METHODS)
 
 
 def ground_factor(camera: PinholeCamera, ray_cam: np.ndarray, ground_z: float) -> float:
@@ -318,13 +323,14 @@ def frame_account(
             h_true=float(g["hwl"][0]),
             h_class=float(prior.size_m[2]),
             h_class_std=float(prior.height_std_m),
-            partial=is_partial(g["truncated"], g["occluded"], p.depth_method),
+            partial=is_partial(g["truncated"], p.depth_method),
+            occluded=g["occluded"] >= _LARGELY_OCCLUDED,
         )
     out = []
     for index, (g, row) in enumerate(zip(gt, rows)):
         p = placed.get(index)
         ev = evidence.get(index)
-        partial = ev.partial if ev is not None else g["truncated"] > 0 or g["occluded"] >= _LARGELY_OCCLUDED
+        partial = ev.partial if ev is not None else g["truncated"] > 0
         base = {"frame": frame, "type": g["type"], "name": row.get("name", f"label {index}"), "placed": p is not None}
         dcause, parts = None, None
         if ev is not None:

@@ -17,13 +17,16 @@ recorded). In log space, ``log(d / z) = w_c log(c / z) + w_h log(h / z) + other`
 cue's log error splits exactly into measured factors:
 
 * contact: ``log(c/z) = intrinsics + camera + off_plane + box``. With the true bottom centre
-  ``p`` of the label box (camera frame), ``s`` is the depth factor at which the true ray through
-  ``p`` meets the build's ground (its plane at the object's own ground height), ``S`` the same
-  for the ray the build's intrinsics give the pixel of ``p``, ``s_t`` the factor at which the ray
-  meets the TRUE camera ground: the road plane file where one exists (KITTI frames 0-9), else
-  the frame's objects' own ground (label y): the median of ``s`` over the frame's objects is then
-  the camera's shared error. ``intrinsics = log(S/s)``, ``camera = log(s/s_t)``,
-  ``off_plane = log(s_t)`` (the object's ground is not the camera's plane), ``box = log(c/z) -
+  ``p`` of the label box (camera frame), ``S`` is the depth factor at which the build's camera
+  (its intrinsics and pose) takes the pixel of ``p`` onto its ground (its plane at the object's
+  own ground height), ``s_t`` the factor at which the true ray through ``p`` meets the TRUE
+  camera ground: the road plane file where one exists (KITTI frames 0-9), else the frame's
+  objects' own ground (label y), ``s_t = S / median(S)`` over the frame's placed objects (the
+  median is then the camera's error, shared by the frame; with one object it is all camera).
+  ``intrinsics = log(f_used / f_true)`` (a pinhole's ground depth scales with f at a fixed
+  horizon row; the principal point's share stays with the pose, which was fitted with it),
+  ``camera = log(S / s_t) - intrinsics`` (height and pitch), ``off_plane = log(s_t)`` (the
+  object's ground is not the camera's plane: crossfall, kerbs, slopes), ``box = log(c/z) -
   log(S)`` (the cue's own measurement: bottom row, centre offset).
 * height: ``log(h/z) = intrinsics + class_height + box``: ``intrinsics = log(f_used / f_true)``,
   ``class_height = log(H_class / H_true)`` (class prior against the label's height),
@@ -130,8 +133,7 @@ class DepthEvidence:
         height: the class-height cue's centre depth, metres, or None.
         height_sigma: its standard deviation, metres, or None.
         f_ratio: the build's focal length over the true one.
-        ground_intrinsics: ``S``: depth factor of the build's ray through the true bottom's pixel on the build's ground.
-        ground_pose: ``s``: depth factor of the true ray through the true bottom on the build's ground.
+        ground_build: ``S``: depth factor at which the build's camera takes the true bottom's pixel onto its ground.
         ground_true: ``s_t``: depth factor of the true ray on the true camera ground (the plane file's,
             or the frame's median ground; 1 when the object stands on it).
         h_true: the label's height, metres.
@@ -148,8 +150,7 @@ class DepthEvidence:
     height: float | None
     height_sigma: float | None
     f_ratio: float
-    ground_intrinsics: float
-    ground_pose: float
+    ground_build: float
     ground_true: float
     h_true: float
     h_class: float
@@ -177,10 +178,10 @@ def depth_contributions(ev: DepthEvidence) -> dict[str, float]:
     cues = 0.0
     if w_c:
         log_c = math.log(ev.contact / ev.depth_true)
-        out["intrinsics"] += w_c * math.log(ev.ground_intrinsics / ev.ground_pose)
-        out["camera"] += w_c * math.log(ev.ground_pose / ev.ground_true)
+        out["intrinsics"] += w_c * math.log(ev.f_ratio)
+        out["camera"] += w_c * (math.log(ev.ground_build / ev.ground_true) - math.log(ev.f_ratio))
         out["off_plane"] += w_c * math.log(ev.ground_true)
-        out["box"] += w_c * (log_c - math.log(ev.ground_intrinsics))
+        out["box"] += w_c * (log_c - math.log(ev.ground_build))
         cues += w_c * log_c
     if w_h:
         log_h = math.log(ev.height / ev.depth_true)
@@ -291,34 +292,32 @@ def frame_account(
         info.update({"height_true_m": h_true, "pitch_true_deg": math.degrees(pitch_true)})
     K_ray = np.linalg.inv(camera.K) @ K_true
     evidence: dict[int, DepthEvidence] = {}
-    poses = {}
-    for index, (g, row) in enumerate(zip(gt, rows)):
+    factors = {}
+    for index, g in enumerate(gt):
         p = placed.get(index)
         if p is None:
             continue
         bottom = g["xyz"] + t_cam2
         ray_build = K_ray @ bottom
         ray_build = ray_build * (bottom[2] / ray_build[2])
-        ground_z = float(p.position_world[2])
-        poses[index] = (ground_factor(camera, bottom, ground_z), ground_factor(camera, ray_build, ground_z))
-    shared = float(np.nanmedian([s for s, _ in poses.values()])) if poses else float("nan")
-    for index, (s, S) in poses.items():
+        factors[index] = ground_factor(camera, ray_build, float(p.position_world[2]))
+    shared = float(np.nanmedian(list(factors.values()))) if factors else float("nan")
+    for index, S in factors.items():
         g, row, p = gt[index], rows[index], placed[index]
         cues = {c.name: c for c in p.cues}
         prior = classes[p.obj.class_name]
-        s_true = plane_factor(plane[0], plane[1], g["xyz"] + t_cam2) if plane is not None else s / shared
+        s_true = plane_factor(plane[0], plane[1], g["xyz"] + t_cam2) if plane is not None else S / shared
         contact = cues.get("contact")
         height = cues.get("height")
         evidence[index] = DepthEvidence(
             depth_pred=float(p.depth_m),
             depth_true=float(row["depth_gt"]),
-            contact=contact.depth_m if contact is not None and math.isfinite(s) and math.isfinite(S) else None,
-            contact_sigma=contact.sigma_m if contact is not None and math.isfinite(s) and math.isfinite(S) else None,
+            contact=contact.depth_m if contact is not None and math.isfinite(S) and s_true > 0 else None,
+            contact_sigma=contact.sigma_m if contact is not None and math.isfinite(S) and s_true > 0 else None,
             height=height.depth_m if height is not None else None,
             height_sigma=height.sigma_m if height is not None else None,
             f_ratio=float(camera.fx) / float(K_true[0, 0]),
-            ground_intrinsics=S,
-            ground_pose=s,
+            ground_build=S,
             ground_true=s_true,
             h_true=float(g["hwl"][0]),
             h_class=float(prior.size_m[2]),

@@ -97,7 +97,12 @@ from eval_kitti import (  # noqa: E402
 
 from usdworld.errors import UsdWorldError  # noqa: E402
 from usdworld.geometry.camera import PinholeCamera  # noqa: E402
-from usdworld.io.camera_files import _read_plane, pose_from_ground_plane, read_kitti_projection  # noqa: E402
+from usdworld.io.camera_files import (  # noqa: E402
+    _read_plane,
+    cam2_offset_from_projection,
+    pose_from_ground_plane,
+    read_kitti_projection,
+)
 from usdworld.io.class_table import load_class_table  # noqa: E402
 from usdworld.pipeline import BuildRequest, BuildResult  # noqa: E402
 from usdworld.resources import evaluation_data_dir  # noqa: E402
@@ -269,7 +274,7 @@ def frame_account(
     classes = load_class_table()
     P2 = read_kitti_projection(data / "calib" / f"{frame}.txt")
     K_true = P2[:, :3]
-    t_cam2 = np.linalg.solve(K_true, P2[:, 3])
+    t_cam2 = cam2_offset_from_projection(P2)  # camera 2 from camera 0, the labels' frame
     camera = result.model.camera.camera
     est = result.model.camera
     gt = read_gt(request.detections)

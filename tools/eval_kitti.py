@@ -53,7 +53,7 @@ import numpy as np
 
 from usdworld.errors import UsdWorldError
 from usdworld.io.camera_files import read_kitti_projection
-from usdworld.pipeline import BuildRequest, build
+from usdworld.pipeline import BuildRequest, BuildResult, build
 from usdworld.resources import evaluation_data_dir
 
 #: KITTI and nuScenes (KITTI format) label types counted as vehicles for the heading score.
@@ -76,6 +76,8 @@ def read_gt(label_path: Path) -> list[dict]:
         rows.append(
             {
                 "type": f[0],
+                "truncated": float(f[1]),
+                "occluded": int(float(f[2])),
                 "box": [float(v) for v in f[4:8]],
                 "hwl": [float(v) for v in f[8:11]],
                 "xyz": np.array([float(v) for v in f[11:14]]),
@@ -133,7 +135,7 @@ def projected_box(placement, camera, K_true: np.ndarray, width: int, height: int
     return np.clip(box, [0, 0, 0, 0], [width, height, width, height])
 
 
-def evaluate_frame(
+def build_frame(
     frame: str,
     data: Path,
     planes: bool,
@@ -141,13 +143,8 @@ def evaluate_frame(
     level_height: float | None = None,
     no_camera: bool = False,
     traffic: str = "right",
-) -> tuple[list[dict], dict]:
-    """Build one frame and compare each placed object with its label.
-
-    Returns:
-        (one row per label object, the frame's camera record: true and used focal length,
-        whether a road plane was given).
-    """
+) -> tuple[BuildResult, BuildRequest]:
+    """Build one frame the way the evaluation does (module docstring) and return the build and its request."""
     calib = data / "calib" / f"{frame}.txt"
     plane = data / "planes" / f"{frame}.txt"
     if no_camera:
@@ -164,7 +161,17 @@ def evaluate_frame(
         ground_plane=plane if planes and plane.is_file() else None,
         traffic=traffic,
     )
-    result = build(request)
+    return build(request), request
+
+
+def compare_frame(frame: str, data: Path, result: BuildResult, request: BuildRequest) -> tuple[list[dict], dict]:
+    """Compare each object a build placed with its label.
+
+    Returns:
+        (one row per label object, in label order, the frame's camera record: true and used
+        focal length, whether a road plane was given).
+    """
+    calib = data / "calib" / f"{frame}.txt"
     gt = read_gt(request.detections)
     P2 = read_kitti_projection(calib)
     t_cam2 = np.linalg.solve(P2[:, :3], P2[:, 3])  # camera-2 offset from camera 0
@@ -215,6 +222,20 @@ def evaluate_frame(
             )
         rows.append(row)
     return rows, frame_info
+
+
+def evaluate_frame(
+    frame: str,
+    data: Path,
+    planes: bool,
+    out: Path,
+    level_height: float | None = None,
+    no_camera: bool = False,
+    traffic: str = "right",
+) -> tuple[list[dict], dict]:
+    """Build one frame and compare each placed object with its label (:func:`build_frame`, :func:`compare_frame`)."""
+    result, request = build_frame(frame, data, planes, out, level_height, no_camera, traffic)
+    return compare_frame(frame, data, result, request)
 
 
 def summarise(rows: list[dict]) -> dict:

@@ -111,8 +111,9 @@ def shadow_casters(
 
     An object whose top is cut by the image's top has a height the photo does not give:
     it is at least what is seen of it (:func:`seen_height_m`) and at most its class's
-    tallest (the prior's height times its largest scale), and its shadow is known only
-    between the shadows of those two heights, not from the height it was placed with.
+    tallest (the prior's height plus ``unseen_top_spreads`` of its spread), and its shadow
+    is known only between the shadows of those two heights, not from the height it was
+    placed with (a prior's, for a facade scaled by its frontage).
     """
     facades = set(table.with_role("facade"))
     out = []
@@ -133,7 +134,8 @@ def shadow_casters(
             out.append(ShadowCaster(p.name, footprint_corners(p), height))
             continue
         least = float(seen + p.position_world[2])
-        most = max(float(prior.size_m[2] * prior.scale_range[1] + p.position_world[2]), height, least)
+        tallest = prior.size_m[2] + params.unseen_top_spreads * prior.height_std_m
+        most = max(float(tallest + p.position_world[2]), least)
         out.append(ShadowCaster(p.name, footprint_corners(p), least, most))
     return out
 

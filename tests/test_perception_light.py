@@ -201,3 +201,25 @@ def test_a_caster_height_range_must_be_ordered() -> None:
         ShadowCaster("building", BUILDING, 8.0, 7.0)
     assert ShadowCaster("building", BUILDING, 8.0, 48.0).tallest_m == 48.0
     assert ShadowCaster("car", BUILDING, 1.5).tallest_m == 1.5
+
+
+def test_shadowed_ground_hidden_in_the_unknown_band_earns_no_trust() -> None:
+    # Two posts whose tops are out of view: the world knows them at least 1 m and at most
+    # 12 m high, the photo shows the shadows of 8 m ones. Any sun along the shadows, low or
+    # high, puts the dark ground between the 1 m and the 12 m shadows, where the fit claims
+    # nothing: leaving that ground out, the overlap is 1 while the fit explains an eighth of
+    # the shadows and its elevation is anyone's guess. The gate reads the sure shadows.
+    posts = [
+        ShadowCaster(f"post_{i}", np.array([[x - 0.5, y - 0.5], [x + 0.5, y - 0.5], [x + 0.5, y + 0.5], [x - 0.5, y + 0.5]]), 8.0)
+        for i, (x, y) in enumerate([(12.0, 6.0), (18.0, -6.5)])
+    ]
+    rgb, ground, ground_from_px = _street(140.0, 45.0, posts)
+    cut = [ShadowCaster(p.name, p.footprint_ground, 1.0, 12.0) for p in posts]
+    est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", cut, ground_from_px, 0.5, 0.6, PARAMS)
+    assert est.fit_casters == 2  # both sure shadows meet shadowed ground: the caster gate passes
+    assert (est.method, est.sun_azimuth, est.sun_elevation) == ("weak_fit", 0.5, 0.6)
+    assert est.fit_iou < PARAMS.min_fit_iou
+    # the same posts with their heights known: the fit explains the shadows and is trusted
+    est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", posts, ground_from_px, 0.5, 0.6, PARAMS)
+    assert est.method == "cast_shadows" and est.fit_iou > 0.5
+    assert abs((math.degrees(est.sun_azimuth) - 140.0 + 180.0) % 360.0 - 180.0) <= 5.0

@@ -14,6 +14,8 @@ An object whose top is out of view has a height known only between a least and a
 (what the photo shows of it, its class's tallest): its shadow is sure up to the shorter of
 the two shadows, and the ground between the two counts neither way (unless another
 caster's shadow surely covers it), so its placed height (a prior's) pulls no sun.
+The trust gate below reads the overlap of the sure shadows alone with the observed ones:
+shadowed ground in that band counts against the fit there, so hiding it earns no trust.
 
 Sunny or overcast: direct sun makes a lit surface 3 to 10 times brighter than one in
 shadow; under an overcast sky nothing casts a shadow, so the share of shadowed samples
@@ -107,8 +109,9 @@ class LightEstimate:
             when none is shadowed, NaN when unmeasured).
         shadow_share: share of the ground samples around the casters that is shadowed (each
             caster's ring weighing the same; NaN when unmeasured).
-        fit_iou: overlap of the predicted and the observed shadows at the fit (NaN unless
-            fitted; ``weak_fit`` keeps the weak fit's).
+        fit_iou: overlap of the surely predicted and the observed shadows at the fit (the
+            ground a top-cut caster's shadow may or may not reach counts as not predicted;
+            NaN unless fitted; ``weak_fit`` keeps the weak fit's).
         casters: how many casters had visible ground around them.
         shadow_samples: ground samples inside the fitted shadows (0 unless fitted).
         fit_casters: casters whose shadow at the fit meets shadowed ground (0 unless fitted).
@@ -528,9 +531,16 @@ def fit_sun(
     of a caster whose top is not seen may or may not reach (between the shadows of its
     least and its greatest height) counts neither way.
 
+    The overlap returned is what the fit can be held to: its sure shadows against all the
+    observed ones, the unknown ground counted as not predicted. Shadowed ground there is
+    not explained by the fit (only a caster at least so tall would explain it, and its
+    height there is not known) and lit ground there is not contradicted by it, so a sun
+    that hides shadowed ground in the unknown band earns no trust for it.
+
     Returns:
-        azimuth (rad), elevation (rad), the overlap (weighted IoU), the (N,) bool predicted
-        shadow and how many casters' shadows at the fit meet shadowed samples.
+        azimuth (rad), elevation (rad), the overlap of the sure shadows with the observed
+        ones (weighted IoU), the (N,) bool sure predicted shadow and how many casters' sure
+        shadows at the fit meet shadowed samples.
     """
     observed = samples.relative < 1.0 / params.sunny_min_contrast
     weight = sample_weights(samples)
@@ -551,11 +561,11 @@ def fit_sun(
         _, az0, el0 = best
         offsets = np.arange(-3, 4) * fine
         best = max([best] + [score(az0 + da, el0 + de) for da in offsets for de in offsets])
-    overlap, az, el = best
+    _, az, el = best
     inside = _pairs_in_shadow(pairs, math.radians(az), math.radians(el), params.reach_max_m)
     pred = np.bincount(pairs.sample, weights=inside, minlength=n) > 0
     meeting = len(np.unique(pairs.caster[inside & observed[pairs.sample]]))
-    return math.radians(az), math.radians(el), overlap, pred, meeting
+    return math.radians(az), math.radians(el), _overlap(pred, observed, weight), pred, meeting
 
 
 def sky_colours(

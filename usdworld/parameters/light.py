@@ -88,9 +88,9 @@ class LightParams:
     min_fit_iou: float = param(
         1.0 / 3.0,
         "fraction",
-        "Least overlap (weighted intersection over union) of the predicted and the observed "
-        "shadows for the fitted sun to be used; a weaker fit gives the default sun "
-        "(method weak_fit).",
+        "Least overlap (weighted intersection over union) of the surely predicted and the observed "
+        "shadows for the fitted sun to be used (ground a top-cut caster's shadow may or may not "
+        "reach counts as not predicted); a weaker fit gives the default sun (method weak_fit).",
         "geometry: two equal shadows overlapping by half their area have an IoU of 1/3 (the "
         "fit then explains no more of the shadows than it gets wrong)",
     )

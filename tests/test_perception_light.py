@@ -207,12 +207,10 @@ def test_shadowed_ground_hidden_in_the_unknown_band_earns_no_trust() -> None:
     # Two posts whose tops are out of view: the world knows them at least 1 m and at most
     # 12 m high, the photo shows the shadows of 8 m ones. Any sun along the shadows, low or
     # high, puts the dark ground between the 1 m and the 12 m shadows, where the fit claims
-    # nothing: leaving that ground out, the overlap is 1 while the fit explains an eighth of
+    # nothing: leaving that ground out, the overlap is 1 while its sure shadows cover a fifth of
     # the shadows and its elevation is anyone's guess. The gate reads the sure shadows.
-    posts = [
-        ShadowCaster(f"post_{i}", np.array([[x - 0.5, y - 0.5], [x + 0.5, y - 0.5], [x + 0.5, y + 0.5], [x - 0.5, y + 0.5]]), 8.0)
-        for i, (x, y) in enumerate([(12.0, 6.0), (18.0, -6.5)])
-    ]
+    corners = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
+    posts = [ShadowCaster(f"post_{i}", corners + xy, 8.0) for i, xy in enumerate([(12.0, 6.0), (18.0, -6.5)])]
     rgb, ground, ground_from_px = _street(140.0, 45.0, posts)
     cut = [ShadowCaster(p.name, p.footprint_ground, 1.0, 12.0) for p in posts]
     est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", cut, ground_from_px, 0.5, 0.6, PARAMS)

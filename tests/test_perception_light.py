@@ -166,3 +166,58 @@ def test_shadows_the_casters_do_not_explain_are_a_weak_fit() -> None:
     est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", CASTERS, ground_from_px, 0.5, 0.6, PARAMS)
     assert est.method == "weak_fit" and est.fit_iou < PARAMS.min_fit_iou
     assert (est.sun_azimuth, est.sun_elevation) == (0.5, 0.6)
+
+
+#: A building's footprint on the left of the street, its front wall 7 m from the road's axis.
+BUILDING = np.array([[15.0, 7.0], [27.0, 7.0], [27.0, 19.0], [15.0, 19.0]])
+
+
+@pytest.mark.parametrize(("azimuth", "elevation"), [(120.0, 52.0), (150.0, 60.0)])
+def test_a_building_cut_by_the_image_top_pulls_no_sun_with_its_prior_height(
+    azimuth: float, elevation: float
+) -> None:
+    # The photo shows a 10 m building's shadow; its top is out of view, so the world only
+    # knows it stands at least 8 m high (what is seen) and at most the class's tallest.
+    drawn = CASTERS + [ShadowCaster("building", BUILDING, 10.0)]
+    rgb, ground, ground_from_px = _street(azimuth, elevation, drawn)
+    sky = np.zeros((H, W), bool)
+
+    def errors(building: ShadowCaster) -> tuple[float, float]:
+        casters = CASTERS + [building]
+        est = estimate_light(rgb, ground, sky, "labels", casters, ground_from_px, 0.5, 0.5, PARAMS)
+        assert est.method == "cast_shadows"
+        az = abs((math.degrees(est.sun_azimuth) - azimuth + 180.0) % 360.0 - 180.0)
+        return az, abs(math.degrees(est.sun_elevation) - elevation)
+
+    az, el = errors(ShadowCaster("building", BUILDING, 8.0, 24.0))
+    assert az <= 5.0 and el <= 5.0
+    # the old treatment: the prior's 25 m, whose long shadow into the lit street pulls the sun up
+    az, el = errors(ShadowCaster("building", BUILDING, 25.0))
+    assert el > 10.0
+
+
+def test_a_caster_height_range_must_be_ordered() -> None:
+    with pytest.raises(ValueError, match="height_max_m"):
+        ShadowCaster("building", BUILDING, 8.0, 7.0)
+    assert ShadowCaster("building", BUILDING, 8.0, 48.0).tallest_m == 48.0
+    assert ShadowCaster("car", BUILDING, 1.5).tallest_m == 1.5
+
+
+def test_shadowed_ground_hidden_in_the_unknown_band_earns_no_trust() -> None:
+    # Two posts whose tops are out of view: the world knows them at least 1 m and at most
+    # 12 m high, the photo shows the shadows of 8 m ones. Any sun along the shadows, low or
+    # high, puts the dark ground between the 1 m and the 12 m shadows, where the fit claims
+    # nothing: leaving that ground out, the overlap is 1 while its sure shadows cover a fifth of
+    # the shadows and its elevation is anyone's guess. The gate reads the sure shadows.
+    corners = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
+    posts = [ShadowCaster(f"post_{i}", corners + xy, 8.0) for i, xy in enumerate([(12.0, 6.0), (18.0, -6.5)])]
+    rgb, ground, ground_from_px = _street(140.0, 45.0, posts)
+    cut = [ShadowCaster(p.name, p.footprint_ground, 1.0, 12.0) for p in posts]
+    est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", cut, ground_from_px, 0.5, 0.6, PARAMS)
+    assert est.fit_casters == 2  # both sure shadows meet shadowed ground: the caster gate passes
+    assert (est.method, est.sun_azimuth, est.sun_elevation) == ("weak_fit", 0.5, 0.6)
+    assert est.fit_iou < PARAMS.min_fit_iou
+    # the same posts with their heights known: the fit explains the shadows and is trusted
+    est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", posts, ground_from_px, 0.5, 0.6, PARAMS)
+    assert est.method == "cast_shadows" and est.fit_iou > 0.5
+    assert abs((math.degrees(est.sun_azimuth) - 140.0 + 180.0) % 360.0 - 180.0) <= 5.0

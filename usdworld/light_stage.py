@@ -21,6 +21,7 @@ from usdworld.io.label_table import label_lookups
 from usdworld.io.types import Segmentation, SourceImage
 from usdworld.layout.model import LightRig
 from usdworld.layout.placement import Placement
+from usdworld.layout.silhouette import height_from_top_row
 from usdworld.parameters.light import LightParams
 from usdworld.perception.light import LightEstimate, ShadowCaster, estimate_light, sky_from_image
 from usdworld.perception.colour_space import linear_to_srgb
@@ -39,6 +40,62 @@ def footprint_corners(placement: Placement) -> np.ndarray:
     return local @ rot.T + placement.position_world[:2]
 
 
+def ray_entry_depth(
+    origin_ground: np.ndarray, direction_ground: np.ndarray, footprint_ground: np.ndarray
+) -> np.ndarray:
+    """How far along each ground ray it enters a convex footprint (Cyrus-Beck clipping).
+
+    Args:
+        origin_ground: (2,) float64 the rays' common origin on the ground, metres.
+        direction_ground: (N, 2) float64 the rays' directions (any length: the result is in
+            multiples of it).
+        footprint_ground: (M, 2) float64 counter-clockwise convex footprint, M >= 3.
+
+    Returns:
+        (N,) float64 the ray parameter ``t >= 0`` where each ray enters the footprint (0 for
+        an origin inside it), NaN for a ray that misses it.
+    """
+    edges = np.roll(footprint_ground, -1, axis=0) - footprint_ground
+    normals = np.column_stack([edges[:, 1], -edges[:, 0]])  # outward for a ccw polygon
+    offset = normals @ origin_ground - np.einsum("ij,ij->i", normals, footprint_ground)  # (M,) > 0: outside
+    rate = direction_ground @ normals.T  # (N, M)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -offset[None, :] / rate
+    entering = rate < 0
+    t_in = np.maximum(np.where(entering, t, -np.inf).max(axis=1), 0.0)
+    t_out = np.where(rate > 0, t, np.inf).min(axis=1)
+    parallel_out = (np.abs(rate) <= 1e-12) & (offset[None, :] > 0)
+    hits = (t_in <= t_out) & ~parallel_out.any(axis=1)
+    return np.where(hits, t_in, np.nan)
+
+
+def seen_height_m(placement: Placement, camera: PinholeCamera) -> float:
+    """The least height of a placed object whose top is cut by the image's top, metres.
+
+    The top row's ray of each column where the object's pixels reach the top enters its
+    placed prism through a wall at some height: the object stands at least that high
+    there. The highest such entry over those columns (each is a lower bound) is the
+    bound. When no such ray meets the footprint, the top row's height at the object's
+    depth; NaN when that ray runs below the ground.
+    """
+    o = placement.obj
+    x0, y0 = int(o.box_px[0]), int(o.box_px[1])
+    cols = np.flatnonzero(o.mask[0]) if o.mask.shape[0] > 0 and not o.box_only else np.arange(o.mask.shape[1])
+    if y0 > 0 or len(cols) == 0:
+        return float("nan")
+    u = np.clip(x0 + cols + 0.5, 0.0, camera.width)
+    rays = camera.rays_world(np.column_stack([u, np.zeros(len(u))]))
+    centre = camera.center_world
+    footprint = footprint_corners(placement)
+    t = ray_entry_depth(centre[:2], rays[:, :2], footprint)
+    z = centre[2] + t * rays[:, 2] - placement.position_world[2]
+    z = z[np.isfinite(z) & (z > 0)]
+    if len(z):
+        return float(z.max())
+    # the placed footprint meets none of those rays: the top row's height at its depth
+    return height_from_top_row(camera, float(np.median(u)), 0.0, placement.depth_m)
+
+
 def shadow_casters(
     placements: Sequence[Placement], camera: PinholeCamera, table: ClassTable, params: LightParams
 ) -> list[ShadowCaster]:
@@ -51,6 +108,12 @@ def shadow_casters(
 
     A tree counts as the prism of its crown's outline: its shadow then runs from the trunk to
     the crown top's shadow, which holds the crown's own shadow.
+
+    An object whose top is cut by the image's top has a height the photo does not give:
+    it is at least what is seen of it (:func:`seen_height_m`) and at most its class's
+    tallest (the prior's height plus ``unseen_top_spreads`` of its spread), and its shadow
+    is known only between the shadows of those two heights, not from the height it was
+    placed with (a prior's, for a facade scaled by its frontage).
     """
     facades = set(table.with_role("facade"))
     out = []
@@ -61,7 +124,19 @@ def shadow_casters(
             continue
         if np.linalg.norm(p.position_world[:2] - camera.center_world[:2]) > params.max_caster_range_m:
             continue
-        out.append(ShadowCaster(p.name, footprint_corners(p), float(p.size_m[2] + p.position_world[2])))
+        height = float(p.size_m[2] + p.position_world[2])
+        if not o.top_truncated:
+            out.append(ShadowCaster(p.name, footprint_corners(p), height))
+            continue
+        prior = table[o.class_name]
+        seen = seen_height_m(p, camera)
+        if not np.isfinite(seen):
+            out.append(ShadowCaster(p.name, footprint_corners(p), height))
+            continue
+        least = float(seen + p.position_world[2])
+        tallest = prior.size_m[2] + params.unseen_top_spreads * prior.height_std_m
+        most = max(float(tallest + p.position_world[2]), least)
+        out.append(ShadowCaster(p.name, footprint_corners(p), least, most))
     return out
 
 

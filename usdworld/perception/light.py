@@ -10,6 +10,12 @@ darker than the lit ground of its own surface (road, sidewalk, terrain) by
 shadows (the union over all casters) overlap the shadowed samples best (intersection over
 union, a coarse grid and then one degree). Samples hidden in the photo (under another
 object, or not ground) are left out, so a shadow hidden behind its own caster costs nothing.
+An object whose top is out of view has a height known only between a least and a most
+(what the photo shows of it, its class's tallest): its shadow is sure up to the shorter of
+the two shadows, and the ground between the two counts neither way (unless another
+caster's shadow surely covers it), so its placed height (a prior's) pulls no sun.
+The trust gate below reads the overlap of the sure shadows alone with the observed ones:
+shadowed ground in that band counts against the fit there, so hiding it earns no trust.
 
 Sunny or overcast: direct sun makes a lit surface 3 to 10 times brighter than one in
 shadow; under an overcast sky nothing casts a shadow, so the share of shadowed samples
@@ -54,12 +60,16 @@ class ShadowCaster:
     Attributes:
         name: the placed object's name (for reports).
         footprint_ground: (N, 2) float64 corners of its convex footprint on the ground, metres.
-        height_m: its height above the ground, metres (> 0).
+        height_m: its height above the ground, metres (> 0); for an object whose top is not
+            seen, the least height it can have (what the photo shows of it).
+        height_max_m: for an object whose top is not seen (cut by the image's top), the
+            most it can be, metres (>= ``height_m``); None when its height is known.
     """
 
     name: str
     footprint_ground: np.ndarray
     height_m: float
+    height_max_m: float | None = None
 
     def __post_init__(self) -> None:
         f = np.array(self.footprint_ground, dtype=np.float64)
@@ -67,8 +77,19 @@ class ShadowCaster:
             raise ValueError(f"ShadowCaster.footprint_ground: (N, 2) finite, got shape {f.shape}")
         if not (math.isfinite(self.height_m) and self.height_m > 0):
             raise ValueError(f"ShadowCaster.height_m: must be > 0, got {self.height_m}")
+        if self.height_max_m is not None and not (
+            math.isfinite(self.height_max_m) and self.height_max_m >= self.height_m
+        ):
+            raise ValueError(
+                f"ShadowCaster.height_max_m: must be >= height_m ({self.height_m}), got {self.height_max_m}"
+            )
         f.setflags(write=False)
         object.__setattr__(self, "footprint_ground", f)
+
+    @property
+    def tallest_m(self) -> float:
+        """The most the object can be high, metres (its height when known)."""
+        return self.height_m if self.height_max_m is None else float(self.height_max_m)
 
 
 @dataclass(frozen=True)
@@ -88,8 +109,9 @@ class LightEstimate:
             when none is shadowed, NaN when unmeasured).
         shadow_share: share of the ground samples around the casters that is shadowed (each
             caster's ring weighing the same; NaN when unmeasured).
-        fit_iou: overlap of the predicted and the observed shadows at the fit (NaN unless
-            fitted; ``weak_fit`` keeps the weak fit's).
+        fit_iou: overlap of the surely predicted and the observed shadows at the fit (the
+            ground a top-cut caster's shadow may or may not reach counts as not predicted;
+            NaN unless fitted; ``weak_fit`` keeps the weak fit's).
         casters: how many casters had visible ground around them.
         shadow_samples: ground samples inside the fitted shadows (0 unless fitted).
         fit_casters: casters whose shadow at the fit meets shadowed ground (0 unless fitted).
@@ -256,7 +278,7 @@ class _Samples:
 
 
 def _reach(caster: ShadowCaster, params: LightParams) -> float:
-    return min(caster.height_m / math.tan(math.radians(params.elevation_range_deg[0])), params.reach_max_m)
+    return min(caster.tallest_m / math.tan(math.radians(params.elevation_range_deg[0])), params.reach_max_m)
 
 
 def _ring_samples(
@@ -365,7 +387,8 @@ class _Pairs:
     caster: np.ndarray  # (P,) caster index
     normals: np.ndarray  # (P, K, 2) the caster's footprint half-planes
     slack: np.ndarray  # (P, K) a . p - b
-    height: np.ndarray  # (P,) the caster's height, m
+    height: np.ndarray  # (P,) the caster's height (the least it can be when its top is not seen), m
+    height_max: np.ndarray  # (P,) the most the caster's height can be, m
     offset: np.ndarray  # (P, 2) the sample's position from the footprint's centre, m
     radius: np.ndarray  # (P,) the footprint's radius about that centre, m
 
@@ -382,7 +405,7 @@ def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
     hulls = [_footprint_hull(c) for c in casters]
     planes = [half_planes(h) for h in hulls]
     k = max(len(a) for a, _ in planes)
-    normals, slack, height, offset, radius = [], [], [], [], []
+    normals, slack, height, height_max, offset, radius = [], [], [], [], [], []
     for c, hull, (a, b), near in zip(casters, hulls, planes, samples.neighbours, strict=True):
         # pad to k half-planes with always-true rows (0 . x <= 1)
         a = np.vstack([a, np.zeros((k - len(a), 2))])
@@ -390,6 +413,7 @@ def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
         normals.append(np.broadcast_to(a, (len(near), k, 2)))
         slack.append(samples.points_ground[near] @ a.T - b)
         height.append(np.full(len(near), c.height_m))
+        height_max.append(np.full(len(near), c.tallest_m))
         centre = hull.mean(axis=0)
         offset.append(samples.points_ground[near] - centre)
         radius.append(np.full(len(near), float(np.max(np.linalg.norm(hull - centre, axis=1)))))
@@ -399,6 +423,7 @@ def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
         np.concatenate(normals),
         np.concatenate(slack),
         np.concatenate(height),
+        np.concatenate(height_max),
         np.concatenate(offset),
         np.concatenate(radius),
     )
@@ -411,14 +436,29 @@ def _predicted(
     elevation: float,
     reach_max_m: float,
     strips: dict[float, tuple[np.ndarray, np.ndarray]] | None = None,
-) -> np.ndarray:
-    """(N,) bool samples in some caster's shadow for a sun at (azimuth, elevation).
+) -> tuple[np.ndarray, np.ndarray]:
+    """Samples in some caster's shadow for a sun at (azimuth, elevation), and those that may be.
+
+    A caster whose top is not seen casts at least the shadow of its least height and at
+    most that of its greatest: the ground between is unknown unless another caster's
+    shadow surely covers it.
 
     ``strips`` caches, per azimuth, the pairs across the shadow's strip and their distance
     along it (the same for every elevation).
+
+    Returns:
+        (N,) bool surely shadowed samples and (N,) bool samples that may or may not be.
     """
     inside = _pairs_in_shadow(pairs, azimuth, elevation, reach_max_m, strips)
-    return np.bincount(pairs.sample, weights=inside, minlength=n_samples) > 0
+    sure = np.bincount(pairs.sample, weights=inside, minlength=n_samples) > 0
+    unsure = np.zeros(n_samples, dtype=bool)
+    unknown_top = pairs.height_max > pairs.height
+    if np.any(unknown_top):
+        longest = _pairs_in_shadow(
+            pairs, azimuth, elevation, reach_max_m, strips, pairs.height_max, unknown_top
+        )
+        unsure = (np.bincount(pairs.sample, weights=longest, minlength=n_samples) > 0) & ~sure
+    return sure, unsure
 
 
 def _pairs_in_shadow(
@@ -427,9 +467,15 @@ def _pairs_in_shadow(
     elevation: float,
     reach_max_m: float,
     strips: dict[float, tuple[np.ndarray, np.ndarray]] | None = None,
+    height: np.ndarray | None = None,
+    only: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(P,) bool: each pair's sample lies in its caster's shadow for a sun at (azimuth, elevation)."""
-    length = np.minimum(pairs.height / math.tan(elevation), reach_max_m)
+    """(P,) bool: each pair's sample lies in its caster's shadow for a sun at (azimuth, elevation).
+
+    ``height``: (P,) float64 the casters' heights, metres (default ``pairs.height``);
+    ``only``: (P,) bool the pairs tested (default all; the others are False).
+    """
+    length = np.minimum((pairs.height if height is None else height) / math.tan(elevation), reach_max_m)
     away = -np.array([math.cos(azimuth), math.sin(azimuth)])
     # The swept footprint lies inside its bounding disc swept along the shadow, a stadium:
     # only the pairs inside that stadium's bounding strip need the exact test (a necessary
@@ -445,13 +491,19 @@ def _pairs_in_shadow(
             strips[azimuth] = strip
     band, along_band = strip
     near = band[along_band <= length[band] + margin[band]]
+    if only is not None:
+        near = near[only[near]]
     inside = np.zeros(len(pairs.sample), dtype=bool)
     inside[near] = in_swept(pairs.slack[near], (pairs.normals[near] @ away) * length[near, None])
     return inside
 
 
-def _overlap(pred: np.ndarray, observed: np.ndarray, weight: np.ndarray) -> float:
-    """Weighted intersection over union of two (N,) bool sets."""
+def _overlap(
+    pred: np.ndarray, observed: np.ndarray, weight: np.ndarray, unsure: np.ndarray | None = None
+) -> float:
+    """Weighted intersection over union of two (N,) bool sets, leaving out the (N,) bool ``unsure`` ones."""
+    if unsure is not None:
+        weight = np.where(unsure, 0.0, weight)
     union = float(weight[pred | observed].sum())
     return float(weight[pred & observed].sum()) / union if union > 0 else 0.0
 
@@ -475,11 +527,20 @@ def fit_sun(
     """The azimuth and elevation whose predicted shadows overlap the observed ones best.
 
     A grid of ``coarse_step_deg`` over all azimuths and the elevation range, then a grid a
-    third as fine around the best cell, then one of one degree.
+    third as fine around the best cell, then one of one degree. The ground that the shadow
+    of a caster whose top is not seen may or may not reach (between the shadows of its
+    least and its greatest height) counts neither way.
+
+    The overlap returned is what the fit can be held to: its sure shadows against all the
+    observed ones, the unknown ground counted as not predicted. Shadowed ground there is
+    not explained by the fit (only a caster at least so tall would explain it, and its
+    height there is not known) and lit ground there is not contradicted by it, so a sun
+    that hides shadowed ground in the unknown band earns no trust for it.
 
     Returns:
-        azimuth (rad), elevation (rad), the overlap (weighted IoU), the (N,) bool predicted
-        shadow and how many casters' shadows at the fit meet shadowed samples.
+        azimuth (rad), elevation (rad), the overlap of the sure shadows with the observed
+        ones (weighted IoU), the (N,) bool sure predicted shadow and how many casters' sure
+        shadows at the fit meet shadowed samples.
     """
     observed = samples.relative < 1.0 / params.sunny_min_contrast
     weight = sample_weights(samples)
@@ -491,8 +552,8 @@ def fit_sun(
 
     def score(az: float, el: float) -> tuple[float, float, float]:
         el = float(np.clip(el, lo, hi))
-        pred = _predicted(pairs, n, math.radians(az), math.radians(el), params.reach_max_m, strips)
-        return _overlap(pred, observed, weight), az % 360.0, el
+        pred, unsure = _predicted(pairs, n, math.radians(az), math.radians(el), params.reach_max_m, strips)
+        return _overlap(pred, observed, weight, unsure), az % 360.0, el
 
     step = params.coarse_step_deg
     best = max(score(az, el) for az in np.arange(0.0, 360.0, step) for el in np.arange(lo, hi + 1e-9, step))
@@ -500,11 +561,11 @@ def fit_sun(
         _, az0, el0 = best
         offsets = np.arange(-3, 4) * fine
         best = max([best] + [score(az0 + da, el0 + de) for da in offsets for de in offsets])
-    overlap, az, el = best
+    _, az, el = best
     inside = _pairs_in_shadow(pairs, math.radians(az), math.radians(el), params.reach_max_m)
     pred = np.bincount(pairs.sample, weights=inside, minlength=n) > 0
     meeting = len(np.unique(pairs.caster[inside & observed[pairs.sample]]))
-    return math.radians(az), math.radians(el), overlap, pred, meeting
+    return math.radians(az), math.radians(el), _overlap(pred, observed, weight), pred, meeting
 
 
 def sky_colours(

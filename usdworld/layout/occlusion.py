@@ -145,6 +145,26 @@ def hides(stuff: Draft, thing: Draft, ctx: PlacementContext) -> bool:
     return enter < leave
 
 
+def hides_unbordered_thing(stuff: Draft, things: list[Draft], ctx: PlacementContext) -> bool:
+    """True for inferred stuff drafted where it would hide from the source camera (:func:`hides`)
+    a thing whose box its mask does not border (:func:`borders_box`).
+
+    The inferred map leaves the boxes unlabelled, so stuff standing in front of a boxed thing
+    is seen over the box's edge: its mask borders the box. A piece that does not border it
+    is not between the camera and that thing, and a draft putting it there contradicts the
+    photo. (A piece that borders the box is seen around the thing and stands behind it:
+    :func:`behind_bordered_things`.)
+
+    Args:
+        stuff: the draft of a stuff object (False unless :attr:`ImageObject.inferred`).
+        things: the drafts of the boxed things.
+        ctx: the camera.
+    """
+    if stuff.obj.is_thing or not stuff.obj.inferred:
+        return False
+    return any(hides(stuff, t, ctx) and not borders_box(stuff.obj, t.obj.box_px) for t in things)
+
+
 def behind_bordered_things(
     drafts: list[Draft], ctx: PlacementContext
 ) -> tuple[list[Draft], list[tuple[ImageObject, str]]]:

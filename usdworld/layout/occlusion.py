@@ -54,17 +54,23 @@ def behind_depth(occ: Draft, ctx: PlacementContext) -> float:
     return occ.depth_m + occ.back_m + ctx.params.behind_gap_m
 
 
-def sliver_behind(draft: Draft, ctx: PlacementContext) -> bool:
-    """True for stuff placed just behind its occluder whose visible part, at that depth, is
-    smaller in both width and height than the smallest allowed scale of its class: a
-    piece of a far tree or pole seen past a near car, which the occluder does not bound."""
+def sliver(draft: Draft, ctx: PlacementContext) -> bool:
+    """True for stuff whose visible part, at its drafted depth, is smaller in both width and
+    height than the smallest allowed scale of its class: the whole object there would be
+    seen larger, so it does not stand there."""
     obj = draft.obj
-    if obj.is_thing or draft.method is not DepthMethod.BEHIND:
+    if obj.is_thing:
         return False
     base = draft.size / (draft.scale * draft.stretch)
     metres_per_px = draft.front_depth_m / ctx.camera.fy
     seen = max(obj.width_px * metres_per_px / base[1], obj.height_px * metres_per_px / base[2])
     return seen < ctx.classes[obj.class_name].scale_range[0]
+
+
+def sliver_behind(draft: Draft, ctx: PlacementContext) -> bool:
+    """True for stuff placed just behind its occluder that is a :func:`sliver` there: a
+    piece of a far tree or pole seen past a near car, which the occluder does not bound."""
+    return draft.method is DepthMethod.BEHIND and sliver(draft, ctx)
 
 
 def move_behind_occluders(drafts: list[Draft], ctx: PlacementContext) -> list[Draft]:

@@ -18,7 +18,7 @@ import numpy as np
 from usdworld.io.class_table import ClassTable
 from usdworld.layout.draft import DepthMethod, Draft, Forced, PlacementContext, point_at_depth
 from usdworld.layout.drafting import draft_object
-from usdworld.layout.occlusion import bounding_occluder, drafts_by_ref, hides_unbordered_thing
+from usdworld.layout.occlusion import bounding_occluder, drafts_by_ref, hides_unbordered_thing, sliver
 from usdworld.layout.street_lines import (
     StreetLine,
     fit_street_lines,
@@ -176,7 +176,9 @@ def onto_street_line(
     the front of the object hiding its bottom (unless that one's depth is itself only a
     bound from above, or it is a street tree in front of a facade: :func:`row_over_tree`),
     no farther than ``upper_m`` (its visible bottom's ground point) with the slack
-    ``line_bound_slack`` and ``line_bound_slack_m``.
+    ``line_bound_slack`` and ``line_bound_slack_m``; and what is seen of it must not be
+    smaller at the row's depth than the smallest object of its class
+    (:func:`~usdworld.layout.occlusion.sliver`: a crown a few pixels wide is no tree 3 m away).
 
     Returns:
         The draft, or None when there is no such row or they disagree.
@@ -197,6 +199,8 @@ def onto_street_line(
         return None
     moved = draft_object(replace(obj, contact_px=pixel), name, ctx, Forced(front, DepthMethod.STREET_LINE))
     if moved is None or front + moved.back_m <= 0:  # the row meets the ray behind the camera
+        return None
+    if sliver(moved, ctx):  # seen there, the smallest of its class would look larger
         return None
     return replace(
         moved, cues=(*moved.cues, _row_cue(line, front + moved.back_m, front, obj.class_name, ctx))

@@ -285,3 +285,70 @@ def test_degenerate_bounds_place_only_the_first_of_a_pile():
         result = resolve_collisions(centers, half, priority, CollisionParams(max_displacement_m=bound))
         np.testing.assert_array_equal(result.placed, [True, False, False, False, False])
         np.testing.assert_array_equal(result.displacement, 0.0)
+
+
+def _region(bearing, depth):
+    """An :class:`Admissible` for a camera at the origin looking along +x (depth = x)."""
+    return collision.Admissible(
+        eye=np.zeros(2),
+        forward=np.array([1.0, 0.0]),
+        bearing=np.asarray(bearing, dtype=np.float64),
+        depth_axis=np.array([1.0, 0.0]),
+        depth_offset=0.0,
+        depth=np.asarray(depth, dtype=np.float64),
+    )
+
+
+def _wall_in_front_of_a_car():
+    # A car (settles first) at 10 m; a thin wall piece drafted over it, 12 m deep across the
+    # view (half extents 1 x 6). Its nearest free spot is 2 m towards the camera (x 7.995),
+    # where it would stand across the road in front of the car.
+    centers = np.array([[10.0, 0.0], [10.0, 0.5]])
+    half = np.array([[1.0, 1.0], [1.0, 6.0]])
+    bearing = [[-0.2, 0.2], [0.049, 0.051]]  # the wall piece is seen along one ray
+    return centers, half, np.array([0.0, 1.0]), bearing
+
+
+def test_a_box_is_not_pushed_where_the_photo_contradicts_it():
+    centers, half, priority, bearing = _wall_in_front_of_a_car()
+    free = resolve_collisions(centers, half, priority)  # without the photo's bounds: 2 m towards the camera
+    assert free.placed.all() and free.centers[1, 0] == 10.0 - 2.0 - 0.005
+    # its cues allow 9 to 11 m: neither 2 m nearer nor behind the car (x >= 12.005)
+    res = resolve_collisions(centers, half, priority, admissible=_region(bearing, [[9.0, 11.0], [9.0, 11.0]]))
+    assert res.placed.tolist() == [True, False] and res.contradicted.tolist() == [False, True]
+    assert np.array_equal(res.centers, centers)
+
+
+def test_a_box_slides_along_its_viewing_ray_within_its_depth_range():
+    centers, half, priority, bearing = _wall_in_front_of_a_car()
+    res = resolve_collisions(centers, half, priority, admissible=_region(bearing, [[9.0, 11.0], [9.0, 14.0]]))
+    assert res.placed.all() and not res.contradicted.any()
+    moved = res.centers[1]
+    assert moved[0] == 12.005 or abs(moved[0] - 12.005) < 1e-9  # just behind the car ...
+    assert abs(moved[1] / moved[0] - 0.05) < 1e-12  # ... on the ray it is seen along
+    assert overlaps(res.centers, half) == []
+
+
+def test_an_allowed_nearest_spot_is_the_unconstrained_answer():
+    centers, half, priority, _ = _wall_in_front_of_a_car()
+    wide = _region([[-np.pi, np.pi]] * 2, [[-np.inf, np.inf]] * 2)
+    a = resolve_collisions(centers, half, priority)
+    b = resolve_collisions(centers, half, priority, admissible=wide)
+    assert np.array_equal(a.centers, b.centers) and not b.contradicted.any()
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.data())
+def test_admissible_resolution_leaves_no_overlap_and_keeps_each_box_in_its_region(data):
+    n = data.draw(st.integers(2, 12))
+    xy = data.draw(st.lists(st.tuples(st.floats(5, 30), st.floats(-8, 8)), min_size=n, max_size=n))
+    hw = data.draw(st.lists(st.tuples(st.floats(0.2, 3), st.floats(0.2, 3)), min_size=n, max_size=n))
+    centers, half = np.array(xy), np.array(hw)
+    b = np.arctan2(centers[:, 1], centers[:, 0])
+    region = _region(np.column_stack([b - 0.05, b + 0.05]), np.column_stack([centers[:, 0] - 3, centers[:, 0] + 3]))
+    res = resolve_collisions(centers, half, np.arange(n, dtype=np.float64), admissible=region)
+    kept = np.nonzero(res.placed)[0]
+    assert overlaps(res.centers[kept], half[kept]) == []
+    for i in kept:
+        assert region.allows(int(i), res.centers[i, :1], res.centers[i, 1:])[0, 0]
+    assert not (res.contradicted & res.placed).any()

@@ -319,14 +319,34 @@ def test_a_box_is_not_pushed_where_the_photo_contradicts_it():
     assert np.array_equal(res.centers, centers)
 
 
-def test_a_box_slides_along_its_viewing_ray_within_its_depth_range():
+def test_a_box_moves_back_behind_what_it_hit_when_its_depth_range_allows():
     centers, half, priority, bearing = _wall_in_front_of_a_car()
-    res = resolve_collisions(centers, half, priority, admissible=_region(bearing, [[9.0, 11.0], [9.0, 14.0]]))
+    region = _region(bearing, [[9.0, 11.0], [9.0, 14.0]])
+    res = resolve_collisions(centers, half, priority, admissible=region)
     assert res.placed.all() and not res.contradicted.any()
-    moved = res.centers[1]
-    assert moved[0] == 12.005 or abs(moved[0] - 12.005) < 1e-9  # just behind the car ...
-    assert abs(moved[1] / moved[0] - 0.05) < 1e-12  # ... on the ray it is seen along
+    # just behind the car (x 12.005), where its footprint still meets its ray
+    np.testing.assert_allclose(res.centers[1], [12.005, 0.5], atol=1e-9)
     assert overlaps(res.centers, half) == []
+
+
+def test_along_the_ray_the_nearest_free_spot_is_an_end_of_a_blocked_interval():
+    # One settled 2 x 2 box at (10, 0); a 2 x 2 box drafted on it, seen along the ray of
+    # bearing 0, is free 2.005 m before or behind it: the tie goes to the smaller t (in
+    # front) where its depth range allows, else behind; neither within 9 to 11 m.
+    centers = np.array([[10.0, 0.0]])
+    half = np.array([[1.0, 1.0]])
+    settled = collision._Settled(centers.copy(), half, TOLERANCE_M)
+    settled.add(0)
+    search = collision._Search(0.005, 25.0, 65536)
+    h = np.array([1.0, 1.0])
+    region = _region([[-0.1, 0.1]], [[9.0, 13.0]])
+    spot = collision._along_ray(np.array([10.0, 0.0]), h, settled, search, region, 0)
+    np.testing.assert_allclose(spot, [12.005, 0.0])
+    region = _region([[-0.1, 0.1]], [[5.0, 13.0]])
+    spot = collision._along_ray(np.array([10.0, 0.0]), h, settled, search, region, 0)
+    np.testing.assert_allclose(spot, [7.995, 0.0])
+    region = _region([[-0.1, 0.1]], [[9.0, 11.0]])
+    assert collision._along_ray(np.array([10.0, 0.0]), h, settled, search, region, 0) is None
 
 
 def test_an_allowed_nearest_spot_is_the_unconstrained_answer():
@@ -350,5 +370,5 @@ def test_admissible_resolution_leaves_no_overlap_and_keeps_each_box_in_its_regio
     kept = np.nonzero(res.placed)[0]
     assert overlaps(res.centers[kept], half[kept]) == []
     for i in kept:
-        assert region.allows(int(i), res.centers[i, :1], res.centers[i, 1:])[0, 0]
+        assert region.allows(int(i), half[i], res.centers[i, :1], res.centers[i, 1:])[0, 0]
     assert not (res.contradicted & res.placed).any()

@@ -64,7 +64,8 @@ def test_each_skipped_object_is_named_once_with_its_reason(caplog):
     assert len({s.name for s in skipped}) == len(skipped)  # nobody twice
     warnings = skip_warnings(skipped, 80.0, collision)
     assert warnings == [
-        "not placed (no visible ground contact, or only a bound beyond 80 m): tree_0001",
+        "not placed (no visible ground contact, only a bound beyond 80 m, or smaller there than the smallest "
+        "of its class): tree_0001",
         f"{len(piled)} objects not placed: each would have to move more than 1 m, or past 65536 candidate "
         "spots, to clear the objects already placed (a pile of contradictory boxes): " + ", ".join(piled),
     ]

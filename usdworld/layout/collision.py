@@ -92,16 +92,20 @@ class CollisionResult:
 
 @dataclass(frozen=True)
 class Admissible:
-    """Where the photo allows each box's centre to be: on the rays through its pixels, at a
-    depth its cues allow.
+    """Where the photo allows each box to be: on the rays through its pixels, at a depth its
+    cues allow.
+
+    A box is allowed at a spot when its centre's depth is within its range and its footprint
+    there still meets the wedge of rays through its image box (its seen part stays seen
+    where it is: a box slid beside those rays would hide what the photo shows there).
 
     Attributes:
         eye: (2,) float64 the camera centre on the ground.
         forward: (2,) float64 unit vector, the camera's heading on the ground; bearings are
             measured from it, positive to its left.
-        bearing: (N, 2) float64 smallest and largest bearing of a centre, radians (the rays
-            through the image box's first and last columns, widened to the drafted centre's).
-        depth_axis: (2,) float64 and ``depth_offset``: a ground point's optical depth is
+        bearing: (N, 2) float64 smallest and largest bearing of the rays through each image
+            box, radians (widened to take in the drafted centre's).
+        depth_axis: (2,) float64: a ground point's optical depth is
             ``depth_axis @ p + depth_offset`` (metres; affine on the ground plane).
         depth_offset: metres.
         depth: (N, 2) float64 nearest and farthest centre depth allowed, metres.
@@ -114,21 +118,28 @@ class Admissible:
     depth_offset: float
     depth: np.ndarray
 
-    def allows(self, i: int, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    def _bearing(self, qx: np.ndarray, qy: np.ndarray) -> np.ndarray:
+        """Bearings of ground points (offsets from the eye, broadcast together), radians."""
+        fx, fy = self.forward
+        return np.arctan2(fx * qy - fy * qx, fx * qx + fy * qy)
+
+    def allows(self, i: int, h: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
         """(NX, NY) bool: which spots (xs[a], ys[b]) box ``i`` may take.
 
         Args:
             i: the box.
+            h: (2,) float64 its half extents.
             xs, ys: (NX,) and (NY,) float64 candidate coordinates.
         """
         qx = xs[:, None] - self.eye[0]
         qy = ys[None, :] - self.eye[1]
-        fx, fy = self.forward
-        bearing = np.arctan2(fx * qy - fy * qx, fx * qx + fy * qy)
-        depth = self.depth_axis[0] * xs[:, None] + self.depth_axis[1] * ys[None, :] + self.depth_offset
+        corners = [self._bearing(qx + sx * h[0], qy + sy * h[1]) for sx in (-1, 1) for sy in (-1, 1)]
+        inside = (np.abs(qx) < h[0]) & (np.abs(qy) < h[1])  # the eye in the box: it meets every ray
         lo, hi = self.bearing[i]
+        meets = inside | ((np.maximum.reduce(corners) >= lo) & (np.minimum.reduce(corners) <= hi))
+        depth = self.depth_axis[0] * xs[:, None] + self.depth_axis[1] * ys[None, :] + self.depth_offset
         dlo, dhi = self.depth[i]
-        return (bearing >= lo) & (bearing <= hi) & (depth >= dlo) & (depth <= dhi)
+        return meets & (depth >= dlo) & (depth <= dhi)
 
 
 def footprint_half_extents(size_lw: np.ndarray, yaw: np.ndarray) -> np.ndarray:
@@ -293,8 +304,8 @@ def resolve_collisions(
         search = _Search(params.clearance_m, params.max_displacement_m, params.max_candidates)
         best = _free_spot(c0, h, settled, search, params, None)
         if best is not None and admissible is not None:
-            if not admissible.allows(int(i), best[:1], best[1:])[0, 0]:
-                allow = functools.partial(admissible.allows, int(i))
+            if not admissible.allows(int(i), h, best[:1], best[1:])[0, 0]:
+                allow = functools.partial(admissible.allows, int(i), h)
                 inside = _free_spot(c0, h, settled, search, params, allow)
                 along = _along_ray(c0, h, settled, search, admissible, int(i))
                 if inside is None or (along is not None and _nearer(along, inside, c0)):

@@ -73,6 +73,13 @@ def sliver_behind(draft: Draft, ctx: PlacementContext) -> bool:
     return draft.method is DepthMethod.BEHIND and sliver(draft, ctx)
 
 
+def sliver_facade(draft: Draft, ctx: PlacementContext) -> bool:
+    """True for a facade piece that is a :func:`sliver` at its drafted depth: too small in
+    both width and height for the smallest building of its class there (a column or a few
+    of facade at the street's vanishing point), so it is no building of its own."""
+    return ctx.classes.has(draft.obj.class_name, "facade") and sliver(draft, ctx)
+
+
 def move_behind_occluders(drafts: list[Draft], ctx: PlacementContext) -> list[Draft]:
     """Pass: use the object hiding an object's bottom as a lower bound of its depth.
 
@@ -221,8 +228,9 @@ def drop_unbounded(
     """Pass: unplace the drafts whose depth says nothing useful.
 
     A depth known only as an upper bound (a cut or hidden bottom) that lies beyond the
-    world's range, or "just behind" a near occluder for a sliver of stuff too small to be
-    the whole object there (:func:`sliver_behind`).
+    world's range, "just behind" a near occluder for a sliver of stuff too small to be
+    the whole object there (:func:`sliver_behind`), or a facade piece too small for any
+    building of its class at its depth (:func:`sliver_facade`).
 
     Returns:
         (the drafts kept, ``unplaced`` followed by the dropped objects and names).
@@ -230,7 +238,7 @@ def drop_unbounded(
     far = [
         d
         for d in drafts
-        if (d.method.is_partial and d.depth_m > max_partial_depth_m) or sliver_behind(d, ctx)
+        if (d.method.is_partial and d.depth_m > max_partial_depth_m) or sliver_behind(d, ctx) or sliver_facade(d, ctx)
     ]
     kept = [d for d in drafts if not any(d is f for f in far)]
     return kept, [*unplaced, *((d.obj, d.name) for d in far)]

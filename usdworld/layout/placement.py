@@ -69,7 +69,8 @@ class SkipReason(Enum):
     """Why an object was not placed."""
 
     #: Nothing gives its depth: no visible ground contact and no usable height, or only an
-    #: upper bound beyond the world's range (and no occluder or street row to stand behind).
+    #: upper bound beyond the world's range (and no occluder or street row to stand behind),
+    #: or what is seen of it is smaller there than the smallest of its class.
     NO_DEPTH = "no_depth"
     #: It would have to move further than ``CollisionParams.max_displacement_m``, or search
     #: more than ``max_candidates`` spots, to clear the objects already placed (a pile).
@@ -248,7 +249,8 @@ def skip_warnings(skipped: list[Skipped], max_partial_depth_m: float, collision:
     warnings = []
     if no_depth:
         warnings.append(
-            f"not placed (no visible ground contact, or only a bound beyond {max_partial_depth_m:g} m): "
+            f"not placed (no visible ground contact, only a bound beyond {max_partial_depth_m:g} m, "
+            "or smaller there than the smallest of its class): "
             + _named(no_depth)
         )
     if piled:

@@ -76,8 +76,11 @@ def sliver_behind(draft: Draft, ctx: PlacementContext) -> bool:
 def sliver_facade(draft: Draft, ctx: PlacementContext) -> bool:
     """True for a facade piece that is a :func:`sliver` at its drafted depth: too small in
     both width and height for the smallest building of its class there (a column or a few
-    of facade at the street's vanishing point), so it is no building of its own."""
-    return ctx.classes.has(draft.obj.class_name, "facade") and sliver(draft, ctx)
+    of facade at the street's vanishing point), so it is no building of its own. Never for
+    a piece cut by the image's border: what is seen of it bounds its size only from below."""
+    obj = draft.obj
+    cut = obj.top_truncated or obj.bottom_truncated or obj.sides_cut
+    return ctx.classes.has(obj.class_name, "facade") and not cut and sliver(draft, ctx)
 
 
 def move_behind_occluders(drafts: list[Draft], ctx: PlacementContext) -> list[Draft]:

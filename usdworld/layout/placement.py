@@ -262,7 +262,8 @@ def skip_warnings(skipped: list[Skipped], max_partial_depth_m: float, collision:
     if no_room:
         warnings.append(
             f"{len(no_room)} objects not placed: no spot clear of the objects already placed lies on the rays "
-            f"through their pixels within {collision.depth_sigmas:g} sigma of their depth cues: " + _named(no_room)
+            f"through their pixels, no nearer than {collision.depth_sigmas:g} sigma of their depth cues and no "
+            "farther than their visible bottom: " + _named(no_room)
         )
     return warnings
 
@@ -314,9 +315,11 @@ def apply_ordering(drafts: list[Draft], ctx: PlacementContext) -> list[Draft]:
 def admissible_region(drafts: list[Draft], ctx: PlacementContext) -> Admissible:
     """Where the photo allows each draft's centre: on the rays through its image box's
     columns (at its contact row; widened to take in its drafted centre, which a box cut by
-    the image's side or a facade's unseen depth puts beside them), at a centre depth within
-    ``CollisionParams.depth_sigmas`` of its fused cues' sigma (its drafted depth when no cue
-    has one).
+    the image's side or a facade's unseen depth puts beside them: its footprint must meet
+    them), no nearer than ``CollisionParams.depth_sigmas`` times its fused cues' sigma before
+    its drafted depth (its drafted depth when no cue has a sigma). Farther is allowed up to
+    the bound a hidden or cut bottom's visible contact gives (``Draft.upper_m``): there it
+    stays on its rays and hides nothing that the photo shows in front of it.
 
     Args:
         drafts: the drafts, in the order given to the collision resolution.
@@ -346,7 +349,9 @@ def admissible_region(drafts: list[Draft], ctx: PlacementContext) -> Admissible:
         bearings[n] = (b.min(), b.max())
         weights = [1.0 / c.sigma_m**2 for c in d.cues if c.available and c.sigma_m is not None]
         sigma = 1.0 / np.sqrt(sum(weights)) if weights else 0.0
-        depths[n] = (d.depth_m - k * sigma, d.depth_m + k * sigma)
+        # Farther along its rays an object hides nothing the photo shows in front of it, up
+        # to the bound its visible bottom gives (a cut or hidden bottom's contact).
+        depths[n] = (d.depth_m - k * sigma, max(d.upper_m + d.back_m, d.depth_m))
     return Admissible(eye, forward, bearings, depth_axis, offset, depths)
 
 

@@ -26,10 +26,10 @@ skipped, and a box whose whole search disk is blocked is refused at once. A proo
 skips spots that the exact test would reject, so the result stays the same bit for bit.
 
 The photo bounds where a box may go (:class:`Admissible`, optional): an object is seen
-along its pixels' rays, at a depth its cues allow. A box whose nearest free spot lies
-outside that region (beside its image box's rays, or nearer or farther than its cues
-allow) takes the nearest free spot inside it: the grid's spots there, or a spot slid along
-its viewing ray (:func:`_along_ray`). When there is none, it is not placed
+along its pixels' rays, at a depth its cues allow. A box whose nearest free spot is nearer
+the camera than its cues allow (where it would stand in front of what the photo shows),
+or farther than a bound they give, takes the nearest free spot within its depths: the
+grid's spots there, or a spot slid along its viewing ray (:func:`_along_ray`). When there is none, it is not placed
 (``CollisionResult.contradicted``): boxes settle most trusted first, so it is the weaker
 one of the pair, and pushing it elsewhere (in front of the camera, hiding what the photo
 shows) would contradict its own pixels. Where the nearest free spot is allowed the result
@@ -92,19 +92,12 @@ class CollisionResult:
 
 @dataclass(frozen=True)
 class Admissible:
-    """Where the photo allows each box to be: on the rays through its pixels, at a depth its
-    cues allow.
-
-    A box is allowed at a spot when its centre's depth is within its range and its footprint
-    there still meets the wedge of rays through its image box (its seen part stays seen
-    where it is: a box slid beside those rays would hide what the photo shows there).
+    """How near and how far the photo allows each box's centre: an object is seen along its
+    pixels' rays, so it may not come nearer the camera than its depth cues allow (there it
+    would stand in front of what the photo shows), nor farther than a bound they give.
 
     Attributes:
-        eye: (2,) float64 the camera centre on the ground.
-        forward: (2,) float64 unit vector, the camera's heading on the ground; bearings are
-            measured from it, positive to its left.
-        bearing: (N, 2) float64 smallest and largest bearing of the rays through each image
-            box, radians (widened to take in the drafted centre's).
+        eye: (2,) float64 the camera centre on the ground (the rays' origin).
         depth_axis: (2,) float64: a ground point's optical depth is
             ``depth_axis @ p + depth_offset`` (metres; affine on the ground plane).
         depth_offset: metres.
@@ -112,34 +105,20 @@ class Admissible:
     """
 
     eye: np.ndarray
-    forward: np.ndarray
-    bearing: np.ndarray
     depth_axis: np.ndarray
     depth_offset: float
     depth: np.ndarray
 
-    def _bearing(self, qx: np.ndarray, qy: np.ndarray) -> np.ndarray:
-        """Bearings of ground points (offsets from the eye, broadcast together), radians."""
-        fx, fy = self.forward
-        return np.arctan2(fx * qy - fy * qx, fx * qx + fy * qy)
-
-    def allows(self, i: int, h: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    def allows(self, i: int, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
         """(NX, NY) bool: which spots (xs[a], ys[b]) box ``i`` may take.
 
         Args:
             i: the box.
-            h: (2,) float64 its half extents.
             xs, ys: (NX,) and (NY,) float64 candidate coordinates.
         """
-        qx = xs[:, None] - self.eye[0]
-        qy = ys[None, :] - self.eye[1]
-        corners = [self._bearing(qx + sx * h[0], qy + sy * h[1]) for sx in (-1, 1) for sy in (-1, 1)]
-        inside = (np.abs(qx) < h[0]) & (np.abs(qy) < h[1])  # the eye in the box: it meets every ray
-        lo, hi = self.bearing[i]
-        meets = inside | ((np.maximum.reduce(corners) >= lo) & (np.minimum.reduce(corners) <= hi))
         depth = self.depth_axis[0] * xs[:, None] + self.depth_axis[1] * ys[None, :] + self.depth_offset
         dlo, dhi = self.depth[i]
-        return meets & (depth >= dlo) & (depth <= dhi)
+        return (depth >= dlo) & (depth <= dhi)
 
 
 def footprint_half_extents(size_lw: np.ndarray, yaw: np.ndarray) -> np.ndarray:
@@ -304,8 +283,8 @@ def resolve_collisions(
         search = _Search(params.clearance_m, params.max_displacement_m, params.max_candidates)
         best = _free_spot(c0, h, settled, search, params, None)
         if best is not None and admissible is not None:
-            if not admissible.allows(int(i), h, best[:1], best[1:])[0, 0]:
-                allow = functools.partial(admissible.allows, int(i), h)
+            if not admissible.allows(int(i), best[:1], best[1:])[0, 0]:
+                allow = functools.partial(admissible.allows, int(i))
                 inside = _free_spot(c0, h, settled, search, params, allow)
                 along = _along_ray(c0, h, settled, search, admissible, int(i))
                 if inside is None or (along is not None and _nearer(along, inside, c0)):

@@ -261,9 +261,9 @@ def skip_warnings(skipped: list[Skipped], max_partial_depth_m: float, collision:
         )
     if no_room:
         warnings.append(
-            f"{len(no_room)} objects not placed: no spot clear of the objects already placed lies on the rays "
-            f"through their pixels, no nearer than {collision.depth_sigmas:g} sigma of their depth cues and no "
-            "farther than their visible bottom: " + _named(no_room)
+            f"{len(no_room)} objects not placed: no spot clear of the objects already placed is as near as "
+            f"{collision.depth_sigmas:g} sigma of their depth cues allow and no farther than their visible "
+            "bottom: " + _named(no_room)
         )
     return warnings
 
@@ -313,46 +313,27 @@ def apply_ordering(drafts: list[Draft], ctx: PlacementContext) -> list[Draft]:
 
 
 def admissible_region(drafts: list[Draft], ctx: PlacementContext) -> Admissible:
-    """Where the photo allows each draft's centre: on the rays through its image box's
-    columns (at its contact row; widened to take in its drafted centre, which a box cut by
-    the image's side or a facade's unseen depth puts beside them: its footprint must meet
-    them), no nearer than ``CollisionParams.depth_sigmas`` times its fused cues' sigma before
-    its drafted depth (its drafted depth when no cue has a sigma). Farther is allowed up to
-    the bound a hidden or cut bottom's visible contact gives (``Draft.upper_m``): there it
-    stays on its rays and hides nothing that the photo shows in front of it.
+    """How near and how far each draft's centre may be moved: no nearer than
+    ``CollisionParams.depth_sigmas`` times its fused cues' sigma before its drafted depth
+    (its drafted depth when no cue has a sigma), and no farther than the bound a hidden or
+    cut bottom's visible contact gives (``Draft.upper_m``; none otherwise: farther along its
+    rays an object hides nothing that the photo shows in front of it).
 
     Args:
         drafts: the drafts, in the order given to the collision resolution.
         ctx: the camera and the collision parameters.
     """
     camera = ctx.camera
-    eye = np.asarray(camera.center_world[:2], dtype=np.float64)
-    forward = np.array([np.cos(camera.yaw), np.sin(camera.yaw)])
-    origin = np.array([[0.0, 0.0, 0.0]])
-    gx = camera.cam_from_world_points(np.array([[1.0, 0.0, 0.0]]))[0, 2]
-    gy = camera.cam_from_world_points(np.array([[0.0, 1.0, 0.0]]))[0, 2]
-    offset = float(camera.cam_from_world_points(origin)[0, 2])
-    depth_axis = np.array([gx - offset, gy - offset])
-
-    def bearing(q: np.ndarray) -> np.ndarray:
-        q = np.asarray(q, dtype=np.float64).reshape(-1, 2) - eye
-        return np.arctan2(forward[0] * q[:, 1] - forward[1] * q[:, 0], q @ forward)
-
-    bearings = np.empty((len(drafts), 2))
+    ground = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    z = camera.cam_from_world_points(ground)[:, 2]
     depths = np.empty((len(drafts), 2))
     k = ctx.collision.depth_sigmas
     for n, d in enumerate(drafts):
-        x0, _, x1, _ = (float(b) for b in d.obj.box_px)
-        v = float(d.obj.contact_px[1])
-        rays = camera.rays_world(np.array([[x0, v], [x1, v]]))[:, :2]
-        b = np.concatenate([bearing(eye + rays), bearing(d.ground)])
-        bearings[n] = (b.min(), b.max())
         weights = [1.0 / c.sigma_m**2 for c in d.cues if c.available and c.sigma_m is not None]
         sigma = 1.0 / np.sqrt(sum(weights)) if weights else 0.0
-        # Farther along its rays an object hides nothing the photo shows in front of it, up
-        # to the bound its visible bottom gives (a cut or hidden bottom's contact).
         depths[n] = (d.depth_m - k * sigma, max(d.upper_m + d.back_m, d.depth_m))
-    return Admissible(eye, forward, bearings, depth_axis, offset, depths)
+    eye = np.asarray(camera.center_world[:2], dtype=np.float64)
+    return Admissible(eye, np.array([z[1] - z[0], z[2] - z[0]]), float(z[0]), depths)
 
 
 def resolve_footprints(
@@ -362,8 +343,8 @@ def resolve_footprints(
 
     Things (vehicles, people) settle first: they are the photo's sharpest evidence, and a
     stuff region (a hedge, a facade chunk) should make way for them, not push them. Among
-    each kind, the nearer and more confident settle first. An object is moved only where
-    the photo allows it (:func:`admissible_region`). An object with no free spot within
+    each kind, the nearer and more confident settle first. An object is moved no nearer
+    and no farther than the photo allows (:func:`admissible_region`). An object with no free spot within
     ``CollisionParams.max_displacement_m`` (a pile of contradictory boxes), or with none
     the photo allows, is not placed (:func:`skip_warnings` says how many and why).
 

@@ -59,13 +59,11 @@ class CollisionParams:
     depth_sigmas: float = param(
         3.0,
         "count",
-        "Collision resolution moves an object only where the photo allows it: its footprint on the rays "
-        "through its image box, its centre no nearer than this many standard deviations of its fused "
-        "depth cues before its drafted depth (an object with no cue that has a sigma comes no nearer "
-        "at all; farther is allowed up to a hidden bottom's bound: it hides nothing the photo shows in front "
-        "of it). An object whose "
-        "nearest free spot is not allowed takes the nearest allowed one (or slides along its viewing "
-        "ray), or is not placed.",
+        "Collision resolution moves an object no nearer the camera than this many standard deviations "
+        "of its fused depth cues before its drafted depth (one with no cue that has a sigma comes no "
+        "nearer at all), nor farther than a hidden bottom's bound: nearer, it would stand in front of what "
+        "the photo shows. An object whose nearest free spot is not allowed takes the nearest allowed one "
+        "(or slides along its viewing ray), or is not placed.",
         "published: the three-sigma rule (99.7 % of a normally distributed error lies within 3 sigma)",
     )
     duplicate_iou: float = param(

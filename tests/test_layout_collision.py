@@ -285,3 +285,84 @@ def test_degenerate_bounds_place_only_the_first_of_a_pile():
         result = resolve_collisions(centers, half, priority, CollisionParams(max_displacement_m=bound))
         np.testing.assert_array_equal(result.placed, [True, False, False, False, False])
         np.testing.assert_array_equal(result.displacement, 0.0)
+
+
+def _region(depth):
+    """An :class:`Admissible` for a camera at the origin looking along +x (depth = x)."""
+    return collision.Admissible(
+        eye=np.zeros(2), depth_axis=np.array([1.0, 0.0]), depth_offset=0.0, depth=np.asarray(depth, dtype=np.float64)
+    )
+
+
+def _wall_in_front_of_a_row():
+    # A row of cars seen as one 2 x 40 m box (settles first) at 10 m; a wall piece drafted
+    # over it, 12 m deep across the view (half extents 1 x 6). Sideways it would move 25.5 m
+    # (past the search's 25 m); its nearest free spot is 2 m towards the camera (x 7.995),
+    # where it would stand across the road in front of the cars.
+    centers = np.array([[10.0, 0.0], [10.0, 0.5]])
+    half = np.array([[1.0, 20.0], [1.0, 6.0]])
+    return centers, half, np.array([0.0, 1.0])
+
+
+def test_a_box_is_not_pushed_where_the_photo_contradicts_it():
+    centers, half, priority = _wall_in_front_of_a_row()
+    free = resolve_collisions(centers, half, priority)  # without the photo's bounds: 2 m towards the camera
+    assert free.placed.all() and free.centers[1, 0] == 10.0 - 2.0 - 0.005
+    # its cues allow 9 to 11 m: neither 2 m nearer nor behind the car (x >= 12.005)
+    res = resolve_collisions(centers, half, priority, admissible=_region([[9.0, 11.0], [9.0, 11.0]]))
+    assert res.placed.tolist() == [True, False] and res.contradicted.tolist() == [False, True]
+    assert np.array_equal(res.centers, centers)
+
+
+def test_a_box_moves_back_behind_what_it_hit_when_its_depth_range_allows():
+    centers, half, priority = _wall_in_front_of_a_row()
+    region = _region([[9.0, 11.0], [9.0, 14.0]])
+    res = resolve_collisions(centers, half, priority, admissible=region)
+    assert res.placed.all() and not res.contradicted.any()
+    # just behind the cars (x 12.005)
+    np.testing.assert_allclose(res.centers[1], [12.005, 0.5], atol=1e-9)
+    assert overlaps(res.centers, half) == []
+
+
+def test_along_the_ray_the_nearest_free_spot_is_an_end_of_a_blocked_interval():
+    # One settled 2 x 2 box at (10, 0); a 2 x 2 box drafted on it, seen along the ray of
+    # bearing 0, is free 2.005 m before or behind it: the tie goes to the smaller t (in
+    # front) where its depth range allows, else behind; neither within 9 to 11 m.
+    centers = np.array([[10.0, 0.0]])
+    half = np.array([[1.0, 1.0]])
+    settled = collision._Settled(centers.copy(), half, TOLERANCE_M)
+    settled.add(0)
+    search = collision._Search(0.005, 25.0, 65536)
+    h = np.array([1.0, 1.0])
+    region = _region([[9.0, 13.0]])
+    spot = collision._along_ray(np.array([10.0, 0.0]), h, settled, search, region, 0)
+    np.testing.assert_allclose(spot, [12.005, 0.0])
+    region = _region([[5.0, 13.0]])
+    spot = collision._along_ray(np.array([10.0, 0.0]), h, settled, search, region, 0)
+    np.testing.assert_allclose(spot, [7.995, 0.0])
+    region = _region([[9.0, 11.0]])
+    assert collision._along_ray(np.array([10.0, 0.0]), h, settled, search, region, 0) is None
+
+
+def test_an_allowed_nearest_spot_is_the_unconstrained_answer():
+    centers, half, priority = _wall_in_front_of_a_row()
+    wide = _region([[-np.inf, np.inf]] * 2)
+    a = resolve_collisions(centers, half, priority)
+    b = resolve_collisions(centers, half, priority, admissible=wide)
+    assert np.array_equal(a.centers, b.centers) and not b.contradicted.any()
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.data())
+def test_admissible_resolution_leaves_no_overlap_and_keeps_each_box_in_its_depths(data):
+    n = data.draw(st.integers(2, 12))
+    xy = data.draw(st.lists(st.tuples(st.floats(5, 30), st.floats(-8, 8)), min_size=n, max_size=n))
+    hw = data.draw(st.lists(st.tuples(st.floats(0.2, 3), st.floats(0.2, 3)), min_size=n, max_size=n))
+    centers, half = np.array(xy), np.array(hw)
+    region = _region(np.column_stack([centers[:, 0] - 3, centers[:, 0] + 3]))
+    res = resolve_collisions(centers, half, np.arange(n, dtype=np.float64), admissible=region)
+    kept = np.nonzero(res.placed)[0]
+    assert overlaps(res.centers[kept], half[kept]) == []
+    for i in kept:
+        assert region.allows(int(i), res.centers[i, :1], res.centers[i, 1:])[0, 0]
+    assert not (res.contradicted & res.placed).any()

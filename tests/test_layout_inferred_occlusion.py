@@ -51,3 +51,38 @@ def test_a_mask_borders_a_box_when_a_pixel_touches_it(dx: int, dy: int):
     stuff = box_object("building", (110 + dx, 110 + dy, 111 + dx, 111 + dy), 1)
     touches = -11 <= dx <= 0 and -11 <= dy <= 0
     assert borders_box(stuff, np.array([100, 100, 110, 110])) == touches
+
+
+# A car 30 m ahead and 6 m to the left (its box 320..385 x 250..291), a sidewalk 2 m to 6 m
+# to the left from 5 m to 40 m ahead (the tree row: 1 m behind its kerb) and two inferred
+# crowns whose foot is hidden, whose middle columns' rays meet that row about 17 m ahead:
+# on the row, either would stand between the camera and the car.
+FAR_CAR_BOX = (320, 250, 385, 291)
+_XS, _YS = np.meshgrid(np.linspace(5.0, 40.0, 36), np.linspace(2.0, 6.0, 41))
+LEFT_WALK = np.column_stack([_XS.ravel(), _YS.ravel()])
+
+
+def _crown(box: tuple[int, int, int, int], ref: int) -> ImageObject:
+    return box_object("tree", box, ref, hidden=True, source_label="inferred:vegetation")
+
+
+def _placed_with_the_walk(objects: list[ImageObject]) -> dict[int, object]:
+    placements, _ = place_on_a_straight_road(objects, CAM, sidewalk_ground=LEFT_WALK)
+    return {p.obj.ref: p for p in placements}
+
+
+def test_a_crown_clear_of_a_car_box_is_not_stood_on_its_row_in_the_cars_way():
+    car = box_object("car", FAR_CAR_BOX, 1)
+    apart = _crown((300, 150, 420, 235), 2)  # 15 px above the car's box: not seen over it
+    touching = _crown((330, 170, 400, 250), 3)  # its lowest row meets the box's top
+    placed = _placed_with_the_walk([car, apart, touching])
+    # The crown seen around the box stands just behind the car (behind_bordered_things) ...
+    assert placed[3].depth_method == "behind_car_0001"
+    # ... and the one clear of the box, which the row would put 17 m ahead in the car's way,
+    # keeps its own depth (from its top row): behind the car, not on the row.
+    assert placed[2].depth_method == "top_row"
+    assert placed[2].depth_m - 0.5 * placed[2].size_m[0] > placed[1].depth_m
+    # Stuff from given labels is not affected: the photo's own labels put the crown there.
+    labelled = _placed_with_the_walk([car, box_object("tree", (300, 150, 420, 235), 2, hidden=True)])
+    assert labelled[2].depth_method == "street_line"
+    assert labelled[2].depth_m < labelled[1].depth_m

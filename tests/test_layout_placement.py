@@ -64,7 +64,8 @@ def test_each_skipped_object_is_named_once_with_its_reason(caplog):
     assert len({s.name for s in skipped}) == len(skipped)  # nobody twice
     warnings = skip_warnings(skipped, 80.0, collision)
     assert warnings == [
-        "not placed (no visible ground contact, or only a bound beyond 80 m): tree_0001",
+        "not placed (no visible ground contact, only a bound beyond 80 m, or smaller there than the smallest "
+        "of its class): tree_0001",
         f"{len(piled)} objects not placed: each would have to move more than 1 m, or past 65536 candidate "
         "spots, to clear the objects already placed (a pile of contradictory boxes): " + ", ".join(piled),
     ]
@@ -75,3 +76,18 @@ def test_a_warning_names_at_most_twenty_skipped_objects() -> None:
     (warning,) = skip_warnings(skipped, 80.0, CollisionParams())
     assert warning.startswith("25 objects not placed")
     assert warning.endswith("car_0019, car_0020 and 5 more") and "car_0021" not in warning
+
+
+def test_a_facade_piece_too_small_for_any_building_at_its_depth_is_not_placed():
+    # Bases on row 320: 800 * 1.3 / 64 = 16.25 m ahead, where a pixel is 2 cm. The smallest
+    # building (0.3 of the 12 x 10 x 12 m asset) has 3 m of frontage and is 3.6 m tall: a
+    # piece 2 px (4 cm) wide and 70 px (1.4 m) tall is no building there; one 100 px wide
+    # and 200 px (4.1 m) tall is. A piece as small but cut by the image's top is only a
+    # lower bound on its building, and stays.
+    sliver = box_object("building", (600, 250, 602, 320), 1, source_label="inferred:building")
+    wall = box_object("building", (700, 120, 800, 320), 2, source_label="inferred:building")
+    cut = box_object("building", (300, 0, 302, 320), 3, source_label="inferred:building")
+    placements, skipped = place_on_a_straight_road([sliver, wall, cut], CAM)
+    assert {p.obj.ref for p in placements} == {2, 3}
+    assert [s.reason for s in skipped] == [SkipReason.NO_DEPTH]
+    assert all(abs(p.depth_m - 16.25) < 8.0 for p in placements)

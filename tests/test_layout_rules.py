@@ -163,6 +163,20 @@ def test_an_object_whose_foot_is_hidden_stands_on_its_class_row():
     assert onto_street_line(tree, "tree_0001", upper, {}, [row], ctx) is None
 
 
+def test_a_crown_too_small_for_a_tree_at_its_rows_depth_does_not_stand_there():
+    # Crowns centred on column 912: the row 4 m right meets that ray 8 m ahead, where a
+    # pixel is 1 cm. The smallest tree (0.3 of the 4 m x 7 m asset) is 1.2 m wide and 2.1 m
+    # tall: a crown seen 12 px (12 cm) wide and 10 px tall is a sliver of something farther,
+    # one seen 160 px (1.6 m, scale 0.4) wide and 20 px tall is a small tree there.
+    row = StreetLine("tree", -1, -4.0, 3, 0.1)
+    assert 4.0 * FX / (912.0 - CX) == pytest.approx(8.0)
+    small = box_object("tree", (906, 150, 918, 160), 2, hidden=True)
+    assert onto_street_line(small, "tree_0001", float("inf"), {}, [row], _ctx([small])) is None
+    tree = box_object("tree", (832, 150, 992, 170), 2, hidden=True)
+    moved = onto_street_line(tree, "tree_0001", float("inf"), {}, [row], _ctx([tree]))
+    assert moved is not None and moved.front_depth_m == pytest.approx(8.0)
+
+
 def test_facades_stand_at_the_sidewalks_back_edge():
     # Sidewalk 2 m to 6 m right of the axis, evenly sampled: its 5th and 95th percentiles
     # are 2.2 m (the kerb) and 5.8 m (the back edge).

@@ -77,6 +77,7 @@ from usdworld.perception.objects import (
     objects_from_segmentation,
     sort_objects,
 )
+from usdworld.perception.refs import join_things_and_stuff
 from usdworld.perception.segment import BACKEND_NAMES as SEGMENT_BACKENDS
 from usdworld.report import make_report
 from usdworld.segment_stage import segment_photo
@@ -278,12 +279,10 @@ def _objects(
         objects_from_detections(dets, image.width, image.height, seg, lookups=lookups, params=params.perception),
         params.collision,
     )
-    stuff = (
-        [o for o in objects_from_segmentation(seg, view, table, lookups, params.perception) if not o.is_thing]
-        if seg is not None
-        else []
-    )
-    return sort_objects(things + stuff)
+    if seg is None:
+        return sort_objects(things)
+    segmented = objects_from_segmentation(seg, view, table, lookups, params.perception)
+    return join_things_and_stuff(things, segmented, params.perception)
 
 
 def _camera(
@@ -422,7 +421,7 @@ def read_scene_head(
         inferred, why = infer_streets(image, objects, camera.camera, vanishing, table, params)
         if inferred is not None:
             seg = Segmentation(inferred.label_ids, None, ())
-            objects = sort_objects(objects + inferred_stuff(seg, view, table, params))
+            objects = join_things_and_stuff(objects, inferred_stuff(seg, view, table, params), params.perception)
             catalogue = asset_catalogue((o.class_name for o in objects), libraries)
     return SceneHead(image, seg, spec, vanishing, objects, catalogue, camera, inferred, why)
 

@@ -24,12 +24,24 @@ bound to say so. A coarse raster (:func:`usdworld.layout.occupancy.blocked_radiu
 proves how far around the box every spot is blocked; the rings within that radius are
 skipped, and a box whose whole search disk is blocked is refused at once. A proof only
 skips spots that the exact test would reject, so the result stays the same bit for bit.
+
+The photo bounds where a box may go (:class:`Admissible`, optional): an object is seen
+along its pixels' rays, at a depth its cues allow. A box whose nearest free spot is nearer
+the camera than its cues allow (where it would stand in front of what the photo shows),
+or farther than a bound they give, takes the nearest free spot within its depths: the
+grid's spots there, or a spot slid along its viewing ray (:func:`_along_ray`). When there is none, it is not placed
+(``CollisionResult.contradicted``): boxes settle most trusted first, so it is the weaker
+one of the pair, and pushing it elsewhere (in front of the camera, hiding what the photo
+shows) would contradict its own pixels. Where the nearest free spot is allowed the result
+is the unconstrained one, bit for bit.
 """
 
 from __future__ import annotations
 
 import bisect
+import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -75,6 +87,38 @@ class CollisionResult:
     centers: np.ndarray
     placed: np.ndarray
     pair_checks: int = 0
+    contradicted: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Admissible:
+    """How near and how far the photo allows each box's centre: an object is seen along its
+    pixels' rays, so it may not come nearer the camera than its depth cues allow (there it
+    would stand in front of what the photo shows), nor farther than a bound they give.
+
+    Attributes:
+        eye: (2,) float64 the camera centre on the ground (the rays' origin).
+        depth_axis: (2,) float64: a ground point's optical depth is
+            ``depth_axis @ p + depth_offset`` (metres; affine on the ground plane).
+        depth_offset: metres.
+        depth: (N, 2) float64 nearest and farthest centre depth allowed, metres.
+    """
+
+    eye: np.ndarray
+    depth_axis: np.ndarray
+    depth_offset: float
+    depth: np.ndarray
+
+    def allows(self, i: int, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+        """(NX, NY) bool: which spots (xs[a], ys[b]) box ``i`` may take.
+
+        Args:
+            i: the box.
+            xs, ys: (NX,) and (NY,) float64 candidate coordinates.
+        """
+        depth = self.depth_axis[0] * xs[:, None] + self.depth_axis[1] * ys[None, :] + self.depth_offset
+        dlo, dhi = self.depth[i]
+        return (depth >= dlo) & (depth <= dhi)
 
 
 def footprint_half_extents(size_lw: np.ndarray, yaw: np.ndarray) -> np.ndarray:
@@ -200,7 +244,11 @@ class _Settled:
 
 
 def resolve_collisions(
-    centers: np.ndarray, half: np.ndarray, priority: np.ndarray, params: CollisionParams = CollisionParams()
+    centers: np.ndarray,
+    half: np.ndarray,
+    priority: np.ndarray,
+    params: CollisionParams = CollisionParams(),
+    admissible: Admissible | None = None,
 ) -> CollisionResult:
     """Move boxes apart with minimal displacement.
 
@@ -211,9 +259,13 @@ def resolve_collisions(
             confidence). Ties are broken by the box coordinates, never by input order.
         params: tolerance, clearance, search neighbourhood and the search's bounds
             (``max_displacement_m``, ``max_candidates``).
+        admissible: where the photo allows each box (None: anywhere). A box whose nearest
+            free spot is outside it takes the nearest free spot inside, or is not placed.
 
     Returns:
-        The displacements, the new centres and which boxes were placed.
+        The displacements, the new centres and which boxes were placed; ``contradicted``
+        (with ``admissible``) marks the boxes not placed although a free spot existed
+        outside what the photo allows.
     """
     centers = np.asarray(centers, dtype=np.float64).reshape(-1, 2)
     half = np.asarray(half, dtype=np.float64).reshape(-1, 2)
@@ -221,25 +273,112 @@ def resolve_collisions(
     order = np.lexsort((half[:, 1], half[:, 0], centers[:, 1], centers[:, 0], priority))
     out = centers.copy()
     placed = np.ones(len(centers), dtype=bool)
+    contradicted = np.zeros(len(centers), dtype=bool)
     settled = _Settled(out, half, params.tolerance_m)
     for i in order:
         c0, h = centers[i], half[i]
         if settled.clear(c0[None, :], h, settled.around(c0 - h, c0 + h))[0]:
             settled.add(int(i))
             continue
-        near = settled.near(c0, h, params.neighbourhood_m)
         search = _Search(params.clearance_m, params.max_displacement_m, params.max_candidates)
-        best = _nearest_clear(c0, h, out[near], half[near], settled, search)
-        if best is None and params.max_displacement_m > params.neighbourhood_m:
-            # pushed out past the neighbourhood: consider every box's edges
-            every = np.array(settled.grid.placed, dtype=np.int64)
-            best = _nearest_clear(c0, h, out[every], half[every], settled, search)
-        if best is None:  # no free spot within the bounds: a pile; the box is not placed
+        best = _free_spot(c0, h, settled, search, params, None)
+        if best is not None and admissible is not None:
+            if not admissible.allows(int(i), best[:1], best[1:])[0, 0]:
+                allow = functools.partial(admissible.allows, int(i))
+                inside = _free_spot(c0, h, settled, search, params, allow)
+                along = _along_ray(c0, h, settled, search, admissible, int(i))
+                if inside is None or (along is not None and _nearer(along, inside, c0)):
+                    inside = along
+                contradicted[i] = inside is None
+                best = inside
+        if best is None:  # no free spot within the bounds (a pile), or none the photo allows: not placed
             placed[i] = False
             continue
         out[i] = best
         settled.add(int(i))
-    return CollisionResult(out - centers, out, placed, settled.checks)
+    return CollisionResult(out - centers, out, placed, settled.checks, contradicted)
+
+
+def _free_spot(
+    c0: np.ndarray,
+    h: np.ndarray,
+    settled: _Settled,
+    search: _Search,
+    params: CollisionParams,
+    allow: Callable[[np.ndarray, np.ndarray], np.ndarray] | None,
+) -> np.ndarray | None:
+    """The nearest free spot (:func:`_nearest_clear`) against the settled boxes in the
+    neighbourhood, then against every settled box; (2,) float64 or None."""
+    near = settled.near(c0, h, params.neighbourhood_m)
+    best = _nearest_clear(c0, h, settled.out[near], settled.half[near], settled, search, allow)
+    if best is None and params.max_displacement_m > params.neighbourhood_m:
+        # pushed out past the neighbourhood: consider every box's edges
+        every = np.array(settled.grid.placed, dtype=np.int64)
+        best = _nearest_clear(c0, h, settled.out[every], settled.half[every], settled, search, allow)
+    return best
+
+
+def _nearer(a: np.ndarray, b: np.ndarray, c0: np.ndarray) -> bool:
+    """True when spot ``a`` is nearer ``c0`` than ``b`` (ties by x, then y); (2,) float64 each."""
+    da, db = float(np.linalg.norm(a - c0)), float(np.linalg.norm(b - c0))
+    return (da, a[0], a[1]) < (db, b[0], b[1])
+
+
+def _along_ray(
+    c0: np.ndarray, h: np.ndarray, settled: _Settled, search: _Search, admissible: Admissible, i: int
+) -> np.ndarray | None:
+    """The free spot nearest ``c0`` on the camera's ray through it, within box ``i``'s
+    allowed depths and ``search.max_m``; (2,) float64 or None.
+
+    Along the ray ``c0 + t r`` each settled box blocks an open interval of ``t`` (where the
+    two boxes, grown by the clearance, overlap on both axes); the free ``t`` nearest 0 is 0
+    or an end of one of them. The ends are tested with :meth:`_Settled.clear`.
+
+    Args:
+        c0: (2,) float64 the box's drafted centre.
+        h: (2,) float64 its half extents.
+        settled: the boxes settled so far.
+        search: clearance and the search's radius.
+        admissible: the allowed region (its ``depth`` bounds ``t``).
+        i: the box.
+    """
+    ray = c0 - admissible.eye
+    length = float(np.linalg.norm(ray))
+    if not length > 0:
+        return None
+    r = ray / length
+    slope = float(admissible.depth_axis @ r)  # depth gained per metre along the ray
+    if not slope > 0:
+        return None
+    d0 = float(admissible.depth_axis @ c0 + admissible.depth_offset)
+    dlo, dhi = admissible.depth[i]
+    t_lo = max((dlo - d0) / slope, -search.max_m, -length)
+    t_hi = min((dhi - d0) / slope, search.max_m)
+    if not t_lo <= t_hi:
+        return None
+    a, b = c0 + t_lo * r, c0 + t_hi * r
+    pad = h + search.clearance
+    ids = settled.around(np.minimum(a, b) - pad, np.maximum(a, b) + pad)
+    if len(ids) == 0:
+        return None
+    reach = h + settled.half[ids] + search.clearance  # (M, 2)
+    offset = settled.out[ids] - c0  # (M, 2)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        e0, e1 = (offset - reach) / r, (offset + reach) / r
+    enter = np.where(r == 0.0, np.where(np.abs(offset) < reach, -np.inf, np.inf), np.minimum(e0, e1))
+    leave = np.where(r == 0.0, np.where(np.abs(offset) < reach, np.inf, -np.inf), np.maximum(e0, e1))
+    lo, hi = enter.max(axis=1), leave.min(axis=1)
+    crossed = lo < hi
+    ts = np.concatenate([[0.0], lo[crossed], hi[crossed]])
+    ts = ts[np.isfinite(ts) & (ts >= t_lo) & (ts <= t_hi)]
+    if len(ts) == 0:
+        return None
+    ts = ts[np.lexsort((ts, np.abs(ts)))]
+    spots = c0[None, :] + ts[:, None] * r[None, :]
+    free = settled.clear(spots, h, ids)
+    if not free.any():
+        return None
+    return spots[int(np.argmax(free))]
 
 
 @dataclass
@@ -264,6 +403,7 @@ def _nearest_clear(
     ph: np.ndarray,
     settled: _Settled,
     search: _Search,
+    allow: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
 ) -> np.ndarray | None:
     """The candidate nearest ``c0`` (ties by x, then y) that overlaps no settled box, or None.
 
@@ -278,7 +418,8 @@ def _nearest_clear(
     at once would give. None also when a ring's square holds more than ``search.most`` spots.
     Rings within the radius that :func:`~usdworld.layout.occupancy.blocked_radius` proves
     blocked by the boxes ``pc`` are not tested (a proof from some of the settled boxes
-    holds for all of them).
+    holds for all of them). With ``allow`` (spots ``(xs, ys)`` -> (NX, NY) bool), only the
+    spots it allows count as free.
     """
     clearance, max_m = search.clearance, search.max_m
     xs = np.concatenate([[c0[0]], pc[:, 0] - ph[:, 0] - h[0] - clearance, pc[:, 0] + ph[:, 0] + h[0] + clearance])
@@ -316,6 +457,8 @@ def _nearest_clear(
                     ox, oy = settled.out[ids, 0], settled.out[ids, 1]
                     hx, hy = settled.half[ids, 0], settled.half[ids, 1]
                     new &= ~_blocked(xs[sx], ys[sy], ox, oy, h[0] + hx, h[1] + hy, settled.tol)
+                if allow is not None:
+                    new &= allow(xs[sx], ys[sy])
                 a, b = np.nonzero(new)
                 if len(a):
                     k = np.lexsort((iy[sy][b], ix[sx][a], ys[sy][b], xs[sx][a], dist[a, b]))[0]

@@ -54,17 +54,33 @@ def behind_depth(occ: Draft, ctx: PlacementContext) -> float:
     return occ.depth_m + occ.back_m + ctx.params.behind_gap_m
 
 
-def sliver_behind(draft: Draft, ctx: PlacementContext) -> bool:
-    """True for stuff placed just behind its occluder whose visible part, at that depth, is
-    smaller in both width and height than the smallest allowed scale of its class: a
-    piece of a far tree or pole seen past a near car, which the occluder does not bound."""
+def sliver(draft: Draft, ctx: PlacementContext) -> bool:
+    """True for stuff whose visible part, at its drafted depth, is smaller in both width and
+    height than the smallest allowed scale of its class: the whole object there would be
+    seen larger, so it does not stand there."""
     obj = draft.obj
-    if obj.is_thing or draft.method is not DepthMethod.BEHIND:
+    if obj.is_thing:
         return False
     base = draft.size / (draft.scale * draft.stretch)
     metres_per_px = draft.front_depth_m / ctx.camera.fy
     seen = max(obj.width_px * metres_per_px / base[1], obj.height_px * metres_per_px / base[2])
     return seen < ctx.classes[obj.class_name].scale_range[0]
+
+
+def sliver_behind(draft: Draft, ctx: PlacementContext) -> bool:
+    """True for stuff placed just behind its occluder that is a :func:`sliver` there: a
+    piece of a far tree or pole seen past a near car, which the occluder does not bound."""
+    return draft.method is DepthMethod.BEHIND and sliver(draft, ctx)
+
+
+def sliver_facade(draft: Draft, ctx: PlacementContext) -> bool:
+    """True for a facade piece that is a :func:`sliver` at its drafted depth: too small in
+    both width and height for the smallest building of its class there (a column or a few
+    of facade at the street's vanishing point), so it is no building of its own. Never for
+    a piece cut by the image's border: what is seen of it bounds its size only from below."""
+    obj = draft.obj
+    cut = obj.top_truncated or obj.bottom_truncated or obj.sides_cut
+    return ctx.classes.has(obj.class_name, "facade") and not cut and sliver(draft, ctx)
 
 
 def move_behind_occluders(drafts: list[Draft], ctx: PlacementContext) -> list[Draft]:
@@ -145,6 +161,26 @@ def hides(stuff: Draft, thing: Draft, ctx: PlacementContext) -> bool:
     return enter < leave
 
 
+def hides_unbordered_thing(stuff: Draft, things: list[Draft], ctx: PlacementContext) -> bool:
+    """True for inferred stuff drafted where it would hide from the source camera (:func:`hides`)
+    a thing whose box its mask does not border (:func:`borders_box`).
+
+    The inferred map leaves the boxes unlabelled, so stuff standing in front of a boxed thing
+    is seen over the box's edge: its mask borders the box. A piece that does not border it
+    is not between the camera and that thing, and a draft putting it there contradicts the
+    photo. (A piece that borders the box is seen around the thing and stands behind it:
+    :func:`behind_bordered_things`.)
+
+    Args:
+        stuff: the draft of a stuff object (False unless :attr:`ImageObject.inferred`).
+        things: the drafts of the boxed things.
+        ctx: the camera.
+    """
+    if stuff.obj.is_thing or not stuff.obj.inferred:
+        return False
+    return any(hides(stuff, t, ctx) and not borders_box(stuff.obj, t.obj.box_px) for t in things)
+
+
 def behind_bordered_things(
     drafts: list[Draft], ctx: PlacementContext
 ) -> tuple[list[Draft], list[tuple[ImageObject, str]]]:
@@ -195,8 +231,9 @@ def drop_unbounded(
     """Pass: unplace the drafts whose depth says nothing useful.
 
     A depth known only as an upper bound (a cut or hidden bottom) that lies beyond the
-    world's range, or "just behind" a near occluder for a sliver of stuff too small to be
-    the whole object there (:func:`sliver_behind`).
+    world's range, "just behind" a near occluder for a sliver of stuff too small to be
+    the whole object there (:func:`sliver_behind`), or a facade piece too small for any
+    building of its class at its depth (:func:`sliver_facade`).
 
     Returns:
         (the drafts kept, ``unplaced`` followed by the dropped objects and names).
@@ -204,7 +241,7 @@ def drop_unbounded(
     far = [
         d
         for d in drafts
-        if (d.method.is_partial and d.depth_m > max_partial_depth_m) or sliver_behind(d, ctx)
+        if (d.method.is_partial and d.depth_m > max_partial_depth_m) or sliver_behind(d, ctx) or sliver_facade(d, ctx)
     ]
     kept = [d for d in drafts if not any(d is f for f in far)]
     return kept, [*unplaced, *((d.obj, d.name) for d in far)]

@@ -31,7 +31,7 @@ from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.class_table import ClassTable
 from usdworld.io.types import DepthMap
 from usdworld.io.asset_catalogue import AssetSizes
-from usdworld.layout.collision import footprint_half_extents, resolve_collisions
+from usdworld.layout.collision import Admissible, footprint_half_extents, resolve_collisions
 from usdworld.layout.draft import (
     DEFAULT_COLLISION,
     DepthMethod,
@@ -69,11 +69,15 @@ class SkipReason(Enum):
     """Why an object was not placed."""
 
     #: Nothing gives its depth: no visible ground contact and no usable height, or only an
-    #: upper bound beyond the world's range (and no occluder or street row to stand behind).
+    #: upper bound beyond the world's range (and no occluder or street row to stand behind),
+    #: or what is seen of it is smaller there than the smallest of its class.
     NO_DEPTH = "no_depth"
     #: It would have to move further than ``CollisionParams.max_displacement_m``, or search
     #: more than ``max_candidates`` spots, to clear the objects already placed (a pile).
     PILED = "piled"
+    #: Every free spot clear of the objects already placed lies where the photo contradicts
+    #: it: off the rays through its pixels, or nearer or farther than its depth cues allow.
+    NO_ROOM = "no_room"
 
 
 @dataclass(frozen=True)
@@ -209,8 +213,12 @@ def place_objects(
     drafts, no_depth = place_behind_occluders(drafts, unplaced, ctx)
     drafts = apply_ordering(drafts, ctx)
     drafts = face_the_traffic(drafts, ctx)
-    placements, piled = resolve_footprints(drafts, ctx)
-    skipped = [Skipped(n, SkipReason.NO_DEPTH) for n in no_depth] + [Skipped(n, SkipReason.PILED) for n in piled]
+    placements, piled, no_room = resolve_footprints(drafts, ctx)
+    skipped = (
+        [Skipped(n, SkipReason.NO_DEPTH) for n in no_depth]
+        + [Skipped(n, SkipReason.PILED) for n in piled]
+        + [Skipped(n, SkipReason.NO_ROOM) for n in no_room]
+    )
     return placements, skipped
 
 
@@ -237,10 +245,12 @@ def skip_warnings(skipped: list[Skipped], max_partial_depth_m: float, collision:
     """
     no_depth = [s.name for s in skipped if s.reason is SkipReason.NO_DEPTH]
     piled = [s.name for s in skipped if s.reason is SkipReason.PILED]
+    no_room = [s.name for s in skipped if s.reason is SkipReason.NO_ROOM]
     warnings = []
     if no_depth:
         warnings.append(
-            f"not placed (no visible ground contact, or only a bound beyond {max_partial_depth_m:g} m): "
+            f"not placed (no visible ground contact, only a bound beyond {max_partial_depth_m:g} m, "
+            "or smaller there than the smallest of its class): "
             + _named(no_depth)
         )
     if piled:
@@ -248,6 +258,12 @@ def skip_warnings(skipped: list[Skipped], max_partial_depth_m: float, collision:
             f"{len(piled)} objects not placed: each would have to move more than {collision.max_displacement_m:g} m, "
             f"or past {collision.max_candidates} candidate spots, to clear the objects already placed "
             "(a pile of contradictory boxes): " + _named(piled)
+        )
+    if no_room:
+        warnings.append(
+            f"{len(no_room)} objects not placed: no spot clear of the objects already placed is as near as "
+            f"{collision.depth_sigmas:g} sigma of their depth cues allow and no farther than their visible "
+            "bottom: " + _named(no_room)
         )
     return warnings
 
@@ -296,20 +312,48 @@ def apply_ordering(drafts: list[Draft], ctx: PlacementContext) -> list[Draft]:
     return out
 
 
-def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> tuple[list[Placement], list[str]]:
+def admissible_region(drafts: list[Draft], ctx: PlacementContext) -> Admissible:
+    """How near and how far each draft's centre may be moved: no nearer than
+    ``CollisionParams.depth_sigmas`` times its fused cues' sigma before its drafted depth
+    (its drafted depth when no cue has a sigma), and no farther than the bound a hidden or
+    cut bottom's visible contact gives (``Draft.upper_m``; none otherwise: farther along its
+    rays an object hides nothing that the photo shows in front of it).
+
+    Args:
+        drafts: the drafts, in the order given to the collision resolution.
+        ctx: the camera and the collision parameters.
+    """
+    camera = ctx.camera
+    ground = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    z = camera.cam_from_world_points(ground)[:, 2]
+    depths = np.empty((len(drafts), 2))
+    k = ctx.collision.depth_sigmas
+    for n, d in enumerate(drafts):
+        weights = [1.0 / c.sigma_m**2 for c in d.cues if c.available and c.sigma_m is not None]
+        sigma = 1.0 / np.sqrt(sum(weights)) if weights else 0.0
+        depths[n] = (d.depth_m - k * sigma, max(d.upper_m + d.back_m, d.depth_m))
+    eye = np.asarray(camera.center_world[:2], dtype=np.float64)
+    return Admissible(eye, np.array([z[1] - z[0], z[2] - z[0]]), float(z[0]), depths)
+
+
+def resolve_footprints(
+    drafts: list[Draft], ctx: PlacementContext
+) -> tuple[list[Placement], list[str], list[str]]:
     """Pass: resolve footprint collisions and make the placements.
 
     Things (vehicles, people) settle first: they are the photo's sharpest evidence, and a
     stuff region (a hedge, a facade chunk) should make way for them, not push them. Among
-    each kind, the nearer and more confident settle first. An object with no free spot
-    within ``CollisionParams.max_displacement_m`` (a pile of contradictory boxes) is not
-    placed (:func:`skip_warnings` says how many and why).
+    each kind, the nearer and more confident settle first. An object is moved no nearer
+    and no farther than the photo allows (:func:`admissible_region`). An object with no free spot within
+    ``CollisionParams.max_displacement_m`` (a pile of contradictory boxes), or with none
+    the photo allows, is not placed (:func:`skip_warnings` says how many and why).
 
     Returns:
-        The placements, in draft order, and the names of the objects not placed.
+        The placements, in draft order, the names of the objects piled and of those
+        with no allowed spot.
     """
     if not drafts:
-        return [], []
+        return [], [], []
     params = ctx.params
     centers = np.array([d.ground for d in drafts])
     half = footprint_half_extents(np.array([d.footprint for d in drafts]), np.array([d.yaw for d in drafts]))
@@ -320,8 +364,12 @@ def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> tuple[list
             for d in drafts
         ]
     )
-    resolved = resolve_collisions(centers, half, priority, params=ctx.collision)
-    piled = [d.name for d, ok in zip(drafts, resolved.placed) if not ok]
+    resolved = resolve_collisions(
+        centers, half, priority, params=ctx.collision, admissible=admissible_region(drafts, ctx)
+    )
+    contradicted = resolved.contradicted if resolved.contradicted is not None else np.zeros(len(drafts), bool)
+    no_room = [d.name for d, ok, c in zip(drafts, resolved.placed, contradicted) if not ok and c]
+    piled = [d.name for d, ok, c in zip(drafts, resolved.placed, contradicted) if not ok and not c]
     placements = []
     for d, disp, center, ok in zip(drafts, resolved.displacement, resolved.centers, resolved.placed):
         depth = depth_of_ground_point(ctx.camera, center) if np.any(disp) else d.depth_m
@@ -353,4 +401,4 @@ def resolve_footprints(drafts: list[Draft], ctx: PlacementContext) -> tuple[list
                 rule=d.rule,
             )
         )
-    return placements, piled
+    return placements, piled, no_room

@@ -18,7 +18,7 @@ import numpy as np
 from usdworld.io.class_table import ClassTable
 from usdworld.layout.draft import DepthMethod, Draft, Forced, PlacementContext, point_at_depth
 from usdworld.layout.drafting import draft_object
-from usdworld.layout.occlusion import bounding_occluder, drafts_by_ref
+from usdworld.layout.occlusion import bounding_occluder, drafts_by_ref, hides_unbordered_thing, sliver
 from usdworld.layout.street_lines import (
     StreetLine,
     fit_street_lines,
@@ -63,6 +63,12 @@ def onto_street_rows(
     """Pass: place on their row the members whose depth is a bound, those off their row, and
     the unplaced ones a row finds.
 
+    Inferred stuff is not stood on its row where it would hide a boxed thing whose box it does
+    not border (:func:`~usdworld.layout.occlusion.hides_unbordered_thing`): the photo shows
+    that thing uncovered, so the row is wrong for that piece, which keeps its own draft (or
+    stays unplaced). One bordering the box is left to
+    :func:`~usdworld.layout.occlusion.behind_bordered_things`, which runs next.
+
     Returns:
         (the drafts, moved ones in place and newly placed ones appended; the objects still unplaced).
     """
@@ -70,6 +76,7 @@ def onto_street_rows(
     if not lines:
         return drafts, unplaced
     by_ref = drafts_by_ref(drafts)
+    things = [d for d in drafts if d.obj.is_thing]
     out = list(drafts)
     for k, d in enumerate(drafts):
         if d.method.is_partial or d.method is DepthMethod.BEHIND:
@@ -80,12 +87,12 @@ def onto_street_rows(
             moved = onto_street_line(d.obj, d.name, d.front_depth_m, by_ref, lines, ctx)
         else:
             moved = None
-        if moved is not None:
+        if moved is not None and not hides_unbordered_thing(moved, things, ctx):
             out[k] = moved
     remaining = []
     for obj, name in unplaced:
         moved = onto_street_line(obj, name, float("inf"), by_ref, lines, ctx)
-        if moved is None:
+        if moved is None or hides_unbordered_thing(moved, things, ctx):
             remaining.append((obj, name))
         else:
             out.append(moved)
@@ -169,7 +176,9 @@ def onto_street_line(
     the front of the object hiding its bottom (unless that one's depth is itself only a
     bound from above, or it is a street tree in front of a facade: :func:`row_over_tree`),
     no farther than ``upper_m`` (its visible bottom's ground point) with the slack
-    ``line_bound_slack`` and ``line_bound_slack_m``.
+    ``line_bound_slack`` and ``line_bound_slack_m``; and what is seen of it must not be
+    smaller at the row's depth than the smallest object of its class
+    (:func:`~usdworld.layout.occlusion.sliver`: a crown a few pixels wide is no tree 3 m away).
 
     Returns:
         The draft, or None when there is no such row or they disagree.
@@ -190,6 +199,8 @@ def onto_street_line(
         return None
     moved = draft_object(replace(obj, contact_px=pixel), name, ctx, Forced(front, DepthMethod.STREET_LINE))
     if moved is None or front + moved.back_m <= 0:  # the row meets the ray behind the camera
+        return None
+    if sliver(moved, ctx):  # seen there, the smallest of its class would look larger
         return None
     return replace(
         moved, cues=(*moved.cues, _row_cue(line, front + moved.back_m, front, obj.class_name, ctx))

@@ -56,6 +56,16 @@ class CollisionParams:
         "convention: 256 x 256; a ring holds at most (2 M + 1)^2 spots for M boxes nearby, so a scene "
         "needs over 127 objects packed within max_displacement_m of one another to reach it",
     )
+    depth_sigmas: float = param(
+        3.0,
+        "count",
+        "Collision resolution moves an object no nearer the camera than this many standard deviations "
+        "of its fused depth cues before its drafted depth (one with no cue that has a sigma comes no "
+        "nearer at all), nor farther than a hidden bottom's bound: nearer, it would stand in front of what "
+        "the photo shows. An object whose nearest free spot is not allowed takes the nearest allowed one "
+        "(or slides along its viewing ray), or is not placed.",
+        "published: the three-sigma rule (99.7 % of a normally distributed error lies within 3 sigma)",
+    )
     duplicate_iou: float = param(
         0.95,
         "fraction",

@@ -57,6 +57,13 @@ class PerceptionParams:
         "A detection box's bottom counts as occluded when a lower box covers this fraction of its bottom edge.",
         "convention: a majority of the edge (commit 07357ff)",
     )
+    same_thing_iou: float = param(
+        0.5,
+        "fraction",
+        "A thing of the segmentation and a detection box are the same object when their boxes overlap by at "
+        "least this intersection over union (what hides a stuff region's bottom is then that detection).",
+        "published: the PASCAL VOC match criterion (Everingham et al., IJCV 2010, section 4.2)",
+    )
     bottom_band_fraction: float = param(
         0.15,
         "fraction",

@@ -98,7 +98,7 @@ from eval_kitti import (  # noqa: E402
 from usdworld.errors import UsdWorldError  # noqa: E402
 from usdworld.geometry.camera import PinholeCamera  # noqa: E402
 from usdworld.io.camera_files import (  # noqa: E402
-    _read_plane,
+    read_plane,
     cam2_offset_from_projection,
     pose_from_ground_plane,
     read_kitti_projection,
@@ -290,7 +290,7 @@ def frame_account(
         "pitch_deg": float(math.degrees(camera.pitch)),
     }
     if plane_path.is_file():
-        normal, d, _ = _read_plane(plane_path)
+        normal, d, _ = read_plane(plane_path)
         d2 = d - float(normal @ t_cam2)  # the plane in camera 2's frame
         plane = (normal, d2)
         h_true, pitch_true, _roll = pose_from_ground_plane(normal, d2)

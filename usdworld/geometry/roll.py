@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdworld.errors import CalibrationError
-from usdworld.geometry.vanishing import VerticalVanishingPoint, _lines
+from usdworld.geometry.vanishing import VerticalVanishingPoint, segment_lines
 from usdworld.parameters.camera import DEFAULT_CAMERA, CameraParams
 
 
@@ -113,7 +113,7 @@ def _plumb_point(segments: np.ndarray, center: np.ndarray, scale: float) -> np.n
         (3,) float64 homogeneous point ``(u, v, w)`` pixels, unit norm, ``w >= 0``.
     """
     seg = ((segments.reshape(-1, 2) - center) / scale).reshape(-1, 4)
-    lines = _lines(seg)
+    lines = segment_lines(seg)
     length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
     normal = np.array([[math.fsum(length * lines[:, i] * lines[:, j]) for j in range(3)] for i in range(3)])
     _, vectors = np.linalg.eigh(normal)

@@ -123,7 +123,7 @@ def _support_scores(segments: np.ndarray, length: np.ndarray, points: np.ndarray
     return scores
 
 
-def _lines(segments: np.ndarray) -> np.ndarray:
+def segment_lines(segments: np.ndarray) -> np.ndarray:
     """(N, 3) homogeneous lines through the segments, normalised so a^2 + b^2 = 1."""
     p = np.column_stack([segments[:, :2], np.ones(len(segments))])
     q = np.column_stack([segments[:, 2:], np.ones(len(segments))])
@@ -133,7 +133,7 @@ def _lines(segments: np.ndarray) -> np.ndarray:
 
 def _refine(segments: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, float]:
     """Weighted least-squares intersection of the lines; the point and the sigma of its v."""
-    lines = _lines(segments)
+    lines = segment_lines(segments)
     A, b = lines[:, :2], -lines[:, 2]
     w = np.sqrt(weights)
     sol, *_ = np.linalg.lstsq(A * w[:, None], b * w, rcond=None)
@@ -154,7 +154,7 @@ def _pair_intersections(seg: np.ndarray, params: CameraParams) -> tuple[np.ndarr
     Returns:
         (N,) float64 lengths and (M, 3) float64 homogeneous points (M <= ``vp_trials``).
     """
-    lines = _lines(seg)
+    lines = segment_lines(seg)
     length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
     rng = np.random.default_rng(0)
     pairs = rng.integers(0, len(seg), size=(params.vp_trials, 2))
@@ -257,7 +257,7 @@ def _refine_h(segments: np.ndarray, center: np.ndarray, scale: float) -> np.ndar
     """Length-weighted least-squares homogeneous intersection (unit norm, w >= 0), pixels."""
     norm = (segments.reshape(-1, 2) - center) / scale
     seg = norm.reshape(-1, 4)
-    lines = _lines(seg)
+    lines = segment_lines(seg)
     length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
     _, _, vt = np.linalg.svd(lines * np.sqrt(length)[:, None])
     p = vt[-1]

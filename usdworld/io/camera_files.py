@@ -276,7 +276,18 @@ def cam2_offset_from_projection(P: np.ndarray) -> np.ndarray:
 # --- ground plane ---------------------------------------------------------------------
 
 
-def _read_plane(path: PathLike) -> tuple[np.ndarray, float, InputFile]:
+def read_plane(path: PathLike) -> tuple[np.ndarray, float, InputFile]:
+    """A KITTI road-plane file: the plane ``a x + b y + c z + d = 0`` as written, in KITTI's
+    rectified reference-camera frame (camera 0; :func:`cam2_offset_from_projection` moves it).
+
+    Returns:
+        ((3,) float64 normal (a, b, c) as written (KITTI writes a unit normal), d in metres, the
+        file read).
+
+    Raises:
+        InputError: the file is not one plane line after the optional header, or its
+            coefficients are not finite numbers.
+    """
     data, file = read_input(path, "ground_plane")
     name = file.name
     rows = []
@@ -472,7 +483,7 @@ def read_camera(
                 f"{name}: already gives {parsed.where[given[0]].split(' -> ', 1)[1]}; "
                 "a ground-plane file is only for camera files without extrinsics, pass one of the two"
             )
-        normal, d, plane_file = _read_plane(planes_path)
+        normal, d, plane_file = read_plane(planes_path)
         if parsed.cam_offset is not None:
             d = d - float(normal @ parsed.cam_offset)  # the plane seen from camera 2, not camera 0
         parsed.height_m, parsed.pitch, parsed.roll = pose_from_ground_plane(normal, d)

@@ -300,7 +300,9 @@ class PlacementParams:
         "planes 6.7 % -> 4.1 % and nuScenes 6.1 % -> 5.5 %, but the synthetic set (flat ground) 0.43 -> 1.08 m "
         "for cars (measured with the road plane fixed). With the plane a prior that the objects refine "
         "(CameraParams.plane_height_sigma_m) 0.14 m moves KITTI 0-9 --planes 3.8 % -> 3.4 % but its p90 "
-        "7.8 % -> 8.6 % (5 objects better, 6 worse); see BENCHMARKS / the bias report before turning it on.",
+        "7.8 % -> 8.6 % (5 objects better, 6 worse); see BENCHMARKS / the bias report before turning it on. "
+        "A camera rig (build --views) measures the spread from its own objects and adds it in quadrature "
+        "(usdworld.views.unevenness).",
         "published: road crossfall 1.5-2.5 % (AASHTO, A Policy on Geometric Design of Highways and "
         "Streets, 2018, sec. 4.2.2); default off to keep the synthetic set",
     )

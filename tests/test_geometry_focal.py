@@ -52,7 +52,7 @@ def test_street_and_vertical_lines_give_f_back():
     f_true, w, h = 900.0, 1280, 720
     street, segments = _street_and_poles(8.0, f_true, w, h)
     assert find_vertical_vanishing_point(segments, w, h) is not None
-    cue = vanishing_focal_cue(street, segments, w, h, CameraParams())
+    cue = vanishing_focal_cue(street, find_vertical_vanishing_point(segments, w, h), w, h, CameraParams())
     assert cue is not None and cue.source == "vanishing_points"
     assert cue.f_px == pytest.approx(f_true, rel=0.05)
     assert cue.sigma_log < 0.5
@@ -92,7 +92,8 @@ def test_a_nearly_level_camera_makes_the_vanishing_point_cue_weak():
     sigmas = []
     for pitch in (1.0, 3.0, 8.0):
         street, segments = _street_and_poles(pitch)
-        cue = vanishing_focal_cue(street, segments, 1280, 720, CameraParams())
+        vertical = find_vertical_vanishing_point(segments, 1280, 720)
+        cue = vanishing_focal_cue(street, vertical, 1280, 720, CameraParams())
         assert cue is not None and cue.f_px == pytest.approx(900.0, rel=1e-6)
         sigmas.append(cue.sigma_log)
     assert sigmas[0] > 0.6 and sigmas[2] < 0.15

@@ -396,9 +396,19 @@ def read_scene_head(
     objects = _objects(dets, image, seg, view, table, params)
     catalogue = asset_catalogue((o.class_name for o in objects), libraries)
     focal = None
-    if spec is None or spec.K is None:  # no intrinsics given: the photo's own cues (EXIF, lines, vehicles)
+    no_intrinsics = spec is None or spec.K is None
+    no_roll = spec is None or spec.roll is None
+    # The poles' and building edges' vanishing point, found once: the focal length and the roll use it.
+    vertical = (
+        find_vertical_vanishing_point(segments, image.width, image.height, params.camera)
+        if no_intrinsics or no_roll
+        else None
+    )
+    if no_intrinsics:  # the photo's own cues (EXIF, lines, vehicles)
         exif = read_exif_focal(request.image, image.width, image.height)
-        focal = estimate_focal(image.width, image.height, objects, table, vanishing, segments, exif, params.camera)
+        focal = estimate_focal(
+            image.width, image.height, objects, table, vanishing, segments, vertical, exif, params.camera
+        )
     lanes = None
     if params.camera.lane_height_cue:
         lanes = find_lane_markings(
@@ -409,10 +419,8 @@ def read_scene_head(
             params.camera,
         )
     roll = None
-    if spec is None or spec.roll is None:  # no roll given: the photo's verticals measure it
-        vertical = find_vertical_vanishing_point(segments, image.width, image.height, params.camera)
-        if vertical is not None:
-            roll = roll_from_vertical(vertical, image.width, image.height, params.camera)
+    if no_roll and vertical is not None:  # no roll given: the photo's verticals measure it
+        roll = roll_from_vertical(vertical, image.width, image.height, params.camera)
     camera = _camera(spec, image, objects, seg, catalogue, vanishing, table, params, focal, lanes, roll)
     inferred, why = None, ""
     boxes_given = request.detections is not None or request.detection_items is not None

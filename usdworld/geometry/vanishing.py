@@ -322,7 +322,7 @@ def principal_point_f2_sigma(
 
 def vanishing_focal_cue(
     street: VanishingPoint | None,
-    segments: np.ndarray,
+    vertical: VerticalVanishingPoint | None,
     width: int,
     height: int,
     params: CameraParams = DEFAULT_CAMERA,
@@ -341,10 +341,10 @@ def vanishing_focal_cue(
 
     Args:
         street: the street's vanishing point, or None.
-        segments: (N, 4) the photo's segments, pixels.
+        vertical: the vertical's vanishing point (:func:`find_vertical_vanishing_point`), or None.
         width: image width, pixels.
         height: image height, pixels.
-        params: the detection and spread settings.
+        params: the spread settings.
 
     Returns:
         A :class:`~usdworld.geometry.focal.FocalCue`, or None when a point is missing or
@@ -354,7 +354,6 @@ def vanishing_focal_cue(
 
     if street is None:
         return None
-    vertical = find_vertical_vanishing_point(segments, width, height, params)
     if vertical is None or vertical.point_h[2] <= 1e-12:
         return None
     c = principal_point(width, height)

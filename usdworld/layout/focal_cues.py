@@ -21,7 +21,7 @@ from usdworld.geometry.focal import BoxShapes, FocalCue, FocalEstimate, box_shap
 from usdworld.geometry.lateral import lateral_focal_cue, tilt_from_vanishing_points
 from usdworld.geometry.vanishing import (
     VanishingPoint,
-    find_vertical_vanishing_point,
+    VerticalVanishingPoint,
     horizon_measurement,
     vanishing_focal_cue,
 )
@@ -76,6 +76,7 @@ def estimate_focal(
     table: ClassTable,
     street: VanishingPoint | None,
     segments: np.ndarray,
+    vertical: VerticalVanishingPoint | None,
     exif: ExifFocal | None,
     params: CameraParams,
 ) -> FocalEstimate:
@@ -88,6 +89,8 @@ def estimate_focal(
         table: the class table.
         street: the street's vanishing point, or None.
         segments: (N, 4) the photo's line segments, pixels.
+        vertical: the vertical's vanishing point on ``segments``
+            (:func:`~usdworld.geometry.vanishing.find_vertical_vanishing_point`), or None.
         exif: the EXIF focal length, or None.
         params: the camera parameters.
     """
@@ -95,10 +98,9 @@ def estimate_focal(
     cues: list[FocalCue] = [prior]
     if exif is not None:
         cues.append(exif_cue(exif.f_px, exif.detail, params))
-    vp = vanishing_focal_cue(street, segments, width, height, params)
+    vp = vanishing_focal_cue(street, vertical, width, height, params)
     if vp is not None:
         cues.append(vp)
-    vertical = find_vertical_vanishing_point(segments, width, height, params)
     lateral = None
     if street is not None:
         lateral_cue, point = lateral_focal_cue(street, segments, width, height, params)

@@ -89,6 +89,7 @@ from eval_kitti import (  # noqa: E402
     LINEUP_IOU,
     VEHICLES,
     _box_iou,
+    add_build_arguments,
     build_frame,
     compare_frame,
     projected_box,
@@ -105,7 +106,6 @@ from usdworld.io.camera_files import (  # noqa: E402
 )
 from usdworld.io.class_table import load_class_table  # noqa: E402
 from usdworld.pipeline import BuildRequest, BuildResult  # noqa: E402
-from usdworld.resources import evaluation_data_dir  # noqa: E402
 
 #: Issue 22's target for one object's relative depth error.
 DEPTH_TARGET = 0.03
@@ -446,18 +446,8 @@ def print_account(misses: list[dict], frames: dict[str, dict], summary: dict) ->
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument(
-        "data_dir",
-        type=Path,
-        nargs="?",
-        default=evaluation_data_dir() / "kitti" / "training",
-        help="KITTI object folder with image_2, label_2, calib (planes); default $USDWORLD_DATA/kitti/training",
-    )
-    parser.add_argument("--planes", action="store_true", help="also pass the road plane (as eval_kitti.py)")
-    parser.add_argument("--no-camera", action="store_true", help="build without the calibration (as eval_kitti.py)")
-    parser.add_argument("--traffic", choices=("right", "left"), default="right", help="as eval_kitti.py")
+    add_build_arguments(parser)
     parser.add_argument("--frames", nargs="+", metavar="FRAME", help="only these frames (default: all in image_2)")
-    parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     args = parser.parse_args(argv)
     if args.no_camera and args.planes:
         parser.error("--no-camera cannot be combined with --planes (it needs the calibration)")

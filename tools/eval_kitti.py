@@ -308,8 +308,9 @@ def print_tables(summary: dict, frames: dict[str, dict], show_focal: bool) -> No
         print(_table_line(name, s, frames[name]["focal_error"] if show_focal else None))
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def add_build_arguments(parser: argparse.ArgumentParser) -> None:
+    """The arguments that say how each frame is built (:func:`build_frame`): the data folder,
+    ``--planes``, ``--no-camera`` and ``--traffic``; shared with ``tools/account_kitti.py``."""
     parser.add_argument(
         "data_dir",
         type=Path,
@@ -326,12 +327,6 @@ def main(argv: list[str] | None = None) -> int:
         help="build without the calibration (intrinsics from the photo); report the focal-length error",
     )
     parser.add_argument(
-        "--level-camera",
-        type=float,
-        metavar="HEIGHT_M",
-        help="baseline: assume a level camera (zero pitch and roll) at this height instead of estimating",
-    )
-    parser.add_argument(
         "--traffic",
         choices=("right", "left"),
         default="right",
@@ -339,6 +334,17 @@ def main(argv: list[str] | None = None) -> int:
         "(Karlsruhe) and nuScenes Boston, left for nuScenes Singapore",
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_build_arguments(parser)
+    parser.add_argument(
+        "--level-camera",
+        type=float,
+        metavar="HEIGHT_M",
+        help="baseline: assume a level camera (zero pitch and roll) at this height instead of estimating",
+    )
     parser.add_argument("--verbose", action="store_true", help="print one line per object")
     args = parser.parse_args(argv)
     if args.no_camera and (args.planes or args.level_camera is not None):

@@ -62,9 +62,9 @@ from usdworld.layout.camera_cues import height_observations, road_top_row, stree
 from usdworld.layout.focal_cues import estimate_focal
 from usdworld.layout.heading import check_traffic
 from usdworld.layout.model import WorldModel
-from usdworld.layout.placement import Skipped, place_objects, skip_warnings
+from usdworld.layout.placement import Placement, Skipped, place_objects, skip_warnings
 from usdworld.layout.surfaces import SURFACE_CLASSES, build_surfaces, fill_hidden_ground, surface_points
-from usdworld.layout.yaw import road_axis
+from usdworld.layout.yaw import RoadAxis, road_axis
 from usdworld.light_stage import estimate_scene_light, light_rig, world_lighting
 from usdworld.output_dir import prepare_output as _prepare_output
 from usdworld.output_dir import swap_in as _swap_in
@@ -510,19 +510,35 @@ def perceive(request: BuildRequest, libraries: tuple[Path, ...]) -> PerceivedVie
     return PerceivedView(params, head, dense, fit, dlt_source, _inputs(request, head), request.traffic)
 
 
-def place_view(perceived: PerceivedView, placement: PlacementParams | None = None) -> WorldModel:
-    """Place a perceived photo's objects and compute what follows from them: the metric world.
+@dataclass(frozen=True)
+class PlacedView:
+    """A perceived photo's objects placed: what :func:`finish_view` completes to a world (picklable).
 
-    The road axis, the placements, the ground surfaces, the light (the placed objects' shadows)
-    and the colours measured for that light; ``place_view(perceive(r, libs))`` is
-    :func:`build_model`.
+    Attributes:
+        perceived: the photo's work up to the placement.
+        params: the parameters placed with: the perceived ones with the placement section given
+            to :func:`place_view`.
+        axis: the road axis.
+        placements: the placed objects, in the objects' order.
+        skipped: the objects that could not be placed.
+    """
+
+    perceived: PerceivedView = field(repr=False)
+    params: Parameters = field(repr=False)
+    axis: RoadAxis
+    placements: tuple[Placement, ...]
+    skipped: tuple[Skipped, ...]
+
+
+def place_view(perceived: PerceivedView, placement: PlacementParams | None = None) -> PlacedView:
+    """Place a perceived photo's objects: the road axis and the placements.
 
     Args:
         perceived: the photo's work up to the placement (:func:`perceive`).
         placement: the placement numbers to place with; None for those it was perceived with.
 
     Returns:
-        The world model.
+        The placed view (:func:`finish_view` makes its world).
 
     Raises:
         ValueError: ``placement`` has another curb height than the one the photo was
@@ -538,7 +554,6 @@ def place_view(perceived: PerceivedView, placement: PlacementParams | None = Non
         params = dataclasses.replace(params, placement=placement)
     head, fit = perceived.head, perceived.fit
     max_range_m = params.scene.max_range_m
-    table = load_class_table()
     camera = head.camera.camera
     stride = params.scene.surface_stride_px
     road = _label_mask(head.seg, "road")
@@ -558,7 +573,7 @@ def place_view(perceived: PerceivedView, placement: PlacementParams | None = Non
         fit.dst_from_src,
         axis,
         head.catalogue,
-        table,
+        load_class_table(),
         params.placement,
         perceived.dense.depth_map,
         camera_sigma=(head.camera.sigma_height_m, head.camera.sigma_pitch),
@@ -569,9 +584,29 @@ def place_view(perceived: PerceivedView, placement: PlacementParams | None = Non
         collision=params.collision,
         perception=params.perception,
     )
+    return PlacedView(perceived, params, axis, tuple(placements), tuple(skipped))
+
+
+def finish_view(placed: PlacedView) -> WorldModel:
+    """What follows from the placements: the ground surfaces, the light (the placed objects'
+    shadows), the colours measured for that light, and the metric world.
+
+    Args:
+        placed: the placed view (:func:`place_view`).
+
+    Returns:
+        The world model.
+    """
+    perceived, params, placements = placed.perceived, placed.params, list(placed.placements)
+    head, fit = perceived.head, perceived.fit
+    max_range_m = params.scene.max_range_m
+    table = load_class_table()
+    camera = head.camera.camera
     filled = None
     if head.seg is not None:
-        filled = fill_hidden_ground(np.asarray(head.seg.label_ids), placements, camera, axis.angle, table, params.scene)
+        filled = fill_hidden_ground(
+            np.asarray(head.seg.label_ids), placements, camera, placed.axis.angle, table, params.scene
+        )
     surface_ids = {name: [label_lookups().id_of(c) for c in classes] for name, classes in SURFACE_CLASSES.items()}
     surfaces = build_surfaces(
         filled, surface_ids, camera, fit.dst_from_src, params.placement.curb_height_m, max_range_m
@@ -596,14 +631,14 @@ def place_view(perceived: PerceivedView, placement: PlacementParams | None = Non
         camera=head.camera,
         ground_fit=fit,
         dlt_source=perceived.dlt_source,
-        placements=tuple(placements),
+        placements=placed.placements,
         surfaces=tuple(surfaces),
         inputs=perceived.inputs,
         depth_source=dense.source,
         depth_kind=dense.kind,
         depth_alignment=dense.alignment,
         depth_fit=dense.fit,
-        warnings=_warnings(head, skipped, max_range_m, params),
+        warnings=_warnings(head, list(placed.skipped), max_range_m, params),
         appearances=appearances,
         light=light,
         lights=light_rig(lighting),
@@ -618,9 +653,9 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         libraries: asset libraries, user first.
 
     Returns:
-        The world model: :func:`place_view` of :func:`perceive`.
+        The world model: :func:`finish_view` of :func:`place_view` of :func:`perceive`.
     """
-    return place_view(perceive(request, libraries))
+    return finish_view(place_view(perceive(request, libraries)))
 
 
 # --- output ---------------------------------------------------------------------------

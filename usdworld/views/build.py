@@ -1,7 +1,7 @@
 """``build --views``: several views of one rig to one world folder (pipeline level: wiring only).
 
-Each view runs the single-image stages (:func:`usdworld.pipeline.perceive`, then
-:func:`usdworld.pipeline.place_view`) with its
+Each view runs the single-image stages (:func:`usdworld.pipeline.perceive`,
+:func:`~usdworld.pipeline.place_view`, :func:`~usdworld.pipeline.finish_view`) with its
 exact intrinsics and the camera its pose gives (height, pitch, roll above the ground; no
 estimation), in a local process pool when there are several. Their placements are moved
 into the rig's world (:mod:`usdworld.views.rig`), associated and fused
@@ -41,8 +41,17 @@ from usdworld.layout.model import WorldModel
 from usdworld.output_dir import prepare_output, swap_in
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.parameters.base import plain, section_rows
+from usdworld.parameters.placement import PlacementParams
 from usdworld.parameters.views import ViewsParams
-from usdworld.pipeline import BuildRequest, BuildResult, PerceivedView, perceive, place_view
+from usdworld.pipeline import (
+    BuildRequest,
+    BuildResult,
+    PerceivedView,
+    PlacedView,
+    finish_view,
+    perceive,
+    place_view,
+)
 from usdworld.report import make_report
 from usdworld.views.drive import DriveObject, frame_times, track_drive
 from usdworld.views.fusion import FusedObject, fuse, observations
@@ -203,13 +212,20 @@ def perceive_view(request: ViewsRequest, index: int) -> PerceivedView:
 
 def view_model(request: ViewsRequest, index: int) -> WorldModel:
     """One view's own world, in its ground frame, placed with the request's parameters."""
+    return finish_view(place_view(perceive_view(request, index)))
+
+
+def _perceived_and_placed(request: ViewsRequest, index: int) -> PlacedView:
+    """A worker process's first task: one view perceived and placed with the request's parameters."""
     return place_view(perceive_view(request, index))
 
 
-def _perceived_and_placed(request: ViewsRequest, index: int) -> tuple[PerceivedView, WorldModel]:
-    """A worker process's first task: one view perceived, and its world placed with the request's parameters."""
-    perceived = perceive_view(request, index)
-    return perceived, place_view(perceived)
+def _view_world(placed: PlacedView, placement: PlacementParams | None) -> WorldModel:
+    """A worker process's second task: one view's world from its placements, or, given
+    ``placement``, from its objects placed again with those numbers."""
+    if placement is not None:
+        placed = place_view(placed.perceived, placement)
+    return finish_view(placed)
 
 
 #: ``map`` over the views: the built-in one, or a local process pool's.
@@ -228,10 +244,12 @@ def _view_map(n_views: int, jobs: int | None) -> Iterator[ViewMap]:
         yield lambda fn, *args: list(pool.map(fn, *args))
 
 
-def measured_ground_spread(view_models: Sequence[WorldModel]) -> float:
+def measured_ground_spread(views: Sequence[PlacedView]) -> float:
     """The rig's ground height spread about the plane under the car, metres, measured from every
-    view's objects (:mod:`usdworld.views.unevenness`)."""
-    return ground_height_spread(ground_heights((m.placements, m.camera.camera.height_m) for m in view_models))
+    view's placed objects (:mod:`usdworld.views.unevenness`)."""
+    return ground_height_spread(
+        ground_heights((v.placements, v.perceived.head.camera.camera.height_m) for v in views)
+    )
 
 
 def _uneven_request(request: ViewsRequest, spread_m: float) -> ViewsRequest:
@@ -249,17 +267,21 @@ def build_rig_model(request: ViewsRequest) -> RigModel:
     (:func:`measured_ground_spread` > 0), the views are placed again (:func:`usdworld.pipeline.place_view`,
     from what they perceived) with that spread widening their contact cues, so each object's
     depth leans on its class height where its contact is unsure (:attr:`RigModel.ground_spread_m`).
-    Both passes run in the same local process pool when ``request.jobs`` allows several workers.
+    What follows from the placements (light, colours: :func:`usdworld.pipeline.finish_view`) runs
+    once, on the final ones. Both passes run in one local process pool when ``request.jobs``
+    allows several workers.
     """
     n = len(request.views.views)
     with _view_map(n, request.jobs) as view_map:
-        perceived, view_models = zip(*view_map(_perceived_and_placed, [request] * n, range(n)))
-        spread = measured_ground_spread(view_models)
+        placed = view_map(_perceived_and_placed, [request] * n, range(n))
+        spread = measured_ground_spread(placed)
+        placement = None
         if spread > 0.0:
             # Only the placement reads the contact cues' unevenness: each view is placed again from
             # what it perceived (its photo, objects, camera and depth are not measured again).
             request = _uneven_request(request, spread)
-            view_models = tuple(view_map(place_view, perceived, [request.parameters.placement] * n))
+            placement = request.parameters.placement
+        view_models = view_map(_view_world, placed, [placement] * n)
     views = request.views.views
     poses = [
         world_from_ground(v.world_from_cam, m.camera.camera.world_from_cam())

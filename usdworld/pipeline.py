@@ -12,6 +12,12 @@ dense depth; the ground homography; the road axis; placement; the ground surface
 sun and sky (light, from the shadows the placed objects cast and the sky's pixels); the
 colours of objects and surfaces measured in the photo (appearance, for that light); the
 world's layers and ``report.json``.
+
+:func:`build_model` runs them in three typed steps, so a photo can be placed again with other
+placement numbers without being perceived again (a camera rig, :mod:`usdworld.views.build`):
+:func:`perceive` (everything up to the placement: :class:`PerceivedView`), :func:`place_view`
+(the road axis and the placements: :class:`PlacedView`) and :func:`finish_view` (surfaces,
+light, colours: the :class:`~usdworld.layout.model.WorldModel`).
 """
 
 from __future__ import annotations

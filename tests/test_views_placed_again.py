@@ -42,7 +42,9 @@ def walkway(tmp_path_factory: pytest.TempPathFactory) -> ViewsRequest:
     return ViewsRequest(read_views_manifest(manifest), folder / "world", jobs=1)
 
 
-def test_a_rig_placed_again_equals_its_views_built_from_scratch_with_the_spread(walkway: ViewsRequest) -> None:
+def test_a_rig_placed_again_equals_its_views_built_from_scratch_with_the_spread(
+    walkway: ViewsRequest,
+) -> None:
     rig = build_rig_model(walkway)
     assert rig.ground_spread_m > 0.3
     widened = _uneven_request(walkway, rig.ground_spread_m)
@@ -54,7 +56,9 @@ def test_a_rig_placed_again_equals_its_views_built_from_scratch_with_the_spread(
         assert [p.depth_m for p in model.placements] != [p.depth_m for p in first.placements]
 
 
-def test_placing_again_does_not_perceive_again(walkway: ViewsRequest, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_placing_again_does_not_perceive_again(
+    walkway: ViewsRequest, monkeypatch: pytest.MonkeyPatch
+) -> None:
     calls = {"perceived": 0, "light": 0}
     read_scene_head = usdworld.pipeline.read_scene_head
     estimate_scene_light = usdworld.pipeline.estimate_scene_light
@@ -72,7 +76,8 @@ def test_placing_again_does_not_perceive_again(walkway: ViewsRequest, monkeypatc
     rig = build_rig_model(walkway)
     assert rig.ground_spread_m > 0.0  # placed twice ...
     n = len(walkway.views.views)
-    assert calls == {"perceived": n, "light": n}  # ... perceived once, and its light found on the final placements only
+    # ... perceived once, and its light found on the final placements only
+    assert calls == {"perceived": n, "light": n}
 
 
 def test_a_perceived_view_pickles_and_places_as_before(walkway: ViewsRequest) -> None:
@@ -83,7 +88,8 @@ def test_a_perceived_view_pickles_and_places_as_before(walkway: ViewsRequest) ->
     placement = _uneven_request(walkway, 0.4).parameters.placement
     again = pickle.loads(pickle.dumps(place_view(pickle.loads(pickle.dumps(perceived)), placement)))
     params = perceived.params.replace(placement={"ground_height_sigma_m": placement.ground_height_sigma_m})
-    assert _report(finish_view(again), params) == _report(finish_view(place_view(perceived, placement)), params)
+    direct = finish_view(place_view(perceived, placement))
+    assert _report(finish_view(again), params) == _report(direct, params)
 
 
 @pytest.fixture(scope="module")
@@ -107,11 +113,14 @@ def test_placing_a_perceived_photo_equals_building_it_with_those_numbers(
     direct = build_model(BuildRequest(output=tmp_path / "w", params=params, **street), library_dirs(None))
     assert _report(finish_view(place_view(perceived, params.placement)), params) == _report(direct, params)
     unchanged = build_model(request, library_dirs(None))
-    assert _report(finish_view(place_view(perceived)), DEFAULT_PARAMETERS) == _report(unchanged, DEFAULT_PARAMETERS)
+    again = finish_view(place_view(perceived))
+    assert _report(again, DEFAULT_PARAMETERS) == _report(unchanged, DEFAULT_PARAMETERS)
     assert _report(unchanged, params) != _report(direct, params)  # the numbers do move the placements
 
 
-def test_a_curb_height_the_photo_was_not_perceived_with_is_refused(street: dict[str, Path], tmp_path: Path) -> None:
+def test_a_curb_height_the_photo_was_not_perceived_with_is_refused(
+    street: dict[str, Path], tmp_path: Path
+) -> None:
     perceived = perceive(BuildRequest(output=tmp_path / "w", **street), library_dirs(None))
     curb = DEFAULT_PARAMETERS.placement.curb_height_m + 0.05
     with pytest.raises(ValueError, match="curb_height_m"):

@@ -16,7 +16,8 @@ alternating order, so the two compare within one run on a loaded machine.
 
 Usage::
 
-    python tools/bench_views.py [INFO] [--runs 3] [--jobs 1 2] [--views 1 2 3 4 5 6] [--baseline REPO] [--json]
+    python tools/bench_views.py [INFO] [--runs 3] [--jobs 1 2] [--views 1 2 3 4 5 6]
+                                [--baseline REPO] [--json]
 """
 
 from __future__ import annotations
@@ -86,9 +87,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("info", nargs="?", type=Path, default=None)
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--jobs", type=int, nargs="+", default=[1, 2], help="worker counts (1: no pool)")
-    parser.add_argument("--views", type=int, nargs="+", default=None, help="view counts (default 1 .. all)")
-    parser.add_argument("--baseline", type=Path, default=None, help="another usdworld checkout timed alongside")
-    parser.add_argument("--json", action="store_true", help="print every measurement as one JSON line at the end")
+    parser.add_argument("--views", type=int, nargs="+", default=None, help="view counts (default: 1 .. all)")
+    parser.add_argument("--baseline", type=Path, default=None, help="another checkout timed alongside")
+    parser.add_argument("--json", action="store_true", help="print every measurement as one JSON line")
     args = parser.parse_args(argv)
     sys.path.insert(0, str(REPO))
     from usdworld.resources import evaluation_data_dir
@@ -109,7 +110,8 @@ def main(argv: list[str] | None = None) -> int:
                     loads.append(os.getloadavg()[0])
     print(
         f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
-        f"load average {min(loads):.1f}-{max(loads):.1f}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
+        f"load average {min(loads):.1f}-{max(loads):.1f}, "
+        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
         f"median of {args.runs}, each a fresh process; this = {REPO}"
         + (f", baseline = {repos['baseline']}" if "baseline" in repos else "")
     )

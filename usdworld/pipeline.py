@@ -12,10 +12,17 @@ dense depth; the ground homography; the road axis; placement; the ground surface
 sun and sky (light, from the shadows the placed objects cast and the sky's pixels); the
 colours of objects and surfaces measured in the photo (appearance, for that light); the
 world's layers and ``report.json``.
+
+:func:`build_model` runs them in three typed steps, so a photo can be placed again with other
+placement numbers without being perceived again (a camera rig, :mod:`usdworld.views.build`):
+:func:`perceive` (everything up to the placement: :class:`PerceivedView`), :func:`place_view`
+(the road axis and the placements: :class:`PlacedView`) and :func:`finish_view` (surfaces,
+light, colours: the :class:`~usdworld.layout.model.WorldModel`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import math
@@ -61,13 +68,14 @@ from usdworld.layout.camera_cues import height_observations, road_top_row, stree
 from usdworld.layout.focal_cues import estimate_focal
 from usdworld.layout.heading import check_traffic
 from usdworld.layout.model import WorldModel
-from usdworld.layout.placement import Skipped, place_objects, skip_warnings
+from usdworld.layout.placement import Placement, Skipped, place_objects, skip_warnings
 from usdworld.layout.surfaces import SURFACE_CLASSES, build_surfaces, fill_hidden_ground, surface_points
-from usdworld.layout.yaw import road_axis
+from usdworld.layout.yaw import RoadAxis, road_axis
 from usdworld.light_stage import estimate_scene_light, light_rig, world_lighting
 from usdworld.output_dir import prepare_output as _prepare_output
 from usdworld.output_dir import swap_in as _swap_in
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
+from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.dedupe import merge_duplicates
 from usdworld.perception.facades import StreetView
 from usdworld.perception.streets import StreetLabels
@@ -452,20 +460,47 @@ def depth_for_image(request: BuildRequest) -> tuple[DepthOutcome, PinholeCamera]
     return outcome, head.camera.camera
 
 
-def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldModel:
-    """Read the inputs and compute the metric world (no output written).
+@dataclass(frozen=True)
+class PerceivedView:
+    """A photo's work up to the placement: what :func:`place_view` places (picklable).
+
+    Everything here is read or measured from the inputs with ``params`` and none of it
+    depends on the placement section but its curb height (the street view's facades read it),
+    so one photo can be placed again with other placement numbers (a camera rig widens the
+    contact cues by the ground's spread its views measure, :mod:`usdworld.views.build`)
+    without decoding, perceiving or estimating anything again.
+
+    Attributes:
+        params: the parameters the photo was perceived with (``BuildRequest.parameters``).
+        head: the inputs, vanishing point, image objects, asset catalogue and camera.
+        dense: the dense depth and how it was made metric.
+        fit: the ground homography.
+        dlt_source: where its correspondences came from, ``manual`` or ``camera_model``.
+        inputs: every input file with its digest, for the provenance.
+        traffic: the side traffic keeps to.
+    """
+
+    params: Parameters
+    head: SceneHead = field(repr=False)
+    dense: DepthOutcome = field(repr=False)
+    fit: HomographyFit = field(repr=False)
+    dlt_source: str
+    inputs: tuple[InputFile, ...]
+    traffic: str
+
+
+def perceive(request: BuildRequest, libraries: tuple[Path, ...]) -> PerceivedView:
+    """Read the inputs and do a photo's work up to the placement (no output written).
 
     Args:
         request: the inputs.
         libraries: asset libraries, user first.
 
     Returns:
-        The world model.
+        What :func:`place_view` places.
     """
     params = request.parameters
-    max_range_m = params.scene.max_range_m
-    table = load_class_table()
-    head = read_scene_head(request, libraries, table, params)
+    head = read_scene_head(request, libraries, load_class_table(), params)
     camera = head.camera.camera
     dense = estimate_depth(
         request.depth,
@@ -478,6 +513,54 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         params.perception,
     )
     fit, dlt_source = _ground_fit(request, camera, params)
+    return PerceivedView(params, head, dense, fit, dlt_source, _inputs(request, head), request.traffic)
+
+
+@dataclass(frozen=True)
+class PlacedView:
+    """A perceived photo's objects placed: what :func:`finish_view` completes to a world (picklable).
+
+    Attributes:
+        perceived: the photo's work up to the placement.
+        params: the parameters placed with: the perceived ones with the placement section given
+            to :func:`place_view`.
+        axis: the road axis.
+        placements: the placed objects, in the objects' order.
+        skipped: the objects that could not be placed.
+    """
+
+    perceived: PerceivedView = field(repr=False)
+    params: Parameters = field(repr=False)
+    axis: RoadAxis
+    placements: tuple[Placement, ...]
+    skipped: tuple[Skipped, ...]
+
+
+def place_view(perceived: PerceivedView, placement: PlacementParams | None = None) -> PlacedView:
+    """Place a perceived photo's objects: the road axis and the placements.
+
+    Args:
+        perceived: the photo's work up to the placement (:func:`perceive`).
+        placement: the placement numbers to place with; None for those it was perceived with.
+
+    Returns:
+        The placed view (:func:`finish_view` makes its world).
+
+    Raises:
+        ValueError: ``placement`` has another curb height than the one the photo was
+            perceived with (the street view read it before the placement).
+    """
+    params = perceived.params
+    if placement is not None:
+        if placement.curb_height_m != params.placement.curb_height_m:
+            raise ValueError(
+                f"placement.curb_height_m {placement.curb_height_m} differs from the "
+                f"{params.placement.curb_height_m} the photo was perceived with; perceive it again"
+            )
+        params = dataclasses.replace(params, placement=placement)
+    head, fit = perceived.head, perceived.fit
+    max_range_m = params.scene.max_range_m
+    camera = head.camera.camera
     stride = params.scene.surface_stride_px
     road = _label_mask(head.seg, "road")
     sidewalk = _label_mask(head.seg, "sidewalk")
@@ -488,7 +571,7 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         surface_points(axis_road, fit.dst_from_src, camera, max_range_m, stride) if axis_road is not None else None,
         vanishing_angle=vanishing_yaw(head.vanishing, camera),
         params=params.placement,
-        traffic=request.traffic,
+        traffic=perceived.traffic,
     )
     placements, skipped = place_objects(
         head.objects,
@@ -496,9 +579,9 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         fit.dst_from_src,
         axis,
         head.catalogue,
-        table,
+        load_class_table(),
         params.placement,
-        dense.depth_map,
+        perceived.dense.depth_map,
         camera_sigma=(head.camera.sigma_height_m, head.camera.sigma_pitch),
         max_partial_depth_m=max_range_m,
         sidewalk_ground=surface_points(sidewalk, fit.dst_from_src, camera, max_range_m, stride)
@@ -507,9 +590,29 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         collision=params.collision,
         perception=params.perception,
     )
+    return PlacedView(perceived, params, axis, tuple(placements), tuple(skipped))
+
+
+def finish_view(placed: PlacedView) -> WorldModel:
+    """What follows from the placements: the ground surfaces, the light (the placed objects'
+    shadows), the colours measured for that light, and the metric world.
+
+    Args:
+        placed: the placed view (:func:`place_view`).
+
+    Returns:
+        The world model.
+    """
+    perceived, params, placements = placed.perceived, placed.params, list(placed.placements)
+    head, fit = perceived.head, perceived.fit
+    max_range_m = params.scene.max_range_m
+    table = load_class_table()
+    camera = head.camera.camera
     filled = None
     if head.seg is not None:
-        filled = fill_hidden_ground(np.asarray(head.seg.label_ids), placements, camera, axis.angle, table, params.scene)
+        filled = fill_hidden_ground(
+            np.asarray(head.seg.label_ids), placements, camera, placed.axis.angle, table, params.scene
+        )
     surface_ids = {name: [label_lookups().id_of(c) for c in classes] for name, classes in SURFACE_CLASSES.items()}
     surfaces = build_surfaces(
         filled, surface_ids, camera, fit.dst_from_src, params.placement.curb_height_m, max_range_m
@@ -527,24 +630,38 @@ def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldMode
         lighting,
         labels_inferred=head.inferred is not None,
     )
+    dense = perceived.dense
     return WorldModel(
         image_name=head.image.file.name,
         image_size=(head.image.width, head.image.height),
         camera=head.camera,
         ground_fit=fit,
-        dlt_source=dlt_source,
-        placements=tuple(placements),
+        dlt_source=perceived.dlt_source,
+        placements=placed.placements,
         surfaces=tuple(surfaces),
-        inputs=_inputs(request, head),
+        inputs=perceived.inputs,
         depth_source=dense.source,
         depth_kind=dense.kind,
         depth_alignment=dense.alignment,
         depth_fit=dense.fit,
-        warnings=_warnings(head, skipped, max_range_m, params),
+        warnings=_warnings(head, list(placed.skipped), max_range_m, params),
         appearances=appearances,
         light=light,
         lights=light_rig(lighting),
     )
+
+
+def build_model(request: BuildRequest, libraries: tuple[Path, ...]) -> WorldModel:
+    """Read the inputs and compute the metric world (no output written).
+
+    Args:
+        request: the inputs.
+        libraries: asset libraries, user first.
+
+    Returns:
+        The world model: :func:`finish_view` of :func:`place_view` of :func:`perceive`.
+    """
+    return finish_view(place_view(perceive(request, libraries)))
 
 
 # --- output ---------------------------------------------------------------------------

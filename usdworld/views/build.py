@@ -1,6 +1,7 @@
 """``build --views``: several views of one rig to one world folder (pipeline level: wiring only).
 
-Each view runs the single-image stages (:func:`usdworld.pipeline.build_model`) with its
+Each view runs the single-image stages (:func:`usdworld.pipeline.perceive`,
+:func:`~usdworld.pipeline.place_view`, :func:`~usdworld.pipeline.finish_view`) with its
 exact intrinsics and the camera its pose gives (height, pitch, roll above the ground; no
 estimation), in a local process pool when there are several. Their placements are moved
 into the rig's world (:mod:`usdworld.views.rig`), associated and fused
@@ -22,8 +23,9 @@ import math
 import os
 import shutil
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,8 +41,17 @@ from usdworld.layout.model import WorldModel
 from usdworld.output_dir import prepare_output, swap_in
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.parameters.base import plain, section_rows
+from usdworld.parameters.placement import PlacementParams
 from usdworld.parameters.views import ViewsParams
-from usdworld.pipeline import BuildRequest, BuildResult, build_model
+from usdworld.pipeline import (
+    BuildRequest,
+    BuildResult,
+    PerceivedView,
+    PlacedView,
+    finish_view,
+    perceive,
+    place_view,
+)
 from usdworld.report import make_report
 from usdworld.views.drive import DriveObject, frame_times, track_drive
 from usdworld.views.fusion import FusedObject, fuse, observations
@@ -190,28 +201,55 @@ def view_camera_spec(view: ViewSpec, source: InputFile) -> CameraSpec:
     return CameraSpec(read.K, height_m, pitch, roll, 0.0, read.source, read.file, read.extra_files)
 
 
-def view_model(request: ViewsRequest, index: int) -> WorldModel:
-    """One view's own world, in its ground frame (a worker process's task)."""
+def perceive_view(request: ViewsRequest, index: int) -> PerceivedView:
+    """One view's work up to the placement (:func:`usdworld.pipeline.perceive`), with its camera."""
     view = request.views.views[index]
     spec = view_camera_spec(view, request.views.source)
-    return build_model(
+    return perceive(
         request.view_request(view, request.views.source, spec), asset_library.library_dirs(request.library)
     )
 
 
-def _view_models(request: ViewsRequest) -> list[WorldModel]:
-    n = len(request.views.views)
-    jobs = min(n, request.jobs or os.cpu_count() or 1)
-    if jobs <= 1:
-        return [view_model(request, i) for i in range(n)]
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        return list(pool.map(view_model, [request] * n, range(n)))
+def view_model(request: ViewsRequest, index: int) -> WorldModel:
+    """One view's own world, in its ground frame, placed with the request's parameters."""
+    return finish_view(place_view(perceive_view(request, index)))
 
 
-def measured_ground_spread(view_models: Sequence[WorldModel]) -> float:
+def _perceived_and_placed(request: ViewsRequest, index: int) -> PlacedView:
+    """A worker process's first task: one view perceived and placed with the request's parameters."""
+    return place_view(perceive_view(request, index))
+
+
+def _view_world(placed: PlacedView, placement: PlacementParams | None) -> WorldModel:
+    """A worker process's second task: one view's world from its placements, or, given
+    ``placement``, from its objects placed again with those numbers."""
+    if placement is not None:
+        placed = place_view(placed.perceived, placement)
+    return finish_view(placed)
+
+
+#: ``map`` over the views: the built-in one, or a local process pool's.
+ViewMap = Callable[..., list]
+
+
+@contextmanager
+def _view_map(n_views: int, jobs: int | None) -> Iterator[ViewMap]:
+    """A map that runs each view's task in a local process pool of ``jobs`` workers (None: one
+    per view up to the CPU count), or in this process for one worker; one pool serves every pass."""
+    workers = min(n_views, jobs or os.cpu_count() or 1)
+    if workers <= 1:
+        yield lambda fn, *args: list(map(fn, *args))
+        return
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        yield lambda fn, *args: list(pool.map(fn, *args))
+
+
+def measured_ground_spread(views: Sequence[PlacedView]) -> float:
     """The rig's ground height spread about the plane under the car, metres, measured from every
-    view's objects (:mod:`usdworld.views.unevenness`)."""
-    return ground_height_spread(ground_heights((m.placements, m.camera.camera.height_m) for m in view_models))
+    view's placed objects (:mod:`usdworld.views.unevenness`)."""
+    return ground_height_spread(
+        ground_heights((v.placements, v.perceived.head.camera.camera.height_m) for v in views)
+    )
 
 
 def _uneven_request(request: ViewsRequest, spread_m: float) -> ViewsRequest:
@@ -224,16 +262,26 @@ def _uneven_request(request: ViewsRequest, spread_m: float) -> ViewsRequest:
 def build_rig_model(request: ViewsRequest) -> RigModel:
     """Build every view, move its objects into the world, fuse them and make one ground (no output written).
 
-    The views are built once with the request's parameters; when their objects measure a
-    ground that departs from the plane under the car (:func:`measured_ground_spread` > 0),
-    they are built again with that spread widening their contact cues, so each object's
+    Each view is perceived once (:func:`perceive_view`) and placed with the request's
+    parameters; when their objects measure a ground that departs from the plane under the car
+    (:func:`measured_ground_spread` > 0), the views are placed again (:func:`usdworld.pipeline.place_view`,
+    from what they perceived) with that spread widening their contact cues, so each object's
     depth leans on its class height where its contact is unsure (:attr:`RigModel.ground_spread_m`).
+    What follows from the placements (light, colours: :func:`usdworld.pipeline.finish_view`) runs
+    once, on the final ones. Both passes run in one local process pool when ``request.jobs``
+    allows several workers.
     """
-    view_models = _view_models(request)
-    spread = measured_ground_spread(view_models)
-    if spread > 0.0:
-        request = _uneven_request(request, spread)
-        view_models = _view_models(request)
+    n = len(request.views.views)
+    with _view_map(n, request.jobs) as view_map:
+        placed = view_map(_perceived_and_placed, [request] * n, range(n))
+        spread = measured_ground_spread(placed)
+        placement = None
+        if spread > 0.0:
+            # Only the placement reads the contact cues' unevenness: each view is placed again from
+            # what it perceived (its photo, objects, camera and depth are not measured again).
+            request = _uneven_request(request, spread)
+            placement = request.parameters.placement
+        view_models = view_map(_view_world, placed, [placement] * n)
     views = request.views.views
     poses = [
         world_from_ground(v.world_from_cam, m.camera.camera.world_from_cam())

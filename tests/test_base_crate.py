@@ -2,7 +2,7 @@
 world written that way opens, edits, renders, exports, validates and resumes like a text one.
 
 The worlds are the editing tests' street (three objects) written twice from one model: with
-the default parameters (text) and with ``base_crate_min_objects`` lowered to 1 (crate).
+the default parameters (text) and with ``large_world_min_objects`` lowered to 1 (crate).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from usdworld.export import export_world
 from usdworld.parameters.authoring import AuthoringParams
 from usdworld.world_files import BASE_CRATE_LAYER, BASE_LAYER, EDITS_LAYER, ROOT_LAYER
 
-CRATE = AuthoringParams(base_crate_min_objects=1)
+CRATE = AuthoringParams(large_world_min_objects=1)
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +40,8 @@ def worlds(tmp_path_factory) -> dict[str, Path]:
     tmp = tmp_path_factory.mktemp("crate")
     libraries = asset_library.library_dirs(None)
     model = build_model(BuildRequest(output=tmp / "unused", **write_frame(tmp / "frame")), libraries)
-    assets = {c: asset_library.asset_path(c, libraries) for c in sorted({p.obj.class_name for p in model.placements})}
+    classes = sorted({p.obj.class_name for p in model.placements})
+    assets = {c: asset_library.asset_path(c, libraries) for c in classes}
     write_world(model, tmp / "text", assets, None)
     write_world(model, tmp / "crate", assets, None, CRATE)
     return {"text": tmp / "text", "crate": tmp / "crate"}
@@ -56,24 +57,25 @@ def _sha(path: Path) -> str:
 
 
 def _files(folder: Path) -> dict[str, bytes]:
-    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+    files = sorted(p for p in folder.rglob("*") if p.is_file())
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in files}
 
 
 def test_the_threshold_picks_the_format():
     params = AuthoringParams()
-    n = params.base_crate_min_objects
+    n = params.large_world_min_objects
     assert n == 1000
     assert base_layer_name(n - 1, params) == BASE_LAYER == "layers/base.usda"
     assert base_layer_name(n, params) == BASE_CRATE_LAYER == "layers/base.usdc"
-    assert base_layer_name(0, AuthoringParams(base_crate_min_objects=0)) == BASE_CRATE_LAYER
+    assert base_layer_name(0, AuthoringParams(large_world_min_objects=0)) == BASE_CRATE_LAYER
     for bad in (-1, 2.5):
-        with pytest.raises(ValueError, match="base_crate_min_objects"):
-            AuthoringParams(base_crate_min_objects=bad)
+        with pytest.raises(ValueError, match="large_world_min_objects"):
+            AuthoringParams(large_world_min_objects=bad)
 
 
 @given(st.integers(0, 10**6), st.integers(0, 10**6))
 def test_the_format_is_monotone_in_the_objects(a, b):
-    params = AuthoringParams(base_crate_min_objects=5000)
+    params = AuthoringParams(large_world_min_objects=5000)
     lo, hi = sorted((a, b))
     if base_layer_name(lo, params) == BASE_CRATE_LAYER:
         assert base_layer_name(hi, params) == BASE_CRATE_LAYER
@@ -85,10 +87,12 @@ def test_crate_world_holds_the_text_layer_in_binary(worlds):
     assert (crate / BASE_CRATE_LAYER).read_bytes()[:8] == b"PXR-USDC"
     assert not (crate / BASE_LAYER).exists() and not (text / BASE_CRATE_LAYER).exists()
     # what the crate holds is the text layer, to the byte once written as text
-    assert Sdf.Layer.FindOrOpen(str(crate / BASE_CRATE_LAYER)).ExportToString() == (text / BASE_LAYER).read_text()
-    # everything else is the same bytes, but for the root's sublayer name; no temporary file is left
+    as_text = Sdf.Layer.FindOrOpen(str(crate / BASE_CRATE_LAYER)).ExportToString()
+    assert as_text == (text / BASE_LAYER).read_text()
+    # everything else is the same bytes, but for the root's sublayer name and the editor's
+    # object index (tests/test_object_index_file.py); no temporary file is left
     a, b = _files(text), _files(crate)
-    assert set(a) - {BASE_LAYER} == set(b) - {BASE_CRATE_LAYER}
+    assert set(a) - {BASE_LAYER} == set(b) - {BASE_CRATE_LAYER, "layers/objects.index.npz"}
     for name in set(a) - {BASE_LAYER, ROOT_LAYER}:
         assert a[name] == b[name], name
     assert b[ROOT_LAYER] == a[ROOT_LAYER].replace(b"./layers/base.usda", b"./layers/base.usdc")

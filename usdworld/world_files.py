@@ -15,7 +15,7 @@ ROOT_LAYER = "world.usda"
 #: root's sublayers (the last one), never by this name: a large world's is :data:`BASE_CRATE_LAYER`.
 BASE_LAYER = "layers/base.usda"
 #: The same layer in USD's binary crate format, which the build writes for a world of at least
-#: ``AuthoringParams.base_crate_min_objects`` objects (:mod:`usdworld.parameters.authoring`).
+#: ``AuthoringParams.large_world_min_objects`` objects (:mod:`usdworld.parameters.authoring`).
 BASE_CRATE_LAYER = "layers/base.usdc"
 #: The layer every edit goes to (the root's first sublayer).
 EDITS_LAYER = "layers/edits.usda"

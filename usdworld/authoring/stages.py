@@ -63,7 +63,9 @@ def world_layer_files(world: str | Path) -> tuple[Path, ...]:
     if root.is_dir():
         root = root / ROOT_LAYER
     if not root.is_file():
-        raise InputError(f"{root}: no such world; pass the world's root layer (e.g. OUT/world.usda) or its folder")
+        raise InputError(
+            f"{root}: no such world; pass the world's root layer (e.g. OUT/world.usda) or its folder"
+        )
     try:
         layer = Sdf.Layer.OpenAsAnonymous(str(root), metadataOnly=True)
     except Exception as exc:  # pxr raises Tf.ErrorException

@@ -6,7 +6,7 @@ Layout of the folder::
     layers/base.usda    /World (assembly) with Objects, Ground (a reference), SourceCamera and
                         Lights (a DistantLight sun and a DomeLight sky, from the photo);
                         layers/base.usdc instead (USD's binary crate format) in a world of
-                        at least AuthoringParams.base_crate_min_objects objects
+                        at least AuthoringParams.large_world_min_objects objects
     layers/ground.usdc  /Ground: road and sidewalk meshes with their materials (binary:
                         long arrays in text layers are a performance error for Omniverse)
     layers/edits.usda   the user's edits (empty until edited)
@@ -33,6 +33,8 @@ import usdworld
 from usdworld.authoring.appearance import define_appearances
 from usdworld.authoring.asset_cards import card_path
 from usdworld.authoring.camera import define_camera
+from usdworld.authoring.editing.index import Opinions
+from usdworld.authoring.editing.index_file import INDEX_FILE, layers_key, save_opinions
 from usdworld.authoring.lights import define_lights
 from usdworld.authoring.provenance import (
     PROVENANCE_API,
@@ -280,13 +282,13 @@ def base_layer_name(n_objects: int, params: AuthoringParams) -> str:
 
     Args:
         n_objects: the objects the world places.
-        params: the authoring parameters (:attr:`AuthoringParams.base_crate_min_objects`).
+        params: the authoring parameters (:attr:`AuthoringParams.large_world_min_objects`).
 
     Returns:
-        :data:`BASE_CRATE_LAYER` (binary) for a world of at least ``base_crate_min_objects``
+        :data:`BASE_CRATE_LAYER` (binary) for a world of at least ``large_world_min_objects``
         objects, else :data:`BASE_LAYER` (text).
     """
-    return BASE_CRATE_LAYER if n_objects >= params.base_crate_min_objects else BASE_LAYER
+    return BASE_CRATE_LAYER if n_objects >= params.large_world_min_objects else BASE_LAYER
 
 
 def write_base_crate_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) -> None:
@@ -309,6 +311,31 @@ def write_base_crate_layer(model: WorldModel, path: Path, asset_refs: dict[str, 
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def object_opinions(placements: Sequence[Placement]) -> Opinions:
+    """The opinions :func:`define_objects` writes on the objects, as the editor's index reads
+    them from the layer (:func:`~usdworld.authoring.editing.index.read_opinions`): translate
+    and scale (float3, so rounded to float32) x and y, class label, ``model`` variant."""
+    n = len(placements)
+    translate = np.array([[float(p.position_world[0]), float(p.position_world[1])] for p in placements])
+    stretch = [float(p.scale) * np.asarray(p.stretch, dtype=np.float64) for p in placements]
+    scale = np.array([[float(np.float32(s[0])), float(np.float32(s[1]))] for s in stretch])
+    return Opinions(
+        tuple(p.name for p in placements),
+        np.ones(n, dtype=bool),
+        translate.reshape(n, 2),
+        scale.reshape(n, 2),
+        tuple(p.obj.class_name for p in placements),
+        tuple(p.variant for p in placements),
+        (None,) * n,
+    )
+
+
+def write_object_index(placements: Sequence[Placement], base: Path) -> None:
+    """Write the editor's object index beside a world's base layer, keyed by that layer
+    (:mod:`usdworld.authoring.editing.index_file`); the root must stack only the edits layer on it."""
+    save_opinions(base.parent / INDEX_FILE, object_opinions(placements), layers_key([base]))
 
 
 def write_ground_layer(model: WorldModel, path: Path) -> None:
@@ -408,6 +435,7 @@ def write_world(
     base = base_layer_name(len(model.placements), params)
     if base == BASE_CRATE_LAYER:
         write_base_crate_layer(model, out_dir / base, refs)
+        write_object_index(model.placements, out_dir / base)
     else:
         write_base_layer(model, out_dir / base, refs)
     if keep_edits is not None:

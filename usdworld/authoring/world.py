@@ -318,9 +318,10 @@ def object_opinions(placements: Sequence[Placement]) -> Opinions:
     them from the layer (:func:`~usdworld.authoring.editing.index.read_opinions`): translate
     and scale (float3, so rounded to float32) x and y, class label, ``model`` variant."""
     n = len(placements)
-    translate = np.array([[float(p.position_world[0]), float(p.position_world[1])] for p in placements])
-    stretch = [float(p.scale) * np.asarray(p.stretch, dtype=np.float64) for p in placements]
-    scale = np.array([[float(np.float32(s[0])), float(np.float32(s[1]))] for s in stretch])
+    translate = np.array([p.position_world[:2] for p in placements], dtype=np.float64).reshape(n, 2)
+    factor = np.array([float(p.scale) for p in placements], dtype=np.float64)
+    stretch = np.array([p.stretch for p in placements], dtype=np.float64).reshape(n, -1)
+    scale = (factor[:, None] * stretch[:, :2]).astype(np.float32).astype(np.float64)
     return Opinions(
         tuple(p.name for p in placements),
         np.ones(n, dtype=bool),

@@ -315,8 +315,16 @@ def write_base_crate_layer(model: WorldModel, path: Path, asset_refs: dict[str, 
 
 def object_opinions(placements: Sequence[Placement]) -> Opinions:
     """The opinions :func:`define_objects` writes on the objects, as the editor's index reads
-    them from the layer (:func:`~usdworld.authoring.editing.index.read_opinions`): translate
-    and scale (float3, so rounded to float32) x and y, class label, ``model`` variant."""
+    them from the layer (:func:`~usdworld.authoring.editing.index.read_opinions`).
+
+    Args:
+        placements: the objects, in the order they are written.
+
+    Returns:
+        Their names; translate x, y ((N, 2) float64); scale x, y ((N, 2) float64, rounded to
+        float32 as the float3 attribute stores it); class label; ``model`` variant; no
+        ``active`` opinion.
+    """
     n = len(placements)
     translate = np.array([p.position_world[:2] for p in placements], dtype=np.float64).reshape(n, 2)
     factor = np.array([float(p.scale) for p in placements], dtype=np.float64)
@@ -335,7 +343,13 @@ def object_opinions(placements: Sequence[Placement]) -> Opinions:
 
 def write_object_index(placements: Sequence[Placement], base: Path) -> None:
     """Write the editor's object index beside a world's base layer, keyed by that layer
-    (:mod:`usdworld.authoring.editing.index_file`); the root must stack only the edits layer on it."""
+    (:mod:`usdworld.authoring.editing.index_file`).
+
+    Args:
+        placements: the objects the base layer holds, in its order.
+        base: the base layer file, already written; the file is valid while the root stacks
+            only the edits layer on it (a rig's drive layer makes the editor read it again).
+    """
     save_opinions(base.parent / INDEX_FILE, object_opinions(placements), layers_key([base]))
 
 

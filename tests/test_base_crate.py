@@ -158,3 +158,17 @@ def test_a_root_without_sublayers_is_refused(tmp_path):
         base_layer_file(tmp_path)
     with pytest.raises(InputError, match="no such world"):
         base_layer_file(tmp_path / "nothing")
+
+
+def test_a_failed_crate_write_leaves_neither_the_file_nor_a_temporary(worlds, tmp_path, monkeypatch):
+    from usdworld.authoring import world as world_module
+
+    def half_written(model, path, refs):
+        Sdf.Layer.CreateNew(str(path)).Save()  # the temporary file exists when the write fails
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(world_module, "write_base_layer", half_written)
+    (tmp_path / "layers").mkdir()
+    with pytest.raises(RuntimeError, match="disk full"):
+        world_module.write_base_crate_layer(None, tmp_path / BASE_CRATE_LAYER, {})  # type: ignore[arg-type]
+    assert list((tmp_path / "layers").iterdir()) == []

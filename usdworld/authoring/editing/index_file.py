@@ -118,17 +118,19 @@ def lower_opinions(layers: Sequence[Sdf.Layer], min_objects: int) -> Opinions:
         return read_opinions(lower)  # what is in memory is not what is on disk
     paths = [Path(layer.realPath) for layer in lower]
     file = paths[-1].parent / INDEX_FILE
-    try:
-        key = layers_key(paths)
-    except OSError:
-        return read_opinions(lower)
-    kept = load_opinions(file, key)
-    if kept is not None:
-        return kept
+    key = None
+    if file.is_file():
+        try:
+            key = layers_key(paths)
+        except OSError:
+            return read_opinions(lower)
+        kept = load_opinions(file, key)
+        if kept is not None:
+            return kept
     opinions = read_opinions(lower)
     if int(opinions.defined.sum()) >= min_objects:
         try:
-            save_opinions(file, opinions, key)
-        except OutputError as exc:
+            save_opinions(file, opinions, key or layers_key(paths))
+        except (OSError, OutputError) as exc:
             log.debug("object index not kept: %s", exc)
     return opinions

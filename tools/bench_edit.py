@@ -65,6 +65,7 @@ def make_world(folder: Path, n_objects: int = 200) -> Path:
     """Build the synthetic world and fill its base layer to ``n_objects`` objects."""
     from pxr import Gf, Sdf
 
+    from usdworld.authoring.stages import base_layer_file
     from usdworld.pipeline import BuildRequest, build
 
     src = folder / "src"
@@ -80,7 +81,7 @@ def make_world(folder: Path, n_objects: int = 200) -> Path:
             output=world,
         )
     )
-    base = Sdf.Layer.FindOrOpen(str(world / "layers" / "base.usda"))
+    base = Sdf.Layer.FindOrOpen(str(base_layer_file(world)))  # the root's last sublayer
     src_layer = Sdf.Layer.CreateAnonymous(".usda")
     src_layer.TransferContent(base)  # the built prims serve as templates
     objects = base.GetPrimAtPath("/World/Objects")

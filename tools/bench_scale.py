@@ -11,25 +11,28 @@ Measured per size (medians over ``--runs`` interleaved runs; the floors in the s
 
 * **author**: ``write_world`` in process (the whole folder: assets, ground, base, edits, root);
 * **open**: ``Usd.Stage.Open`` of ``world.usda`` in a fresh process (time inside the
-  process), and of it the parse of ``layers/base.usda`` alone (``Sdf.Layer.FindOrOpen``, a
-  floor for anything that opens the world);
+  process, wall and CPU), and of it the parse of the base layer alone (the root's last
+  sublayer, ``layers/base.usda`` or ``layers/base.usdc``; ``Sdf.Layer.FindOrOpen``, a floor
+  for anything that opens the world);
 * **render**: in a fresh process, opening the stage, reading the render scene (culled to
   the view and its shadows, :class:`~usdworld.render.instancing.ViewCull`) and drawing all
   passes (colour, ids, depth) from ``/World/SourceCamera`` at the photo's size, and each
   part of it (the GL context's creation is left out);
-* **edit**: the whole ``usdworld edit W move NAME --by 0.5,0 --force`` command (wall), and
-  in a fresh process the editor's parts: opening the world (``WorldEditor``: parsing the
-  layers, composing the ground) and the move (reading the object index, composing the
-  object and its possible neighbours, the rules, the atomic save);
+* **edit**: the whole ``usdworld edit W move NAME --by 0.5,0 --force`` command (wall and
+  the child's CPU), and in a fresh process the editor's parts: opening the world
+  (``WorldEditor``: parsing the layers, composing the ground) and the move (reading the
+  object index, composing the object and its possible neighbours, the rules, the atomic save);
 * floors: a process that imports ``pxr.Usd``; a bare ``usdworld --help``.
 
 Usage::
 
     python tools/bench_scale.py [--sizes 1000,10000,100000] [--runs 3] [--keep DIR] [--reference CHECKOUT]
 
-With ``--reference``, a second table compares, one run each, authoring, the whole edit
-command and reading the (unculled) render scene at 1,000 objects with another checkout
-(e.g. the code before this benchmark's changes), and whether both write the same bytes.
+With ``--reference``, a second table compares, one run each, in fresh processes, authoring,
+opening the world, the editor's parts, the whole edit command (twice: the second finds what
+the first left, e.g. the object index) and reading the (unculled) render scene at 1,000
+objects with another checkout (e.g. the code before this benchmark's changes), and whether
+both write the same bytes; figures are wall / CPU seconds.
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ import json
 import math
 import os
 import platform
+import resource
 import shutil
 import statistics
 import subprocess
@@ -79,28 +83,28 @@ print(json.dumps({"import": t1 - t0, "open": t2 - t1, "scene": t3 - t2, "context
 """
 
 _OPEN_SNIPPET = r"""
-import json, sys, time
-from pathlib import Path
+import json, os, sys, time
 from pxr import Sdf, Usd
-root = Path(sys.argv[1])
-t0 = time.perf_counter()
-Sdf.Layer.FindOrOpen(str(root.parent / "layers" / "base.usda"))
-t1 = time.perf_counter()
-stage = Usd.Stage.Open(str(root))
-t2 = time.perf_counter()
-print(json.dumps({"open": t2 - t0, "parse_base": t1 - t0}))
+top = Sdf.Layer.OpenAsAnonymous(sys.argv[1], metadataOnly=True)
+base = os.path.normpath(os.path.join(os.path.dirname(sys.argv[1]), top.subLayerPaths[-1]))
+t0, c0 = time.perf_counter(), time.process_time()
+Sdf.Layer.FindOrOpen(base)
+t1, c1 = time.perf_counter(), time.process_time()
+stage = Usd.Stage.Open(sys.argv[1])
+t2, c2 = time.perf_counter(), time.process_time()
+print(json.dumps({"open": t2 - t0, "parse_base": t1 - t0, "open_cpu": c2 - c0, "parse_base_cpu": c1 - c0}))
 """
 
 
 _EDIT_SNIPPET = r"""
 import json, sys, time
 from usdworld.authoring.edits import WorldEditor
-t0 = time.perf_counter()
+t0, c0 = time.perf_counter(), time.process_time()
 editor = WorldEditor(sys.argv[1])
-t1 = time.perf_counter()
+t1, c1 = time.perf_counter(), time.process_time()
 editor.move(sys.argv[2], by=(0.5, 0.0), force=True)
-t2 = time.perf_counter()
-print(json.dumps({"edit_open": t1 - t0, "edit_move": t2 - t1}))
+t2, c2 = time.perf_counter(), time.process_time()
+print(json.dumps({"edit_open": t1 - t0, "edit_move": t2 - t1, "edit_open_cpu": c1 - c0, "edit_move_cpu": c2 - c1}))
 """
 
 
@@ -111,9 +115,9 @@ from usdworld.authoring.world import write_world
 model = pickle.load(open(sys.argv[1], "rb"))
 libraries = asset_library.library_dirs(None)
 assets = {c: asset_library.asset_path(c, libraries) for c in sorted({p.obj.class_name for p in model.placements})}
-t0 = time.perf_counter()
+t0, c0 = time.perf_counter(), time.process_time()
 write_world(model, __import__("pathlib").Path(sys.argv[2]), assets, None)
-print(json.dumps({"author": time.perf_counter() - t0}))
+print(json.dumps({"author": time.perf_counter() - t0, "author_cpu": time.process_time() - c0}))
 """
 
 _SCENE_SNIPPET = r"""
@@ -202,14 +206,33 @@ def _env(repo: Path = _HERE) -> dict[str, str]:
     return {**os.environ, "PYTHONPATH": str(repo) + os.pathsep + os.environ.get("PYTHONPATH", "")}
 
 
-def _wall(cmd: list[str], repo: Path = _HERE) -> tuple[float, str]:
-    t0 = time.perf_counter()
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _timed(cmd: list[str], repo: Path = _HERE) -> tuple[float, float, str]:
+    """Run a command in a fresh process: (wall s, its CPU s, its stdout)."""
+    c0, t0 = _children_cpu(), time.perf_counter()
     # run in the checkout: ``python -c`` and ``-m`` put the working folder first on sys.path
     done = subprocess.run(cmd, capture_output=True, text=True, env=_env(repo), cwd=repo, check=False)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, _children_cpu() - c0
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed ({done.returncode}): {done.stderr.strip()[-2000:]}")
-    return wall, done.stdout
+    return wall, cpu, done.stdout
+
+
+def _wall(cmd: list[str], repo: Path = _HERE) -> tuple[float, str]:
+    wall, _, out = _timed(cmd, repo)
+    return wall, out
+
+
+def base_layer(world: Path) -> Path:
+    """A world's base layer file: its root's last sublayer."""
+    from pxr import Sdf
+
+    root = Sdf.Layer.OpenAsAnonymous(str(world / "world.usda"), metadataOnly=True)
+    return Path(os.path.normpath(world / root.subLayerPaths[-1]))
 
 
 def _snippet(code: str, *args: object, repo: Path = _HERE) -> dict:
@@ -233,16 +256,16 @@ def measure(model, n: int, folder: Path, runs: int, render: bool) -> dict:
     rows: list[dict] = []
     for run in range(runs):
         world = folder / f"world_{n}_{run}"
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         write_world(model, world, assets, None)
-        row = {"author": time.perf_counter() - t0}
+        row = {"author": time.perf_counter() - t0, "author_cpu": time.process_time() - c0}
         row["floor_import"], _ = _wall([sys.executable, "-c", "import pxr.Usd"])
         row.update(_snippet(_OPEN_SNIPPET, world / "world.usda"))
         row["floor_help"], _ = _wall([sys.executable, "-m", "usdworld", "--help"])
         if render:
             row.update({f"render_{k}": v for k, v in _snippet(_RENDER_SNIPPET, world / "world.usda").items()})
         row.update(_snippet(_EDIT_SNIPPET, world / "world.usda", mover))
-        row["edit"], _ = _wall(
+        row["edit"], row["edit_cpu"], _ = _timed(
             [sys.executable, "-m", "usdworld", "edit", str(world), "move", mover, "--by", "0.5,0", "--force"]
         )
         rows.append(row)
@@ -250,13 +273,14 @@ def measure(model, n: int, folder: Path, runs: int, render: bool) -> dict:
             shutil.rmtree(world)
     out = {key: _median(rows, key) for key in rows[0]}
     out["objects"] = n
-    out["bytes_base"] = (folder / f"world_{n}_0" / "layers" / "base.usda").stat().st_size
+    out["bytes_base"] = base_layer(folder / f"world_{n}_0").stat().st_size
     return out
 
 
 def against(model, n: int, folder: Path, reference: Path, scene: bool) -> dict:
-    """Author, the whole edit command and (when ``scene``) reading the unculled render scene,
-    each in fresh processes with ``reference`` and then with this checkout."""
+    """Author, open, the editor's parts, the whole edit command (twice) and (when ``scene``)
+    reading the unculled render scene, each in fresh processes with ``reference`` and then
+    with this checkout; ``*_cpu`` keys hold the CPU seconds of the same figure."""
     import pickle
 
     pkl = folder / f"model_{n}.pkl"
@@ -265,15 +289,26 @@ def against(model, n: int, folder: Path, reference: Path, scene: bool) -> dict:
     repos = {"ref": reference, "new": _HERE}
     out: dict = {}
     for tag, repo in repos.items():
-        out[f"author_{tag}"] = _snippet(_AUTHOR_SNIPPET, pkl, folder / f"ab_{tag}_{n}", repo=repo)["author"]
-    diff = subprocess.run(["diff", "-rq", folder / f"ab_ref_{n}", folder / f"ab_new_{n}"], check=False)
+        r = _snippet(_AUTHOR_SNIPPET, pkl, folder / f"ab_{tag}_{n}", repo=repo)
+        out[f"author_{tag}"], out[f"author_cpu_{tag}"] = r["author"], r.get("author_cpu", float("nan"))
+    diff = subprocess.run(
+        ["diff", "-rq", folder / f"ab_ref_{n}", folder / f"ab_new_{n}"], capture_output=True, check=False
+    )
     out["same_bytes"] = diff.returncode == 0
     for tag, repo in repos.items():
         world = folder / f"ab_{tag}_{n}"
+        out[f"base_bytes_{tag}"] = base_layer(world).stat().st_size
+        r = _snippet(_OPEN_SNIPPET, world / "world.usda", repo=repo)
+        for key in ("open", "open_cpu", "parse_base", "parse_base_cpu"):
+            out[f"{key}_{tag}"] = r[key]
         if scene:
             out[f"scene_{tag}"] = _snippet(_SCENE_SNIPPET, world / "world.usda", repo=repo)["scene"]
+        r = _snippet(_EDIT_SNIPPET, world / "world.usda", mover, repo=repo)
+        for key in ("edit_open", "edit_open_cpu", "edit_move", "edit_move_cpu"):
+            out[f"{key}_{tag}"] = r[key]
         move = ["edit", str(world), "move", mover, "--by", "0.5,0", "--force"]
-        out[f"edit_{tag}"], _ = _wall([sys.executable, "-m", "usdworld", *move], repo)
+        out[f"edit_{tag}"], out[f"edit_cpu_{tag}"], _ = _timed([sys.executable, "-m", "usdworld", *move], repo)
+        out[f"edit2_{tag}"], out[f"edit2_cpu_{tag}"], _ = _timed([sys.executable, "-m", "usdworld", *move], repo)
         shutil.rmtree(world)
     pkl.unlink()
     return out
@@ -286,6 +321,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-render-above", type=int, default=10**9, help="skip the render above this size")
     parser.add_argument("--seed", type=int, default=3)
     parser.add_argument("--keep", type=Path, help="keep the worlds in this folder")
+    parser.add_argument(
+        "--no-measure", action="store_true", help="only the before/after table (with --reference)"
+    )
     parser.add_argument(
         "--reference",
         type=Path,
@@ -302,13 +340,20 @@ def main(argv: list[str] | None = None) -> int:
             f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at start; "
             f"base frame: {len(model.placements)} objects"
         )
-        print(
-            "| objects | author s | open s (parse base.usda) | render s (open + scene + draw) | draw s | triangles drawn "
-            "| edit move s (whole) | edit parts s (open + move) | floor: import pxr s | floor: usdworld --help s | edit own cost s "
-            "| base.usda MB | load |"
-        )
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-        for n in sizes:
+        floors = {
+            "import pxr": _timed([sys.executable, "-c", "import pxr.Usd"]),
+            "usdworld --help": _timed([sys.executable, "-m", "usdworld", "--help"]),
+        }
+        print("floors (wall / CPU s): " + ", ".join(f"{k} {w:.2f} / {c:.2f}" for k, (w, c, _) in floors.items()))
+        if not args.no_measure:
+            print(
+                "| objects | author s wall / CPU | open s wall / CPU (parse base layer) | render s (open + scene + draw) "
+                "| draw s | triangles drawn | edit move s wall / CPU (whole) | edit parts s wall / CPU "
+                "(open + move) | floor: import pxr s | floor: usdworld --help s | edit own cost s "
+                "| base layer MB | load |"
+            )
+            print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        for n in sizes if not args.no_measure else ():
             r = measure(
                 tiled_model(model, n), n, folder, args.runs if n < 100_000 else 1, n <= args.no_render_above
             )
@@ -321,26 +366,34 @@ def main(argv: list[str] | None = None) -> int:
             draw = f"{r['render_draw']:.3f}" if "render_draw" in r else "-"
             tris = f"{r['render_triangles']:,.0f}" if "render_triangles" in r else "-"
             print(
-                f"| {n:,d} | {r['author']:.2f} | {r['open']:.3f} ({r['parse_base']:.3f}) | {render} | {draw} | {tris} | {r['edit']:.2f} "
-                f"| {r['edit_open']:.2f} + {r['edit_move']:.2f} | {r['floor_import']:.2f} | {r['floor_help']:.2f} | {r['edit'] - r['floor_help']:.2f} "
+                f"| {n:,d} | {r['author']:.2f} / {r['author_cpu']:.2f} | {r['open']:.3f} / {r['open_cpu']:.3f} ({r['parse_base']:.3f} / "
+                f"{r['parse_base_cpu']:.3f}) | {render} | {draw} | {tris} | {r['edit']:.2f} / {r['edit_cpu']:.2f} "
+                f"| {r['edit_open']:.2f} / {r['edit_open_cpu']:.2f} + {r['edit_move']:.2f} / {r['edit_move_cpu']:.2f} "
+                f"| {r['floor_import']:.2f} | {r['floor_help']:.2f} | {r['edit'] - r['floor_help']:.2f} "
                 f"| {r['bytes_base'] / 1e6:.1f} | {os.getloadavg()[0]:.2f} |",
                 flush=True,
             )
         if args.reference is not None:
-            print(f"\nbefore/after ({args.reference} / this checkout), load average {os.getloadavg()[0]:.2f}")
+            print(f"\nbefore/after ({args.reference} / this checkout), wall / CPU s, load average {os.getloadavg()[0]:.2f}")
             print(
-                "| objects | author s before / after | same bytes | read render scene s before / after "
-                "| edit move s (whole) before / after |"
+                "| objects | | author | base layer MB | open (parse base layer) | edit: WorldEditor | edit: move "
+                "| edit move, whole | again | read render scene (wall) | same bytes | load |"
             )
-            print("|---|---|---|---|---|")
+            print("|---|---|---|---|---|---|---|---|---|---|---|---|")
             for n in sizes:
                 r = against(tiled_model(model, n), n, folder, args.reference, n <= 1000)
-                scene = f"{r['scene_ref']:.2f} / {r['scene_new']:.2f}" if "scene_ref" in r else "not measured"
-                print(
-                    f"| {n:,d} | {r['author_ref']:.2f} / {r['author_new']:.2f} | {r['same_bytes']} | {scene} "
-                    f"| {r['edit_ref']:.2f} / {r['edit_new']:.2f} |",
-                    flush=True,
-                )
+                for tag, what in (("ref", "before"), ("new", "after")):
+
+                    def f(key: str, tag: str = tag) -> str:
+                        return f"{r[f'{key}_{tag}']:.2f} / {r[f'{key}_cpu_{tag}']:.2f}"
+
+                    scene = f"{r[f'scene_{tag}']:.2f}" if f"scene_{tag}" in r else "-"
+                    print(
+                        f"| {n:,d} | {what} | {f('author')} | {r[f'base_bytes_{tag}'] / 1e6:.2f} "
+                        f"| {f('open')} ({f('parse_base')}) | {f('edit_open')} | {f('edit_move')} | {f('edit')} "
+                        f"| {f('edit2')} | {scene} | {r['same_bytes']} | {os.getloadavg()[0]:.2f} |",
+                        flush=True,
+                    )
     finally:
         if args.keep is None:
             shutil.rmtree(tmp, ignore_errors=True)

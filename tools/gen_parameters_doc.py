@@ -20,6 +20,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from usdworld.parameters import Parameters  # noqa: E402
+from usdworld.parameters.authoring import AuthoringParams  # noqa: E402
 from usdworld.parameters.base import plain, section_rows  # noqa: E402
 from usdworld.parameters.views import ViewsParams  # noqa: E402
 
@@ -73,6 +74,13 @@ def render(params: Parameters) -> str:
         "recorded in `report.json` under `views -> parameters`).",
         "",
         *_table(section_rows(ViewsParams())),
+        "",
+        "## authoring",
+        "",
+        "How a world's layers are written (a section of its own, not recorded in `report.json`: the root "
+        "layer's sublayers show what it chose).",
+        "",
+        *_table(section_rows(AuthoringParams())),
     ]
     return "\n".join(lines) + "\n"
 

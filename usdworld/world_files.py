@@ -11,8 +11,12 @@ from __future__ import annotations
 
 #: The root layer, relative to the world folder.
 ROOT_LAYER = "world.usda"
-#: The layer the build writes (never edited).
+#: The layer the build writes (never edited), as text. Find a world's base layer through its
+#: root's sublayers (the last one), never by this name: a large world's is :data:`BASE_CRATE_LAYER`.
 BASE_LAYER = "layers/base.usda"
+#: The same layer in USD's binary crate format, which the build writes for a world of at least
+#: ``AuthoringParams.large_world_min_objects`` objects (:mod:`usdworld.parameters.authoring`).
+BASE_CRATE_LAYER = "layers/base.usdc"
 #: The layer every edit goes to (the root's first sublayer).
 EDITS_LAYER = "layers/edits.usda"
 #: A drive's time (ego trajectory, moving objects' samples) as a crate layer, between edits and base.

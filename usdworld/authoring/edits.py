@@ -1,6 +1,7 @@
 """Non-destructive editing of a world (paper step 4): every edit is an opinion in its edits layer.
 
-A world's root layer (``world.usda``) stacks ``layers/edits.usda`` over ``layers/base.usda``.
+A world's root layer (``world.usda``) stacks ``layers/edits.usda`` over ``layers/base.usda``
+(``layers/base.usdc`` in a large world; the editor takes the layers the root names).
 :class:`WorldEditor` writes through a USD edit target on the root's **first** sublayer
 only, so the base and the root stay byte-identical, a rebuild of the base keeps the
 user's edits, and every DCC tool sees them. The same editor works on a variation root

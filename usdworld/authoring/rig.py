@@ -28,7 +28,8 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 from usdworld.authoring.camera import define_camera, world_from_usdcam
-from usdworld.world_files import BASE_LAYER, CAMERA_PATH, DRIVE_LAYER, OBJECTS_PATH, ROOT_LAYER, WORLD_PATH
+from usdworld.authoring.stages import base_layer_file
+from usdworld.world_files import CAMERA_PATH, DRIVE_LAYER, OBJECTS_PATH, ROOT_LAYER, WORLD_PATH
 
 if TYPE_CHECKING:  # annotations only: ``render --camera`` imports this module, and layout's imports cost it
     from usdworld.geometry.camera import PinholeCamera
@@ -116,7 +117,7 @@ def write_rig(
         object_provenance: whether to write the objects' provenance here; a drive's world has
             it in its crate layer (:func:`write_drive`), as its arrays grow with the frames.
     """
-    stage = Usd.Stage.Open(str(Path(out_dir) / BASE_LAYER), Usd.Stage.LoadNone)
+    stage = Usd.Stage.Open(str(base_layer_file(out_dir)), Usd.Stage.LoadNone)
     first = view_models[0].camera.camera
     source = UsdGeom.Camera(stage.GetPrimAtPath(CAMERA_PATH))
     source.GetOrderedXformOps()[0].Set(_matrix(world_from_ground[0] @ world_from_usdcam(first)))
@@ -234,7 +235,7 @@ def write_drive(
     drive_layer = Sdf.Layer.CreateNew(str(out / DRIVE_LAYER))
     root = Sdf.Layer.FindOrOpen(str(out / ROOT_LAYER))
     root.subLayerPaths.insert(1, f"./{DRIVE_LAYER}")
-    base = Sdf.Layer.FindOrOpen(str(out / BASE_LAYER))
+    base = Sdf.Layer.FindOrOpen(str(base_layer_file(out)))
     moved = _take_attributes(base, WORLD_PATH, PER_VIEW_WORLD_ATTRIBUTES)
     for layer in (root, drive_layer, base):
         layer.timeCodesPerSecond = tcps

@@ -3,13 +3,15 @@ and the registration of usdworld's schema plugin."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from pxr import Plug, Usd
+from pxr import Plug, Sdf, Usd
 
 from usdworld.errors import InputError
 from usdworld.resources import schemas_dir
+from usdworld.world_files import ROOT_LAYER
 
 
 def register_schemas() -> None:
@@ -43,3 +45,36 @@ def open_stage(path: str | Path, what: str = "USD stage", mask: Sequence[str] | 
     if stage is None:
         raise InputError(f"{path}: not a readable {what}")
     return stage
+
+
+def world_layer_files(world: str | Path) -> tuple[Path, ...]:
+    """The files of a world root's sublayers, strongest first: the edits layer first, the base
+    layer (``layers/base.usda``, or ``layers/base.usdc`` in a large world) last.
+
+    Only the root's header is read (its metadata); the sublayers are not opened.
+
+    Args:
+        world: the root layer (``world.usda``) or the world folder.
+
+    Raises:
+        InputError: no root layer there, or one that does not open or names no sublayers.
+    """
+    root = Path(world)
+    if root.is_dir():
+        root = root / ROOT_LAYER
+    if not root.is_file():
+        raise InputError(
+            f"{root}: no such world; pass the world's root layer (e.g. OUT/world.usda) or its folder"
+        )
+    try:
+        layer = Sdf.Layer.OpenAsAnonymous(str(root), metadataOnly=True)
+    except Exception as exc:  # pxr raises Tf.ErrorException
+        raise InputError(f"{root}: not a readable USD world ({str(exc).strip().splitlines()[-1]})") from exc
+    if layer is None or not layer.subLayerPaths:
+        raise InputError(f"{root}: names no sublayers; not a usdworld world (rebuild it)")
+    return tuple(Path(os.path.normpath(root.parent / sub)) for sub in layer.subLayerPaths)
+
+
+def base_layer_file(world: str | Path) -> Path:
+    """The file of a world's base layer: the root's last sublayer (see :func:`world_layer_files`)."""
+    return world_layer_files(world)[-1]

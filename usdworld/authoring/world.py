@@ -4,7 +4,9 @@ Layout of the folder::
 
     world.usda          root: subLayers = [layers/edits.usda, layers/base.usda], Z up, metres
     layers/base.usda    /World (assembly) with Objects, Ground (a reference), SourceCamera and
-                        Lights (a DistantLight sun and a DomeLight sky, from the photo)
+                        Lights (a DistantLight sun and a DomeLight sky, from the photo);
+                        layers/base.usdc instead (USD's binary crate format) in a world of
+                        at least AuthoringParams.large_world_min_objects objects
     layers/ground.usdc  /Ground: road and sidewalk meshes with their materials (binary:
                         long arrays in text layers are a performance error for Omniverse)
     layers/edits.usda   the user's edits (empty until edited)
@@ -17,7 +19,9 @@ byte-identical layers.
 from __future__ import annotations
 
 import math
+import os
 import shutil
+import uuid
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -29,6 +33,8 @@ import usdworld
 from usdworld.authoring.appearance import define_appearances
 from usdworld.authoring.asset_cards import card_path
 from usdworld.authoring.camera import define_camera
+from usdworld.authoring.editing.index import Opinions
+from usdworld.authoring.editing.index_file import INDEX_FILE, layers_key, save_opinions
 from usdworld.authoring.lights import define_lights
 from usdworld.authoring.provenance import (
     PROVENANCE_API,
@@ -38,8 +44,10 @@ from usdworld.authoring.provenance import (
     prepend_api_schema,
 )
 from usdworld.errors import AuthoringError
+from usdworld.parameters.authoring import AuthoringParams
 from usdworld.world_files import (  # re-exported: the names of what this module writes
     ASSETS_DIR,
+    BASE_CRATE_LAYER,
     BASE_LAYER,
     CAMERA_PATH,
     EDITS_LAYER,
@@ -238,7 +246,7 @@ def _scene_values(model: WorldModel) -> dict:
 
 
 def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) -> None:
-    """Write ``layers/base.usda``.
+    """Write ``layers/base.usda`` (or any layer file: its extension picks the format).
 
     Args:
         model: the world.
@@ -269,6 +277,82 @@ def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) 
     layer.Save()
 
 
+def base_layer_name(n_objects: int, params: AuthoringParams) -> str:
+    """Where a world's base layer goes, relative to the world folder.
+
+    Args:
+        n_objects: the objects the world places.
+        params: the authoring parameters (:attr:`AuthoringParams.large_world_min_objects`).
+
+    Returns:
+        :data:`BASE_CRATE_LAYER` (binary) for a world of at least ``large_world_min_objects``
+        objects, else :data:`BASE_LAYER` (text).
+    """
+    return BASE_CRATE_LAYER if n_objects >= params.large_world_min_objects else BASE_LAYER
+
+
+def write_base_crate_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) -> None:
+    """Write the base layer in the crate format, atomically: to a temporary ``.usdc`` name in
+    the same folder (the extension picks the format), then renamed onto ``path``.
+
+    Args:
+        model: the world.
+        path: the ``.usdc`` file to write.
+        asset_refs: class name -> asset path relative to the base layer.
+    """
+    path = Path(path)
+    # a fresh name, not a file made by mkstemp: Sdf creates it with the umask's permissions
+    tmp = path.with_name(f".{path.stem}.tmp-{uuid.uuid4().hex[:12]}.usdc")
+    try:
+        write_base_layer(model, tmp, asset_refs)
+        with open(tmp, "rb") as f:
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def object_opinions(placements: Sequence[Placement]) -> Opinions:
+    """The opinions :func:`define_objects` writes on the objects, as the editor's index reads
+    them from the layer (:func:`~usdworld.authoring.editing.index.read_opinions`).
+
+    Args:
+        placements: the objects, in the order they are written.
+
+    Returns:
+        Their names; translate x, y ((N, 2) float64); scale x, y ((N, 2) float64, rounded to
+        float32 as the float3 attribute stores it); class label; ``model`` variant; no
+        ``active`` opinion.
+    """
+    n = len(placements)
+    translate = np.array([p.position_world[:2] for p in placements], dtype=np.float64).reshape(n, 2)
+    factor = np.array([float(p.scale) for p in placements], dtype=np.float64)
+    stretch = np.array([p.stretch for p in placements], dtype=np.float64).reshape(n, -1)
+    scale = (factor[:, None] * stretch[:, :2]).astype(np.float32).astype(np.float64)
+    return Opinions(
+        tuple(p.name for p in placements),
+        np.ones(n, dtype=bool),
+        translate.reshape(n, 2),
+        scale.reshape(n, 2),
+        tuple(p.obj.class_name for p in placements),
+        tuple(p.variant for p in placements),
+        (None,) * n,
+    )
+
+
+def write_object_index(placements: Sequence[Placement], base: Path) -> None:
+    """Write the editor's object index beside a world's base layer, keyed by that layer
+    (:mod:`usdworld.authoring.editing.index_file`).
+
+    Args:
+        placements: the objects the base layer holds, in its order.
+        base: the base layer file, already written; the file is valid while the root stacks
+            only the edits layer on it (a rig's drive layer makes the editor read it again).
+    """
+    save_opinions(base.parent / INDEX_FILE, object_opinions(placements), layers_key([base]))
+
+
 def write_ground_layer(model: WorldModel, path: Path) -> None:
     """Write ``layers/ground.usdc``: ``/Ground`` holding the road and sidewalk meshes."""
     stage = Usd.Stage.CreateNew(str(path))
@@ -281,11 +365,16 @@ def write_ground_layer(model: WorldModel, path: Path) -> None:
     stage.GetRootLayer().Save()
 
 
-def write_root_layer(path: Path) -> None:
-    """Write ``world.usda``: sublayers, units, up axis and default prim."""
+def write_root_layer(path: Path, base: str = BASE_LAYER) -> None:
+    """Write ``world.usda``: sublayers, units, up axis and default prim.
+
+    Args:
+        path: file to write.
+        base: the base layer, relative to the world folder (:func:`base_layer_name`).
+    """
     layer = Sdf.Layer.CreateNew(str(path))
     layer.subLayerPaths.append(f"./{EDITS_LAYER}")
-    layer.subLayerPaths.append(f"./{BASE_LAYER}")
+    layer.subLayerPaths.append(f"./{base}")
     layer.defaultPrim = WORLD_PATH.strip("/")
     # The metadata UsdGeom.SetStageUpAxis / SetStageMetersPerUnit author, set on the layer:
     # a stage opened here would compose the whole world just to write two fields.
@@ -334,7 +423,13 @@ def copy_asset(src: Path, dst_dir: Path) -> Path:
     return dst_dir / src.name
 
 
-def write_world(model: WorldModel, out_dir: Path, asset_files: dict[str, Path], keep_edits: Path | None) -> None:
+def write_world(
+    model: WorldModel,
+    out_dir: Path,
+    asset_files: dict[str, Path],
+    keep_edits: Path | None,
+    params: AuthoringParams = AuthoringParams(),
+) -> None:
     """Write the whole world folder (which must be new and empty).
 
     Args:
@@ -342,6 +437,7 @@ def write_world(model: WorldModel, out_dir: Path, asset_files: dict[str, Path], 
         out_dir: the folder to fill.
         asset_files: class name -> library asset file to copy into ``assets/``.
         keep_edits: an existing edits layer to carry over instead of an empty one.
+        params: how the layers are written (the base layer's format, :func:`base_layer_name`).
     """
     (out_dir / "layers").mkdir(parents=True, exist_ok=True)
     (out_dir / ASSETS_DIR).mkdir(exist_ok=True)
@@ -351,9 +447,14 @@ def write_world(model: WorldModel, out_dir: Path, asset_files: dict[str, Path], 
         refs[class_name] = f"../{ASSETS_DIR}/{src.name}"
     if model.surfaces:
         write_ground_layer(model, out_dir / GROUND_LAYER)
-    write_base_layer(model, out_dir / BASE_LAYER, refs)
+    base = base_layer_name(len(model.placements), params)
+    if base == BASE_CRATE_LAYER:
+        write_base_crate_layer(model, out_dir / base, refs)
+        write_object_index(model.placements, out_dir / base)
+    else:
+        write_base_layer(model, out_dir / base, refs)
     if keep_edits is not None:
         shutil.copyfile(keep_edits, out_dir / EDITS_LAYER)
     else:
         write_edits_layer(out_dir / EDITS_LAYER)
-    write_root_layer(out_dir / ROOT_LAYER)
+    write_root_layer(out_dir / ROOT_LAYER, base)

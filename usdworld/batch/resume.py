@@ -24,8 +24,9 @@ if TYPE_CHECKING:
 
 #: Bumped when the key's recipe changes, so old keys never match.
 KEY_FORMAT = "usdworld-batch-key/1"
-#: Files every complete world folder holds (see usdworld.authoring.world).
-WORLD_FILES = ("world.usda", "layers/base.usda", "layers/edits.usda", "report.json")
+#: Files every complete world folder holds (see usdworld.authoring.world), besides the
+#: layers its root names as sublayers (the edits layer and ``layers/base.usda`` or ``.usdc``).
+WORLD_FILES = ("world.usda", "report.json")
 _CHUNK = 1 << 20
 
 
@@ -87,8 +88,18 @@ def frame_key(request: BuildRequest | ViewsBuild) -> str:
 
 
 def world_complete(folder: Path) -> bool:
-    """True when ``folder`` holds every file of a built world and a readable ``report.json``."""
+    """True when ``folder`` holds every file of a built world (the root, the layers it names as
+    sublayers, a readable ``report.json``)."""
+    from usdworld.authoring.stages import world_layer_files  # lazy: pxr
+    from usdworld.errors import InputError
+
     if not all((folder / name).is_file() for name in WORLD_FILES):
+        return False
+    try:
+        layers = world_layer_files(folder)
+    except InputError:
+        return False
+    if not all(layer.is_file() for layer in layers):
         return False
     try:
         report = json.loads((folder / "report.json").read_text())

@@ -4,8 +4,8 @@ Three shapes, by how much of the composition is resolved:
 
 layered (``usdz`` by default)
     ``UsdUtils.CreateNewUsdzPackage`` on the world: the package holds ``world.usda``,
-    ``layers/edits.usda``, ``layers/base.usda`` and the assets, so layers, references and
-    variant sets survive.
+    ``layers/edits.usda``, the base layer (``layers/base.usda``, or ``base.usdc`` in a large
+    world) and the assets, so layers, references and variant sets survive.
 baked (``usdc``; ``usdz`` with ``bake=True``)
     ``UsdUtils.FlattenLayerStack``: the root, edits and base layers merged into one layer,
     so the edits are baked in while references to the assets and the ``model`` variant sets

@@ -7,6 +7,10 @@ class label, ``model`` variant, active, specifier) from the layer stack, stronge
 first, as composition would resolve them for opinions on the object prim itself; the
 editor then composes only the objects :meth:`ObjectIndex.near` returns.
 
+The opinions are read per group of layers (:class:`Opinions`) and merged: the edits layer's
+over those below it, which no edit changes; a large world keeps the latter in a file
+(:mod:`.index_file`), so a command reads only its edits layer in Python.
+
 Worlds whose objects carry those opinions elsewhere (a label only in the asset, a
 transform that is not translate / rotateZ / scale) give no index, and the editor composes
 every object as before.
@@ -73,11 +77,170 @@ def _strongest(attrs: Sequence[Any], name: str) -> Any:
     return None
 
 
+@dataclass(frozen=True)
+class Opinions:
+    """Each object's own opinions in a group of layers, the strongest of the group per field.
+
+    Attributes:
+        names: object names: the strongest layer's children first, in layer order.
+        defined: (N,) bool, a ``def`` spec in some layer of the group.
+        translate: (N, 2) float64 x, y of ``xformOp:translate``, NaN where the group has none.
+        scale: (N, 2) float64 x, y of ``xformOp:scale``, NaN where the group has none.
+        label: the first ``class`` label, ``""`` for an empty label list, None for none.
+        variant: the ``model`` variant selection, or None.
+        active: the ``active`` opinion, or None.
+    """
+
+    names: tuple[str, ...]
+    defined: np.ndarray
+    translate: np.ndarray
+    scale: np.ndarray
+    label: tuple[str | None, ...]
+    variant: tuple[str | None, ...]
+    active: tuple[bool | None, ...]
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+
+def read_opinions(layers: Sequence[Sdf.Layer]) -> Opinions:
+    """The opinions on the objects under ``/World/Objects`` in a group of layers.
+
+    Args:
+        layers: the layers, strongest first.
+    """
+    children: dict[str, list[Sdf.PrimSpec]] = {}
+    for layer in layers:
+        scope = layer.GetPrimAtPath(OBJECTS_PATH)
+        if scope:
+            for name, spec in scope.nameChildren.items():
+                children.setdefault(name, []).append(spec)
+    n = len(children)
+    defined = np.zeros(n, dtype=bool)
+    translate = np.full((n, 2), np.nan)
+    scale = np.full((n, 2), np.nan)
+    labels: list[str | None] = []
+    variants: list[str | None] = []
+    actives: list[bool | None] = []
+    for i, specs in enumerate(children.values()):
+        defined[i] = any(s.specifier == Sdf.SpecifierDef for s in specs)
+        attrs = [s.attributes for s in specs]
+        t, s3, label = (_strongest(attrs, k) for k in ("xformOp:translate", "xformOp:scale", _LABEL))
+        if t is not None:
+            translate[i] = float(t[0]), float(t[1])
+        if s3 is not None:
+            scale[i] = float(s3[0]), float(s3[1])
+        labels.append(None if label is None else (str(label[0]) if len(label) else ""))
+        selections = (s.variantSelections.get(VARIANT_SET) for s in specs)
+        variants.append(next((v for v in selections if v is not None), None))
+        actives.append(next((bool(s.active) for s in specs if s.HasInfo("active")), None))
+    return Opinions(
+        tuple(children), defined, translate, scale, tuple(labels), tuple(variants), tuple(actives)
+    )
+
+
+def merge_opinions(upper: Opinions, lower: Opinions) -> Opinions:
+    """The opinions of two groups of layers, ``upper`` stronger: field by field, the upper
+    group's where it has one. Names: the upper group's first, then the lower's others."""
+    if not len(upper):
+        return lower
+    at = {name: i for i, name in enumerate(lower.names)}
+    ups = set(upper.names)
+    names = (*upper.names, *(name for name in lower.names if name not in ups))
+    src = np.array([at.get(name, -1) for name in names], dtype=np.int64)
+    has = src >= 0
+    defined = np.zeros(len(names), dtype=bool)
+    defined[has] = lower.defined[src[has]]
+    translate = np.full((len(names), 2), np.nan)
+    translate[has] = lower.translate[src[has]]
+    scale = np.full((len(names), 2), np.nan)
+    scale[has] = lower.scale[src[has]]
+    label = [lower.label[i] if i >= 0 else None for i in src]
+    variant = [lower.variant[i] if i >= 0 else None for i in src]
+    active = [lower.active[i] if i >= 0 else None for i in src]
+    for j in range(len(upper)):  # the upper group's names are the first rows
+        defined[j] |= upper.defined[j]
+        if not np.isnan(upper.translate[j, 0]):
+            translate[j] = upper.translate[j]
+        if not np.isnan(upper.scale[j, 0]):
+            scale[j] = upper.scale[j]
+        for merged, own in ((label, upper.label), (variant, upper.variant), (active, upper.active)):
+            if own[j] is not None:
+                merged[j] = own[j]
+    return Opinions(names, defined, translate, scale, tuple(label), tuple(variant), tuple(active))
+
+
+def index_from_opinions(
+    opinions: Opinions,
+    added: set[str],
+    size: Callable[[str, str], tuple[float, float]],
+    footprint_size: Callable[[str, str], tuple[float, float]],
+    libraries: tuple[Path, ...],
+) -> ObjectIndex | None:
+    """The index of the objects the opinions define.
+
+    Args:
+        opinions: every layer's opinions, merged (:func:`merge_opinions`).
+        added: names of the objects the edits layer defines (the others the build placed).
+        size: unscaled (length, width) of a class's variant, metres.
+        footprint_size: unscaled footprint the rules use for a class's variant, metres.
+        libraries: asset folders (for the variant an object gets when none is selected).
+
+    Returns:
+        The index, or None when a defined object has no translate, scale or class label.
+    """
+    keep = np.flatnonzero(opinions.defined)  # only overs: no object in this world (an orphan edit)
+    names = [opinions.names[i] for i in keep]
+    centers = opinions.translate[keep]
+    scale = opinions.scale[keep]
+    labels = [opinions.label[i] for i in keep]
+    if np.isnan(centers).any() or np.isnan(scale).any() or not all(labels):
+        return None
+    # one size lookup per (class, variant), not per object
+    kinds: dict[tuple[str, str | None], int] = {}
+    codes = np.array(
+        [kinds.setdefault((c, opinions.variant[i]), len(kinds)) for i, c in zip(keep, labels)], dtype=np.int64
+    )
+    table = np.empty((len(kinds), 4))
+    for (class_name, variant), code in kinds.items():
+        if variant is None:
+            try:
+                variant = asset_library.asset_info(class_name, libraries).default_variant
+            except InputError:
+                return None  # no asset: the state reader's own fallback applies
+        table[code, :2] = size(class_name, variant)
+        table[code, 2:] = footprint_size(class_name, variant)
+    sizes = table[codes].reshape(-1, 4)
+    active = np.array([opinions.active[i] is not False for i in keep], dtype=bool)
+    sx, sy = scale[:, 0], scale[:, 1]
+    length, width = np.maximum(sizes[:, 0], sizes[:, 2]), np.maximum(sizes[:, 1], sizes[:, 3])
+    reach = 0.5 * np.hypot(length * sx, width * sy)
+    reach[~active] = 0.0
+    built = [name not in added for name in names] if added else [True] * len(names)
+    placed_rows = active & np.array(built, dtype=bool)
+    placed = None
+    if placed_rows.any():
+        foot = sizes[placed_rows, 2:] * scale[placed_rows]
+        half = 0.5 * np.maximum(foot[:, 0], foot[:, 1])
+        xy = centers[placed_rows]
+        placed = np.array([(xy - half[:, None]).min(axis=0), (xy + half[:, None]).max(axis=0)])
+    return ObjectIndex(tuple(names), centers.reshape(-1, 2), reach, placed)
+
+
+def added_objects(edits: Sdf.Layer) -> set[str]:
+    """Names of the objects an edits layer defines (``def``: added by an edit)."""
+    scope = edits.GetPrimAtPath(OBJECTS_PATH)
+    if not scope:
+        return set()
+    return {n for n, spec in scope.nameChildren.items() if spec.specifier == Sdf.SpecifierDef}
+
+
 def read_index(
     layers: Sequence[Sdf.Layer],
     size: Callable[[str, str], tuple[float, float]],
     footprint_size: Callable[[str, str], tuple[float, float]],
     libraries: tuple[Path, ...],
+    lower: Opinions | None = None,
 ) -> ObjectIndex | None:
     """The index of the objects under ``/World/Objects`` in a layer stack.
 
@@ -86,56 +249,14 @@ def read_index(
         size: unscaled (length, width) of a class's variant, metres.
         footprint_size: unscaled footprint the rules use for a class's variant, metres.
         libraries: asset folders (for the variant an object gets when none is selected).
+        lower: the opinions of ``layers[1:]`` when known (:mod:`.index_file`); read from
+            the layers when None.
 
     Returns:
         The index, or None when an object's translate, scale or class label is not
         authored on the object in these layers.
     """
-    children: dict[str, list[Sdf.PrimSpec]] = {}
-    for layer in layers:
-        scope = layer.GetPrimAtPath(OBJECTS_PATH)
-        if scope:
-            for name, spec in scope.nameChildren.items():
-                children.setdefault(name, []).append(spec)
-    edits_scope = layers[0].GetPrimAtPath(OBJECTS_PATH)
-    added = (
-        {n for n, spec in edits_scope.nameChildren.items() if spec.specifier == Sdf.SpecifierDef}
-        if edits_scope
-        else set()
-    )
-    names, centers, reach, placed_rows = [], [], [], []
-    for name, specs in children.items():
-        if not any(s.specifier == Sdf.SpecifierDef for s in specs):
-            continue  # only overs: no object in this world (an orphan edit)
-        attrs = [s.attributes for s in specs]
-        t, s3, labels = (_strongest(attrs, k) for k in ("xformOp:translate", "xformOp:scale", _LABEL))
-        if t is None or s3 is None or not labels:
-            return None
-        class_name = str(labels[0])
-        variant = next(
-            (v for v in (s.variantSelections.get(VARIANT_SET) for s in specs) if v is not None), None
-        )
-        if variant is None:
-            try:
-                variant = asset_library.asset_info(class_name, libraries).default_variant
-            except InputError:
-                return None  # no asset: the state reader's own fallback applies
-        active = next((s.active for s in specs if s.HasInfo("active")), True)
-        x, y = float(t[0]), float(t[1])
-        names.append(name)
-        centers.append((x, y))
-        if not active:
-            reach.append(0.0)
-            continue
-        sx, sy = float(s3[0]), float(s3[1])
-        (length, width), (foot_l, foot_w) = size(class_name, variant), footprint_size(class_name, variant)
-        reach.append(0.5 * math.hypot(max(length, foot_l) * sx, max(width, foot_w) * sy))
-        if name not in added:  # the objects the build placed
-            placed_rows.append((x, y, 0.5 * max(foot_l * sx, foot_w * sy)))
-    placed = None
-    if placed_rows:
-        rows = np.array(placed_rows, dtype=np.float64)
-        placed = np.array([(rows[:, :2] - rows[:, 2:]).min(axis=0), (rows[:, :2] + rows[:, 2:]).max(axis=0)])
-    return ObjectIndex(
-        tuple(names), np.array(centers, dtype=np.float64).reshape(-1, 2), np.array(reach), placed
-    )
+    if lower is None:
+        lower = read_opinions(layers[1:])
+    merged = merge_opinions(read_opinions(layers[:1]), lower)
+    return index_from_opinions(merged, added_objects(layers[0]), size, footprint_size, libraries)

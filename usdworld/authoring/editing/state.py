@@ -26,11 +26,13 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
 from usdworld.authoring import asset_library
-from usdworld.authoring.editing.index import ObjectIndex, read_index
+from usdworld.authoring.editing.index import ObjectIndex, Opinions, read_index
+from usdworld.authoring.editing.index_file import lower_opinions
 from usdworld.authoring.editing.restyle import COLOR_KEY
 from usdworld.errors import EditRefused, InputError, RefusalReason
 from usdworld.io.class_table import ClassTable
 from usdworld.layout import permissible as rules
+from usdworld.parameters.authoring import AuthoringParams
 from usdworld.world_files import GROUND_PATH, OBJECTS_PATH
 
 #: Surface meshes of a world and the surface name each stands for.
@@ -145,6 +147,7 @@ class WorldState:
         self._partial = stage.GetPopulationMask() != Usd.StagePopulationMask.All()
         self._index: ObjectIndex | None = None
         self._index_read = False
+        self._lower: Opinions | None = None  # the opinions below the edits layer (unchanged by edits)
         self._sizes: dict[tuple[str, str], tuple[float, float]] = {}
         self._trunk_sizes: dict[tuple[str, str], tuple[float, float]] = {}
         self._ground: rules.Ground | None = None
@@ -168,7 +171,7 @@ class WorldState:
         """Drop every cache (the base layers were reloaded)."""
         self._ground, self._states = None, None
         self._sizes, self._trunk_sizes = {}, {}
-        self._index, self._index_read = None, False
+        self._index, self._index_read, self._lower = None, False, None
 
     def unmask(self) -> None:
         """Compose the whole world from now on (what needs every object calls this first)."""
@@ -180,7 +183,9 @@ class WorldState:
     def _object_index(self) -> ObjectIndex | None:
         """The index of the objects, read from the layers (None when they do not give one)."""
         if not self._index_read:
-            self._index = read_index(self.layers, self.size, self.footprint_size, self.libraries)
+            if self._lower is None:
+                self._lower = lower_opinions(self.layers, AuthoringParams().large_world_min_objects)
+            self._index = read_index(self.layers, self.size, self.footprint_size, self.libraries, self._lower)
             self._index_read = True
         return self._index
 

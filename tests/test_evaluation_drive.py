@@ -54,3 +54,31 @@ def test_a_standing_world_object_for_a_moving_car_is_held_in_place() -> None:
     result = evaluate_drive([parked], _gt(), ("car", "tree"))
     assert result["moving"]["paired"] == 0  # median error 5 m over its two frames: outside the gate
     assert result["standing"]["overall"]["unmatched_objects"] == 1
+
+
+def test_the_ground_error_splits_along_and_across_the_viewing_direction() -> None:
+    """A tree 10 m straight ahead of the only frame that shows it, placed 0.6 m long and 0.3 m to the
+    right: along +0.6, across -0.3 (across is positive to the left of the ray)."""
+    gt = _gt()
+    gt["objects"][1] = {"name": "tree_0000", "class": "tree", "moving": False, "track": [[10, 0, 0]] * 3,
+                        "visible_pixels": [50, 0, 0]}
+    tree = TrackedWorldObject("tree_0001", "tree", np.array([10.6, -0.3]), False, {})
+    standing = evaluate_drive([tree], gt, ("tree",))["standing"]
+    (row,) = standing["boxes"]
+    assert (row["along_m"], row["across_m"]) == (pytest.approx(0.6), pytest.approx(-0.3))
+    assert standing["error_split"]["overall"] == {"n": 1, "median_along_m": pytest.approx(0.6),
+                                                  "median_across_m": pytest.approx(0.3)}
+    assert standing["error_split"]["per_class"]["tree"]["n"] == 1
+
+
+def test_the_split_keeps_the_error_and_follows_the_mean_viewing_direction() -> None:
+    """Seen from (0, 0), (8, 0) and (16, 0), the tree at (15, 5) has its along and across parts
+    summing in squares to its BEV error, along the normalised mean of the three unit rays."""
+    tree = TrackedWorldObject("tree_0001", "tree", np.array([16.0, 4.5]), False, {})
+    standing = evaluate_drive([tree], _gt(), ("tree",))["standing"]
+    (row,) = standing["boxes"]
+    assert row["along_m"] ** 2 + row["across_m"] ** 2 == pytest.approx(row["error_m"] ** 2)
+    rays = np.array([[15.0, 5.0], [7.0, 5.0], [-1.0, 5.0]])
+    u = (rays / np.linalg.norm(rays, axis=1, keepdims=True)).mean(axis=0)
+    u /= np.linalg.norm(u)
+    assert row["along_m"] == pytest.approx(float(np.array([1.0, -0.5]) @ u))

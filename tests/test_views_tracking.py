@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from layout_support import box_object
 
 from usdworld.layout.draft import DepthMethod
 from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
 from usdworld.perception.depth.fusion import DepthCue
-from usdworld.views.drive import DriveObject, track_drive
+from usdworld.views.drive import DriveObject, frame_scatter, track_drive
 from usdworld.views.fusion import Observation
 
 PARAMS = ViewsParams()
@@ -77,3 +81,39 @@ def test_a_standing_object_broken_by_a_depth_jump_is_placed_once() -> None:
     assert len(track_drive(together, [0.1 * k for k in range(4)], PARAMS)) == 2
     apart = [_obs(k, (48.0 if k < 3 else 40.0, 0.0), 1.0, 0.3) for k in range(6)]
     assert len(track_drive(apart, [0.1 * k for k in range(6)], PARAMS)) == 2
+
+
+def test_fragments_whose_frames_scatter_more_than_stated_are_joined() -> None:
+    """A pole 40-45 m down the ray, every frame stated sure to 1 m: frames 0-5 alternate 44 / 46 m,
+    frames 6-11 alternate 39 / 41 m. The jump (45 -> 41 m) starts a second track; each fragment's
+    frames scatter by 1.48 m (1.4826 MAD), more than the 1 m they state, so a frame's error is
+    1.48^2 / (1 - 0.5) and the fragments, 5 m apart, agree (m2 = 25 / 4.73 = 5.3). With the stated
+    1 m alone the floored covariances leave them 18.75 apart in squared sigmas: two poles."""
+    xs = [44.0, 46.0] * 3 + [39.0, 41.0] * 3
+    obs = [_obs(k, (x, 0.0), 1.0, 0.3) for k, x in enumerate(xs)]
+    (pole,) = track_drive(obs, [0.1 * k for k in range(12)], PARAMS)
+    assert len(pole.times) == 12 and not pole.moving
+    assert pole.fused.placement.position_world[:2] == pytest.approx([42.5, 0.0], abs=1e-9)
+
+    # the same 5 m jump between fragments whose frames agree with what they state stays two poles
+    steady = [_obs(k, (45.0 if k < 6 else 40.0, 0.0), 1.0, 0.3) for k in range(12)]
+    assert len(track_drive(steady, [0.1 * k for k in range(12)], PARAMS)) == 2
+    # and a fragment of fewer than scatter_min_frames frames uses what its surest frame states
+    short = [_obs(k, x, 1.0, 0.3) for k, x in enumerate([(44.0, 0.0), (46.0, 0.0), (39.0, 0.0), (41.0, 0.0)])]
+    assert len(track_drive(short, [0.1 * k for k in range(4)], PARAMS)) == 2
+
+
+@given(
+    spread=st.floats(0.1, 5.0),
+    bearing=st.floats(-math.pi, math.pi),
+    offset=st.floats(-3.0, 3.0),
+)
+def test_frame_scatter_measures_a_spread_along_the_ray(spread: float, bearing: float, offset: float) -> None:
+    """Frames spread symmetrically along one ray from the camera: the along-ray standard deviation is
+    1.4826 times their median absolute deviation, nothing across, whichever way the ray points."""
+    u = np.array([math.cos(bearing), math.sin(bearing)])
+    depths = 30.0 + offset + spread * np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
+    S = frame_scatter(depths[:, None] * u[None, :], np.zeros((5, 2)))
+    assert float(u @ S @ u) == pytest.approx((1.4826 * spread) ** 2, rel=1e-9)
+    n = np.array([-u[1], u[0]])
+    assert float(n @ S @ n) == pytest.approx(0.0, abs=1e-9)

@@ -186,6 +186,12 @@ def _drive_main(manifest: Path, out_arg: Path | None, jobs: int | None, as_json:
         f"ground spread measured {spread:.2f} m"
     )
     print(_table("standing objects (seen in some frame)", result["standing"]))
+    split = result["standing"]["error_split"]
+    parts = [
+        f"{name} {_metres(v['median_along_m'])} / {_metres(v['median_across_m'])}"
+        for name, v in [("all", split["overall"]), *split["per_class"].items()]
+    ]
+    print("ground error along / across the viewing direction (median |.|): " + "; ".join(parts))
     m = result["moving"]
     med = "-" if m["median_track_error_m"] is None else f"{m['median_track_error_m']:.2f} m"
     p90 = "-" if m["p90_track_error_m"] is None else f"{m['p90_track_error_m']:.2f} m"

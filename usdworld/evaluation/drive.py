@@ -16,7 +16,10 @@ Standing objects then: the seen standing objects against the remaining world obj
 (their default positions), as :func:`usdworld.evaluation.views.evaluate_bev` compares a
 rig's world with its boxes (placed once, more than once, missed; median BEV error = the
 *ground error*), the gate's range being the distance from the nearest ego position of a
-frame that shows the object.
+frame that shows the object. Each placed standing object's error is also split along and
+across its *viewing direction*, the mean of the unit vectors from the ego to the object
+over the frames that show it (:func:`error_split`): a single view's depth errs along its
+ray, its bearing across it, so the split says which of the two a drive's fusion left.
 """
 
 from __future__ import annotations
@@ -60,6 +63,48 @@ class TrackedWorldObject:
         return np.array([np.interp(t, ts, xy[:, 0]), np.interp(t, ts, xy[:, 1])])
 
 
+def viewing_direction(xy: np.ndarray, egos: np.ndarray) -> np.ndarray:
+    """(2,) unit mean viewing direction of a ground point from ego positions.
+
+    Args:
+        xy: (2,) float64 the point, metres.
+        egos: (F, 2) float64 the ego positions of the frames that show it, metres.
+
+    Returns:
+        The normalised mean of the unit vectors from each ego position to the point.
+
+    Example:
+        >>> viewing_direction(np.array([10.0, 10.0]), np.array([[0.0, 10.0], [10.0, 0.0]])).round(4).tolist()
+        [0.7071, 0.7071]
+    """
+    d = xy[None, :] - egos
+    u = (d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)).mean(axis=0)
+    return u / max(float(np.linalg.norm(u)), 1e-9)
+
+
+def error_split(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """Median absolute along- and across-ray errors of placed standing objects, overall and per class.
+
+    Args:
+        rows: the standing rows of :func:`evaluate_drive` (``along_m`` / ``across_m`` set where placed).
+
+    Returns:
+        JSON-ready: ``overall`` and ``per_class``, each ``{"n", "median_along_m", "median_across_m"}``.
+    """
+
+    def summary(sel: list[Mapping[str, Any]]) -> dict[str, Any]:
+        return {
+            "n": len(sel),
+            "median_along_m": float(np.median([abs(r["along_m"]) for r in sel])) if sel else None,
+            "median_across_m": float(np.median([abs(r["across_m"]) for r in sel])) if sel else None,
+        }
+
+    placed = [r for r in rows if r.get("along_m") is not None]
+    classes = sorted({r["class"] for r in placed})
+    per_class = {c: summary([r for r in placed if r["class"] == c]) for c in classes}
+    return {"overall": summary(placed), "per_class": per_class}
+
+
 def evaluate_drive(
     objects: Sequence[TrackedWorldObject],
     gt: dict[str, Any],
@@ -78,8 +123,10 @@ def evaluate_drive(
 
     Returns:
         JSON-ready: ``moving`` (seen, paired, paired_moving, median and p90 track error,
-        per object rows), ``standing`` (the :func:`evaluate_bev` result) and ``false_moving``
-        (world objects that move but were paired with no moving object).
+        per object rows), ``standing`` (the :func:`evaluate_bev` result, each box's row with
+        ``along_m`` / ``across_m``: its nearest object's signed error along and across its
+        :func:`viewing_direction`, None when missed; and ``error_split``, :func:`error_split`)
+        and ``false_moving`` (world objects that move but were paired with no moving object).
     """
     from scipy.optimize import linear_sum_assignment  # lazy: only the evaluation needs it
 
@@ -134,6 +181,7 @@ def evaluate_drive(
         "objects": rows,
     }
     boxes = []
+    directions = {}
     for k, o in enumerate(seen):
         if o["moving"]:
             continue
@@ -141,7 +189,17 @@ def evaluate_drive(
         frames = [f for f, px in enumerate(o["visible_pixels"]) if px >= MIN_VISIBLE_PX]
         rng = min(float(np.linalg.norm(xy - egos[f])) for f in frames)
         boxes.append(BevBox(k, o["class"], xy, ("drive",), range_m=rng))
+        directions[k] = (xy, viewing_direction(xy, egos[frames]))
     rest = [(w.name, w.class_name, w.position) for j, w in enumerate(objects) if j not in used]
     standing = evaluate_bev(rest, boxes, gate_min_m=gate_min_m, gate_rel=gate_rel)
+    where = {name: np.asarray(xy, dtype=np.float64) for name, _, xy in rest}
+    for row in standing["boxes"]:
+        row["along_m"] = row["across_m"] = None
+        if row["objects"]:
+            xy, u = directions[row["index"]]
+            d = where[row["objects"][0]] - xy
+            row["along_m"] = float(d @ u)
+            row["across_m"] = float(d @ np.array([-u[1], u[0]]))
+    standing["error_split"] = error_split(standing["boxes"])
     false_moving = [w.name for j, w in enumerate(objects) if w.moving and j not in used]
     return {"moving": moving, "standing": standing, "false_moving": false_moving}

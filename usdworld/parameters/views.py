@@ -108,9 +108,18 @@ class ViewsParams:
         "fraction",
         "Share of one frame's placement error variance that the other frames of a drive repeat (a bias "
         "of the object's single-view depth, not noise): a standing track's position is known no better "
-        "than this times its surest frame's covariance, however many frames it has; fragments of one "
-        "object are merged within association_gate_chi2 of that floored covariance.",
+        "than this times one frame's error covariance (its surest frame's stated one, or its frames' "
+        "measured scatter divided by 1 minus this when larger), however many frames it has; fragments "
+        "of one object are merged within association_gate_chi2 of that floored covariance.",
         "tuned: measured on synthetic drives (synth --sequence 100, seeds 11 and 12): the spread across "
         "objects of their mean relative depth error (0.036-0.041) equals the spread within an object "
         "(0.036-0.041), so about half the variance is common to its frames",
+    )
+    scatter_min_frames: int = param(
+        3,
+        "count",
+        "Fewest frames of a standing track whose robust scatter (median absolute deviation about the "
+        "median, along and across the viewing ray) measures its per-frame error when fragments are "
+        "joined; a shorter track uses its surest frame's stated covariance.",
+        "geometry: a median of three values is the fewest that one failed frame cannot set",
     )

@@ -24,9 +24,14 @@ frames are tracked in time order, so the work grows with the number of frames:
    a single-view placement error that jumps between frames starts a second track, and
    both then keep catching the object's observations. Two standing tracks of one class
    that share no frame are one object when their positions agree within the gate, each
-   position's covariance floored at ``frame_error_correlation`` times its surest frame's
-   (the share of a frame's error that the object's other frames repeat does not average
-   away).
+   position's covariance floored at ``frame_error_correlation`` times one frame's error
+   covariance (the share of a frame's error that the object's other frames repeat does
+   not average away). A frame's error is the larger of what the surest frame states and
+   what the fragment's own frames measure: their robust scatter about their median, along
+   and across their mean viewing ray, divided by ``1 - frame_error_correlation`` (the
+   scatter shows only the part the frames do not share). Stated spreads understate the
+   single-view depth error of far objects, and a fragment whose frames scatter by metres
+   is not known to a fraction of a metre.
 
 **Moving or standing.** A vehicle's or person's track is *moving* when it spans at least
 ``moving_min_frames`` frames and its fitted velocity disagrees with standing still beyond
@@ -304,17 +309,58 @@ def _is_moving(tr: _Track, fit: MotionFit, params: ViewsParams) -> bool:
     )
 
 
+#: Ratio of a normal distribution's standard deviation to its median absolute deviation (1 / Phi^-1(3/4)).
+_MAD_TO_SIGMA = 1.4826
+
+
+def frame_scatter(positions: np.ndarray, cameras: np.ndarray) -> np.ndarray:
+    """(2, 2) robust covariance of a track's per-frame positions, along and across their mean viewing ray.
+
+    The median absolute deviations about the median, taken along the mean of the frames'
+    unit viewing rays and across it, scaled to standard deviations (``1.4826 MAD``, the
+    normal consistency factor): a frame whose depth cue failed does not set the spread.
+
+    Args:
+        positions: (N, 2) float64 the frames' ground positions, metres.
+        cameras: (N, 2) float64 the ground points of the cameras that placed them, metres.
+
+    Returns:
+        (2, 2) float64 metres squared.
+
+    Example:
+        >>> frame_scatter(np.array([[9.0, 0.0], [10.0, 0.0], [11.0, 0.0]]), np.zeros((3, 2))).round(4).tolist()
+        [[2.1981, 0.0], [0.0, 0.0]]
+    """
+    rays = positions - cameras
+    u = (rays / np.maximum(np.linalg.norm(rays, axis=1, keepdims=True), 1e-9)).mean(axis=0)
+    u = u / max(float(np.linalg.norm(u)), 1e-9)
+    n = np.array([-u[1], u[0]])
+    d = positions - np.median(positions, axis=0)
+    along, across = (_MAD_TO_SIGMA * float(np.median(np.abs(v - np.median(v)))) for v in (d @ u, d @ n))
+    return along**2 * np.outer(u, u) + across**2 * np.outer(n, n)
+
+
 def _standing_estimate(tr: _Track, params: ViewsParams) -> tuple[np.ndarray, np.ndarray]:
     """(2,) position and (2, 2) covariance of a standing track, floored for correlated frame errors.
 
     The information-weighted mean of its observations, whose covariance assumes independent
-    frames, plus ``frame_error_correlation`` times its surest single observation's covariance:
-    the share of a frame's error that the other frames repeat does not average away.
+    frames, plus ``frame_error_correlation`` (rho) times one frame's error covariance: the
+    share of a frame's error that the other frames repeat does not average away. A frame's
+    error covariance is its surest frame's stated one or, when larger (trace) and the track
+    has ``scatter_min_frames`` frames, the measured :func:`frame_scatter` divided by
+    ``1 - rho`` (the frames scatter by their unshared part only).
     """
     members = [o for item in tr.items for o in item.observations]
     xy, cov = combine(members)
-    best = min((item.covariance for item in tr.items), key=lambda c: float(np.trace(c)))
-    return xy, cov + params.frame_error_correlation * best
+    frame = min((item.covariance for item in tr.items), key=lambda c: float(np.trace(c)))
+    rho = params.frame_error_correlation
+    if len(tr.items) >= params.scatter_min_frames and rho < 1.0:
+        positions = np.array([item.placement.position_world[:2] for item in tr.items])
+        cameras = np.array([item.observations[0].camera_ground for item in tr.items])
+        measured = frame_scatter(positions, cameras) / (1.0 - rho)
+        if float(np.trace(measured)) > float(np.trace(frame)):
+            frame = measured
+    return xy, cov + rho * frame
 
 
 def merge_fragments(tracks: list[_Track], params: ViewsParams) -> list[_Track]:

@@ -370,13 +370,19 @@ def in_swept(slack: np.ndarray, rate: np.ndarray) -> np.ndarray:
         slack: (P, K) float64 ``a . p - b`` per point and half-plane (<= 0: inside it).
         rate: (P, K) float64 ``a . v``, the sweep vector along each half-plane's normal.
     """
-    moving = np.abs(rate) > 1e-12
+    # Half-plane by half-plane (K is a footprint's few edges): the same bounds, without (P, K) temporaries.
+    lower = np.zeros(len(slack))
+    upper = np.ones(len(slack))
+    inside = np.ones(len(slack), dtype=bool)
     with np.errstate(divide="ignore", invalid="ignore"):
-        bound = np.where(moving, slack / np.where(moving, rate, 1.0), 0.0)
-    fixed_out = ~moving & (slack > 0)  # a half-plane the sweep runs along, and the point outside it
-    lower = np.where(rate > 1e-12, bound, -np.inf).max(axis=1)
-    upper = np.where(rate < -1e-12, bound, np.inf).min(axis=1)
-    return (np.maximum(lower, 0.0) <= np.minimum(upper, 1.0)) & ~fixed_out.any(axis=1)
+        for k in range(slack.shape[1]):
+            s, r = slack[:, k], rate[:, k]
+            rising, falling = r > 1e-12, r < -1e-12
+            bound = s / r
+            np.maximum(lower, np.where(rising, bound, -np.inf), out=lower)
+            np.minimum(upper, np.where(falling, bound, np.inf), out=upper)
+            inside &= rising | falling | ~(s > 0)  # a half-plane the sweep runs along: the point must be inside it
+    return (lower <= upper) & inside
 
 
 @dataclass(frozen=True)
@@ -429,13 +435,54 @@ def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
     )
 
 
+@dataclass(frozen=True)
+class _Strip:
+    """The pairs that a sun at one azimuth can shadow at all, and what their tests need.
+
+    A caster's swept footprint lies inside its bounding disc swept along the shadow, a
+    stadium: only the pairs inside that stadium's bounding strip (of any length) need the
+    exact test, so these arrays, cut to the strip once per azimuth, serve every elevation.
+    """
+
+    pair: np.ndarray  # (S,) index into the pairs
+    sample: np.ndarray  # (S,) sample index
+    along: np.ndarray  # (S,) the sample's distance along the shadow from the footprint's centre, m
+    margin: np.ndarray  # (S,) the footprint's radius (+1e-9), m
+    height: np.ndarray  # (S,) the caster's least height, m
+    height_max: np.ndarray  # (S,) the caster's greatest height, m
+    unknown_top: np.ndarray  # (S,) bool the caster's top is not seen (height_max > height)
+    slack: np.ndarray  # (S, K) a . p - b
+    rate: np.ndarray  # (S, K) a . away: the unit shadow direction along each half-plane's normal
+
+
+def _strip(pairs: _Pairs, azimuth: float) -> _Strip:
+    """The pairs within the bounding strip of every shadow cast away from a sun at ``azimuth``."""
+    away = -np.array([math.cos(azimuth), math.sin(azimuth)])
+    margin = pairs.radius + 1e-9
+    along = pairs.offset @ away
+    across = pairs.offset @ np.array([-away[1], away[0]])
+    band = np.flatnonzero((np.abs(across) <= margin) & (along >= -margin))
+    height, height_max = pairs.height[band], pairs.height_max[band]
+    return _Strip(
+        band,
+        pairs.sample[band],
+        along[band],
+        margin[band],
+        height,
+        height_max,
+        height_max > height,
+        pairs.slack[band],
+        pairs.normals[band] @ away,
+    )
+
+
 def _predicted(
     pairs: _Pairs,
     n_samples: int,
     azimuth: float,
     elevation: float,
     reach_max_m: float,
-    strips: dict[float, tuple[np.ndarray, np.ndarray]] | None = None,
+    strips: dict[float, _Strip] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Samples in some caster's shadow for a sun at (azimuth, elevation), and those that may be.
 
@@ -443,59 +490,44 @@ def _predicted(
     most that of its greatest: the ground between is unknown unless another caster's
     shadow surely covers it.
 
-    ``strips`` caches, per azimuth, the pairs across the shadow's strip and their distance
-    along it (the same for every elevation).
+    ``strips`` caches, per azimuth, the pairs across the shadow's strip (:func:`_strip`,
+    the same for every elevation).
 
     Returns:
         (N,) bool surely shadowed samples and (N,) bool samples that may or may not be.
     """
-    inside = _pairs_in_shadow(pairs, azimuth, elevation, reach_max_m, strips)
-    sure = np.bincount(pairs.sample, weights=inside, minlength=n_samples) > 0
+    strip = strips.get(azimuth) if strips is not None else None
+    if strip is None:
+        strip = _strip(pairs, azimuth)
+        if strips is not None:
+            strips[azimuth] = strip
+    sure = np.zeros(n_samples, dtype=bool)
+    sure[strip.sample[_strip_in_shadow(strip, elevation, reach_max_m, strip.height)]] = True
     unsure = np.zeros(n_samples, dtype=bool)
-    unknown_top = pairs.height_max > pairs.height
-    if np.any(unknown_top):
-        longest = _pairs_in_shadow(
-            pairs, azimuth, elevation, reach_max_m, strips, pairs.height_max, unknown_top
-        )
-        unsure = (np.bincount(pairs.sample, weights=longest, minlength=n_samples) > 0) & ~sure
+    if np.any(strip.unknown_top):
+        longest = _strip_in_shadow(strip, elevation, reach_max_m, strip.height_max, strip.unknown_top)
+        unsure[strip.sample[longest]] = True
+        unsure &= ~sure
     return sure, unsure
 
 
-def _pairs_in_shadow(
-    pairs: _Pairs,
-    azimuth: float,
-    elevation: float,
-    reach_max_m: float,
-    strips: dict[float, tuple[np.ndarray, np.ndarray]] | None = None,
-    height: np.ndarray | None = None,
-    only: np.ndarray | None = None,
+def _strip_in_shadow(
+    strip: _Strip, elevation: float, reach_max_m: float, height: np.ndarray, only: np.ndarray | None = None
 ) -> np.ndarray:
-    """(P,) bool: each pair's sample lies in its caster's shadow for a sun at (azimuth, elevation).
+    """(T,) int indices into the strip of the pairs whose sample lies in its caster's shadow.
 
-    ``height``: (P,) float64 the casters' heights, metres (default ``pairs.height``);
-    ``only``: (P,) bool the pairs tested (default all; the others are False).
+    Args:
+        strip: the pairs of one azimuth.
+        elevation: the sun's elevation, radians.
+        reach_max_m: the longest shadow, metres.
+        height: (S,) float64 the casters' heights, metres.
+        only: (S,) bool the pairs tested (default all).
     """
-    length = np.minimum((pairs.height if height is None else height) / math.tan(elevation), reach_max_m)
-    away = -np.array([math.cos(azimuth), math.sin(azimuth)])
-    # The swept footprint lies inside its bounding disc swept along the shadow, a stadium:
-    # only the pairs inside that stadium's bounding strip need the exact test (a necessary
-    # condition, so the result is exact; it skips most of each caster's ring).
-    margin = pairs.radius + 1e-9
-    strip = strips.get(azimuth) if strips is not None else None
-    if strip is None:
-        along = pairs.offset @ away
-        across = pairs.offset @ np.array([-away[1], away[0]])
-        band = np.flatnonzero((np.abs(across) <= margin) & (along >= -margin))
-        strip = (band, along[band])
-        if strips is not None:
-            strips[azimuth] = strip
-    band, along_band = strip
-    near = band[along_band <= length[band] + margin[band]]
+    length = np.minimum(height / math.tan(elevation), reach_max_m)
+    near = np.flatnonzero(strip.along <= length + strip.margin)
     if only is not None:
         near = near[only[near]]
-    inside = np.zeros(len(pairs.sample), dtype=bool)
-    inside[near] = in_swept(pairs.slack[near], (pairs.normals[near] @ away) * length[near, None])
-    return inside
+    return near[in_swept(strip.slack[near], strip.rate[near] * length[near, None])]
 
 
 def _overlap(
@@ -548,12 +580,16 @@ def fit_sun(
     n = len(samples.points_ground)
     lo, hi = params.elevation_range_deg
 
-    strips: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+    strips: dict[float, _Strip] = {}
+    scores: dict[tuple[float, float], float] = {}  # the refining grids meet cells already scored
 
     def score(az: float, el: float) -> tuple[float, float, float]:
         el = float(np.clip(el, lo, hi))
-        pred, unsure = _predicted(pairs, n, math.radians(az), math.radians(el), params.reach_max_m, strips)
-        return _overlap(pred, observed, weight, unsure), az % 360.0, el
+        key = (float(az), el)
+        if key not in scores:
+            pred, unsure = _predicted(pairs, n, math.radians(az), math.radians(el), params.reach_max_m, strips)
+            scores[key] = _overlap(pred, observed, weight, unsure)
+        return scores[key], az % 360.0, el
 
     step = params.coarse_step_deg
     best = max(score(az, el) for az in np.arange(0.0, 360.0, step) for el in np.arange(lo, hi + 1e-9, step))
@@ -562,7 +598,9 @@ def fit_sun(
         offsets = np.arange(-3, 4) * fine
         best = max([best] + [score(az0 + da, el0 + de) for da in offsets for de in offsets])
     _, az, el = best
-    inside = _pairs_in_shadow(pairs, math.radians(az), math.radians(el), params.reach_max_m)
+    strip = _strip(pairs, math.radians(az))
+    inside = np.zeros(len(pairs.sample), dtype=bool)
+    inside[strip.pair[_strip_in_shadow(strip, math.radians(el), params.reach_max_m, strip.height)]] = True
     pred = np.bincount(pairs.sample, weights=inside, minlength=n) > 0
     meeting = len(np.unique(pairs.caster[inside & observed[pairs.sample]]))
     return math.radians(az), math.radians(el), _overlap(pred, observed, weight), pred, meeting

@@ -158,6 +158,35 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     return uint8_to_linear(rgb) @ LUMA
 
 
+def ground_luminance(rgb: np.ndarray, ground_ids: np.ndarray) -> np.ndarray:
+    """(H, W) float64 :func:`luminance` of the ground's pixels (``ground_ids`` > 0), 0 elsewhere.
+
+    The light is measured on the ground only, so only its pixels are converted.
+
+    Args:
+        rgb: (H, W, 3) uint8 sRGB photo.
+        ground_ids: (H, W) int surface id per pixel, 0 where not ground.
+    """
+    ground = np.asarray(ground_ids) > 0
+    lum = np.zeros(ground.shape)
+    lum[ground] = uint8_to_linear(rgb[ground]) @ LUMA
+    return lum
+
+
+def present_ids(ids: np.ndarray) -> np.ndarray:
+    """(M,) int the distinct values of an integer array, ascending (as ``np.unique``).
+
+    A histogram when the values are small non-negative ids (one pass, no sort), else ``np.unique``.
+
+    Args:
+        ids: (...) int array.
+    """
+    ids = np.asarray(ids)
+    if ids.size and ids.min() >= 0 and ids.max() < 1 << 16:
+        return np.flatnonzero(np.bincount(ids.ravel()))
+    return np.unique(ids)
+
+
 def inner_ground(ground_ids: np.ndarray, edge_px: int) -> np.ndarray:
     """(H, W) int32 surface ids with ``edge_px`` pixels taken off every surface's outline.
 
@@ -173,7 +202,7 @@ def inner_ground(ground_ids: np.ndarray, edge_px: int) -> np.ndarray:
         return ids
     kernel = np.ones((2 * edge_px + 1, 2 * edge_px + 1), dtype=np.uint8)
     out = np.zeros_like(ids)
-    for sid in np.unique(ids):
+    for sid in present_ids(ids):
         if sid == 0:
             continue
         inner = cv2.erode((ids == sid).astype(np.uint8), kernel, borderType=cv2.BORDER_REPLICATE).astype(bool)
@@ -193,7 +222,7 @@ def lit_references(lum: np.ndarray, ground_ids: np.ndarray, percentile: float) -
         surface id -> lit luminance (surfaces with a positive one only).
     """
     refs = {}
-    for sid in np.unique(ground_ids):
+    for sid in present_ids(ground_ids):
         if sid == 0:
             continue
         ref = float(np.percentile(lum[ground_ids == sid], percentile))
@@ -679,8 +708,8 @@ def estimate_light(
     Returns:
         The estimate.
     """
-    lum = luminance(rgb)
     ids = inner_ground(np.asarray(ground_ids), params.edge_px)
+    lum = ground_luminance(rgb, ids)  # read at the inner ground's pixels only
     refs = lit_references(lum, ids, params.lit_percentile)
     samples, used = _ring_samples(casters, lum, ids, refs, ground_from_px, params)
     if np.any(sky_mask):

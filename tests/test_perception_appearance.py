@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from usdworld.evaluation.colour_difference import delta_e76
+from usdworld.parameters.perception import DEFAULT_PERCEPTION
 from usdworld.perception.appearance import (
+    sampled_pixels,
     MeasuredColour,
     nearer_cutting_boxes,
     object_colours,
@@ -171,3 +175,20 @@ def test_nearer_cutting_boxes_are_exactly_the_occluders_that_clear_a_pixel(boxes
         np.logical_and.reduce(every + [np.ones((y1 - y0, x1 - x0), dtype=bool)]),
         np.logical_and.reduce(kept + [np.ones((y1 - y0, x1 - x0), dtype=bool)]),
     )
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 40), st.integers(1, 300), st.integers(0, 2**32 - 1))
+def test_sampled_pixels_are_trimmed_colours_subsample_of_the_region(h: int, w: int, most: int, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    rgb = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+    region = rng.random((h, w)) < 0.6
+    got = sampled_pixels(rgb, region, most)
+    every = rgb[region]
+    expected = every if len(every) <= most else every[np.linspace(0, len(every) - 1, most).astype(np.int64)]
+    assert got.dtype == np.uint8 and np.array_equal(got, expected)
+    if region.any():  # the colour of the subsample decoded is the colour of every pixel decoded
+        params = dataclasses.replace(DEFAULT_PERCEPTION, colour_max_samples=most)
+        a = trimmed_colour(uint8_to_linear(got), "mask", params)
+        b = trimmed_colour(uint8_to_linear(every), "mask", params)
+        assert np.array_equal(a.linear_rgb, b.linear_rgb) and np.array_equal(a.spread, b.spread) and a.pixels == b.pixels

@@ -106,13 +106,32 @@ def trimmed_colour(
     return MeasuredColour(np.clip(median, 0.0, 1.0), spread, len(chosen), region)
 
 
+def sampled_pixels(rgb: np.ndarray, region: np.ndarray, max_samples: int) -> np.ndarray:
+    """(N, 3) uint8 the region's pixels, as ``rgb[region]``, or the regular subsample of them
+    that :func:`trimmed_colour` takes when there are more than ``max_samples``.
+
+    Only those pixels are gathered and decoded: ``trimmed_colour(uint8_to_linear(...))`` of them
+    is bit for bit that of all the region's pixels.
+
+    Args:
+        rgb: (H, W, 3) uint8 sRGB pixels.
+        region: (H, W) bool.
+        max_samples: ``colour_max_samples``.
+    """
+    rows, cols = np.nonzero(region)
+    if len(rows) > max_samples:
+        pick = np.linspace(0, len(rows) - 1, max_samples).astype(np.int64)
+        rows, cols = rows[pick], cols[pick]
+    return rgb[rows, cols]
+
+
 def _dominant_lab(lab: np.ndarray, bin_size: float) -> np.ndarray:
     """(3,) mean CIELAB of the pixels in the densest 3x3x3-bin neighbourhood of a histogram."""
     lo = lab.min(axis=0)
     idx = np.floor((lab - lo) / bin_size).astype(np.int64)
     shape = tuple(int(s) for s in idx.max(axis=0) + 1)
-    counts = np.zeros(shape)
-    np.add.at(counts, tuple(idx.T), 1.0)
+    counts = np.bincount(np.ravel_multi_index(tuple(idx.T), shape), minlength=int(np.prod(shape)))
+    counts = counts.astype(np.float64).reshape(shape)
     density = uniform_filter(counts, size=3, mode="constant")
     peak = np.array(np.unravel_index(int(np.argmax(density)), shape))
     near = np.all(np.abs(idx - peak) <= 1, axis=1)
@@ -211,7 +230,8 @@ def object_colours(
             region = region & inner
         if np.count_nonzero(region) < params.colour_min_pixels:
             continue
-        out[i] = trimmed_colour(uint8_to_linear(rgb[y0:y1, x0:x1][region]), kind, params)
+        pixels = sampled_pixels(rgb[y0:y1, x0:x1], region, params.colour_max_samples)
+        out[i] = trimmed_colour(uint8_to_linear(pixels), kind, params)
     return out
 
 

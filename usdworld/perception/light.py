@@ -326,6 +326,8 @@ def _ring_samples(
         px_from_ground = -px_from_ground
     pts_all, rel_all = [], []
     used = []
+    lit = np.zeros(max(refs, default=0) + 1)  # surface id -> its lit luminance (0: no reference)
+    lit[list(refs)] = list(refs.values())
     footprints = [_hull(c.footprint_ground) for c in casters]
     # Each footprint grown by the margin lies within its bounding box grown by ``grow``: only the
     # footprints whose grown box meets a caster's sampling square can hide any of its samples.
@@ -357,7 +359,7 @@ def _ring_samples(
         ok &= np.isin(sid, list(refs))
         if not np.any(ok):
             continue
-        ref = np.array([refs[int(s)] for s in sid[ok]])
+        ref = lit[sid[ok]]
         pts_all.append(pts[ok])
         rel_all.append(lum[v[ok], u[ok]] / ref)
         used.append(i)
@@ -367,8 +369,14 @@ def _ring_samples(
     neighbours = []
     for i in used:
         c, reach = casters[i], _reach(casters[i], params)
-        near = inside_convex(points, footprints[i], reach) if len(footprints[i]) >= 3 else np.ones(len(points), bool)
-        neighbours.append(np.flatnonzero(near))
+        if len(footprints[i]) < 3:
+            neighbours.append(np.arange(len(points)))
+            continue
+        # only the points in the footprint's box grown by the reach's corner can be within reach
+        grown = _grown_reach(footprints[i], reach)
+        lo, hi = footprints[i].min(axis=0) - grown, footprints[i].max(axis=0) + grown
+        box = np.flatnonzero(np.all((points >= lo) & (points <= hi), axis=1))
+        neighbours.append(box[inside_convex(points[box], footprints[i], reach)])
     return _Samples(points, np.concatenate(rel_all), tuple(neighbours)), used
 
 
@@ -420,7 +428,7 @@ class _Pairs:
 
     sample: np.ndarray  # (P,) sample index
     caster: np.ndarray  # (P,) caster index
-    normals: np.ndarray  # (P, K, 2) the caster's footprint half-planes
+    normals: np.ndarray  # (C, K, 2) each caster's footprint half-planes (padded with 0 . x <= 1)
     slack: np.ndarray  # (P, K) a . p - b
     height: np.ndarray  # (P,) the caster's height (the least it can be when its top is not seen), m
     height_max: np.ndarray  # (P,) the most the caster's height can be, m
@@ -445,7 +453,7 @@ def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
         # pad to k half-planes with always-true rows (0 . x <= 1)
         a = np.vstack([a, np.zeros((k - len(a), 2))])
         b = np.concatenate([b, np.ones(k - len(b))])
-        normals.append(np.broadcast_to(a, (len(near), k, 2)))
+        normals.append(a)
         slack.append(samples.points_ground[near] @ a.T - b)
         height.append(np.full(len(near), c.height_m))
         height_max.append(np.full(len(near), c.tallest_m))
@@ -455,7 +463,7 @@ def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
     return _Pairs(
         np.concatenate(samples.neighbours),
         np.concatenate([np.full(len(near), i) for i, near in enumerate(samples.neighbours)]),
-        np.concatenate(normals),
+        np.array(normals).reshape(len(casters), k, 2),
         np.concatenate(slack),
         np.concatenate(height),
         np.concatenate(height_max),
@@ -501,62 +509,66 @@ def _strip(pairs: _Pairs, azimuth: float) -> _Strip:
         height_max,
         height_max > height,
         pairs.slack[band],
-        pairs.normals[band] @ away,
+        (pairs.normals @ away)[pairs.caster[band]],  # each caster's (K, 2) @ (2,) once, as per pair before
     )
 
 
 def _predicted(
-    pairs: _Pairs,
-    n_samples: int,
-    azimuth: float,
-    elevation: float,
-    reach_max_m: float,
-    strips: dict[float, _Strip] | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Samples in some caster's shadow for a sun at (azimuth, elevation), and those that may be.
+    strip: _Strip, n_samples: int, elevations: Sequence[float], reach_max_m: float
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Samples in some caster's shadow for a sun at one azimuth and each of some elevations, and those that may be.
 
     A caster whose top is not seen casts at least the shadow of its least height and at
     most that of its greatest: the ground between is unknown unless another caster's
     shadow surely covers it.
 
-    ``strips`` caches, per azimuth, the pairs across the shadow's strip (:func:`_strip`,
-    the same for every elevation).
+    Args:
+        strip: the pairs of the sun's azimuth (:func:`_strip`, the same for every elevation).
+        n_samples: N, the number of ground samples.
+        elevations: the sun's elevations, radians.
+        reach_max_m: the longest shadow, metres.
 
     Returns:
-        (N,) bool surely shadowed samples and (N,) bool samples that may or may not be.
+        Per elevation, (N,) bool surely shadowed samples and (N,) bool samples that may or may not be.
     """
-    strip = strips.get(azimuth) if strips is not None else None
-    if strip is None:
-        strip = _strip(pairs, azimuth)
-        if strips is not None:
-            strips[azimuth] = strip
-    sure = np.zeros(n_samples, dtype=bool)
-    sure[strip.sample[_strip_in_shadow(strip, elevation, reach_max_m, strip.height)]] = True
-    unsure = np.zeros(n_samples, dtype=bool)
+    sure = np.zeros((len(elevations), n_samples), dtype=bool)
+    for e, hits in enumerate(_strip_in_shadow(strip, elevations, reach_max_m, strip.height)):
+        sure[e, strip.sample[hits]] = True
+    unsure = np.zeros_like(sure)
     if np.any(strip.unknown_top):
-        longest = _strip_in_shadow(strip, elevation, reach_max_m, strip.height_max, strip.unknown_top)
-        unsure[strip.sample[longest]] = True
+        for e, hits in enumerate(_strip_in_shadow(strip, elevations, reach_max_m, strip.height_max, strip.unknown_top)):
+            unsure[e, strip.sample[hits]] = True
         unsure &= ~sure
-    return sure, unsure
+    return list(zip(sure, unsure))
 
 
 def _strip_in_shadow(
-    strip: _Strip, elevation: float, reach_max_m: float, height: np.ndarray, only: np.ndarray | None = None
-) -> np.ndarray:
-    """(T,) int indices into the strip of the pairs whose sample lies in its caster's shadow.
+    strip: _Strip, elevations: Sequence[float], reach_max_m: float, height: np.ndarray, only: np.ndarray | None = None
+) -> list[np.ndarray]:
+    """Per elevation, (T,) int indices into the strip of the pairs whose sample lies in its caster's shadow.
+
+    The pairs of every elevation are tested in one :func:`in_swept` (the same numbers as one
+    call per elevation: each row is tested on its own).
 
     Args:
         strip: the pairs of one azimuth.
-        elevation: the sun's elevation, radians.
+        elevations: the sun's elevations, radians.
         reach_max_m: the longest shadow, metres.
         height: (S,) float64 the casters' heights, metres.
         only: (S,) bool the pairs tested (default all).
     """
-    length = np.minimum(height / math.tan(elevation), reach_max_m)
-    near = np.flatnonzero(strip.along <= length + strip.margin)
-    if only is not None:
-        near = near[only[near]]
-    return near[in_swept(strip.slack[near], strip.rate[near] * length[near, None])]
+    nears, lengths = [], []
+    for elevation in elevations:
+        length = np.minimum(height / math.tan(elevation), reach_max_m)
+        near = np.flatnonzero(strip.along <= length + strip.margin)
+        if only is not None:
+            near = near[only[near]]
+        nears.append(near)
+        lengths.append(length[near])
+    every = np.concatenate(nears)
+    inside = in_swept(strip.slack[every], strip.rate[every] * np.concatenate(lengths)[:, None])
+    ends = np.cumsum([len(near) for near in nears])[:-1]
+    return [near[hit] for near, hit in zip(nears, np.split(inside, ends), strict=True)]
 
 
 def _overlap(
@@ -612,24 +624,38 @@ def fit_sun(
     strips: dict[float, _Strip] = {}
     scores: dict[tuple[float, float], float] = {}  # the refining grids meet cells already scored
 
+    def score_all(az: float, els: Sequence[float]) -> None:
+        """Score a sun at ``az`` and each of ``els`` (clipped to the range) not scored yet, in one batch."""
+        todo = list(dict.fromkeys(e for e in (float(np.clip(el, lo, hi)) for el in els) if (float(az), e) not in scores))
+        if not todo:
+            return
+        azimuth = math.radians(az)
+        if azimuth not in strips:
+            strips[azimuth] = _strip(pairs, azimuth)
+        predicted = _predicted(strips[azimuth], n, [math.radians(e) for e in todo], params.reach_max_m)
+        for e, (pred, unsure) in zip(todo, predicted, strict=True):
+            scores[(float(az), e)] = _overlap(pred, observed, weight, unsure)
+
     def score(az: float, el: float) -> tuple[float, float, float]:
         el = float(np.clip(el, lo, hi))
-        key = (float(az), el)
-        if key not in scores:
-            pred, unsure = _predicted(pairs, n, math.radians(az), math.radians(el), params.reach_max_m, strips)
-            scores[key] = _overlap(pred, observed, weight, unsure)
-        return scores[key], az % 360.0, el
+        score_all(az, [el])
+        return scores[(float(az), el)], az % 360.0, el
 
     step = params.coarse_step_deg
-    best = max(score(az, el) for az in np.arange(0.0, 360.0, step) for el in np.arange(lo, hi + 1e-9, step))
+    coarse = np.arange(lo, hi + 1e-9, step)
+    for az in np.arange(0.0, 360.0, step):
+        score_all(az, coarse)
+    best = max(score(az, el) for az in np.arange(0.0, 360.0, step) for el in coarse)
     for fine in (step / 3.0, 1.0):
         _, az0, el0 = best
         offsets = np.arange(-3, 4) * fine
+        for da in offsets:
+            score_all(az0 + da, [el0 + de for de in offsets])
         best = max([best] + [score(az0 + da, el0 + de) for da in offsets for de in offsets])
     _, az, el = best
     strip = _strip(pairs, math.radians(az))
     inside = np.zeros(len(pairs.sample), dtype=bool)
-    inside[strip.pair[_strip_in_shadow(strip, math.radians(el), params.reach_max_m, strip.height)]] = True
+    inside[strip.pair[_strip_in_shadow(strip, [math.radians(el)], params.reach_max_m, strip.height)[0]]] = True
     pred = np.bincount(pairs.sample, weights=inside, minlength=n) > 0
     meeting = len(np.unique(pairs.caster[inside & observed[pairs.sample]]))
     return math.radians(az), math.radians(el), _overlap(pred, observed, weight), pred, meeting

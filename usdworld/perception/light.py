@@ -176,13 +176,19 @@ def ground_luminance(rgb: np.ndarray, ground_ids: np.ndarray) -> np.ndarray:
 def present_ids(ids: np.ndarray) -> np.ndarray:
     """(M,) int the distinct values of an integer array, ascending (as ``np.unique``).
 
-    A histogram when the values are small non-negative ids (one pass, no sort), else ``np.unique``.
+    A histogram when the values are small non-negative ids (no sort), else ``np.unique``.
 
     Args:
         ids: (...) int array.
     """
     ids = np.asarray(ids)
-    if ids.size and ids.min() >= 0 and ids.max() < 1 << 16:
+    if ids.size == 0 or ids.min() < 0:
+        return np.unique(ids)
+    top = int(ids.max())
+    if top < 256:  # OpenCV's histogram of 8-bit values, one pass
+        hist = cv2.calcHist([np.ascontiguousarray(ids, dtype=np.uint8).reshape(-1, 1)], [0], None, [256], [0, 256])
+        return np.flatnonzero(hist.ravel())
+    if top < 1 << 16:
         return np.flatnonzero(np.bincount(ids.ravel()))
     return np.unique(ids)
 
@@ -205,7 +211,7 @@ def inner_ground(ground_ids: np.ndarray, edge_px: int) -> np.ndarray:
     for sid in present_ids(ids):
         if sid == 0:
             continue
-        inner = cv2.erode((ids == sid).astype(np.uint8), kernel, borderType=cv2.BORDER_REPLICATE).astype(bool)
+        inner = cv2.erode((ids == sid).view(np.uint8), kernel, borderType=cv2.BORDER_REPLICATE).view(bool)
         out[inner] = sid
     return out
 
@@ -674,11 +680,10 @@ def sky_colours(
     Returns:
         (3,) zenith and (3,) horizon linear RGB (medians).
     """
-    rows, cols = np.nonzero(sky_mask)
-    order = np.argsort(rows, kind="stable")
-    k = max(1, int(round(len(order) * params.sky_top_fraction)))
-    top = uint8_to_linear(rgb[rows[order[:k]], cols[order[:k]]])  # only the pixels measured
-    bottom = uint8_to_linear(rgb[rows[order[-k:]], cols[order[-k:]]])
+    rows, cols = np.nonzero(sky_mask)  # in row order: the top rows' pixels first
+    k = max(1, int(round(len(rows) * params.sky_top_fraction)))
+    top = uint8_to_linear(rgb[rows[:k], cols[:k]])  # only the pixels measured
+    bottom = uint8_to_linear(rgb[rows[-k:], cols[-k:]])
     return np.median(top, axis=0), np.median(bottom, axis=0)
 
 

@@ -16,11 +16,9 @@ from usdworld.perception.light import (
     ShadowCaster,
     _hull,
     estimate_light,
-    ground_luminance,
     half_planes,
     in_swept,
     inside_convex,
-    luminance,
     present_ids,
     sky_colours,
 )
@@ -232,11 +230,3 @@ def test_present_ids_are_np_uniques_values(values: list[int], small: int) -> Non
     ids = np.array(values, dtype=np.int64) if not small else np.abs(np.array(values, dtype=np.int64)) % 7
     got = present_ids(ids.reshape(1, -1))
     assert got.tolist() == np.unique(ids).tolist()
-
-
-def test_ground_luminance_is_the_luminance_on_the_ground_only() -> None:
-    rgb = np.random.default_rng(4).integers(0, 256, (37, 53, 3), dtype=np.uint8)
-    ids = np.random.default_rng(5).integers(0, 4, (37, 53))
-    got = ground_luminance(rgb, ids)
-    assert np.array_equal(got[ids > 0], luminance(rgb)[ids > 0])  # the same numbers, bit for bit
-    assert np.all(got[ids == 0] == 0.0)

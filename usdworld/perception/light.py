@@ -158,21 +158,6 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     return uint8_to_linear(rgb) @ LUMA
 
 
-def ground_luminance(rgb: np.ndarray, ground_ids: np.ndarray) -> np.ndarray:
-    """(H, W) float64 :func:`luminance` of the ground's pixels (``ground_ids`` > 0), 0 elsewhere.
-
-    The light is measured on the ground only, so only its pixels are converted.
-
-    Args:
-        rgb: (H, W, 3) uint8 sRGB photo.
-        ground_ids: (H, W) int surface id per pixel, 0 where not ground.
-    """
-    ground = np.asarray(ground_ids) > 0
-    lum = np.zeros(ground.shape)
-    lum[ground] = uint8_to_linear(rgb[ground]) @ LUMA
-    return lum
-
-
 def present_ids(ids: np.ndarray) -> np.ndarray:
     """(M,) int the distinct values of an integer array, ascending (as ``np.unique``).
 
@@ -375,14 +360,8 @@ def _ring_samples(
     neighbours = []
     for i in used:
         c, reach = casters[i], _reach(casters[i], params)
-        if len(footprints[i]) < 3:
-            neighbours.append(np.arange(len(points)))
-            continue
-        # only the points in the footprint's box grown by the reach's corner can be within reach
-        grown = _grown_reach(footprints[i], reach)
-        lo, hi = footprints[i].min(axis=0) - grown, footprints[i].max(axis=0) + grown
-        box = np.flatnonzero(np.all((points >= lo) & (points <= hi), axis=1))
-        neighbours.append(box[inside_convex(points[box], footprints[i], reach)])
+        near = inside_convex(points, footprints[i], reach) if len(footprints[i]) >= 3 else np.ones(len(points), bool)
+        neighbours.append(np.flatnonzero(near))
     return _Samples(points, np.concatenate(rel_all), tuple(neighbours)), used
 
 
@@ -739,8 +718,8 @@ def estimate_light(
     Returns:
         The estimate.
     """
+    lum = luminance(rgb)
     ids = inner_ground(np.asarray(ground_ids), params.edge_px)
-    lum = ground_luminance(rgb, ids)  # read at the inner ground's pixels only
     refs = lit_references(lum, ids, params.lit_percentile)
     samples, used = _ring_samples(casters, lum, ids, refs, ground_from_px, params)
     if np.any(sky_mask):

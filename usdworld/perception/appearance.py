@@ -142,10 +142,20 @@ def box_mean3(values: np.ndarray) -> np.ndarray:
     """
     out = np.asarray(values, dtype=np.float64)
     for axis in range(out.ndim):
-        padded = np.pad(np.moveaxis(out, axis, 0), [(1, 1)] + [(0, 0)] * (out.ndim - 1))
-        first = 0.0 + padded[0] + padded[1] + padded[2]
-        sums = np.cumsum(np.concatenate([first[None], padded[3:] - padded[:-3]]), axis=0)
-        out = np.moveaxis(sums / 3.0, 0, axis)
+        line = np.moveaxis(out, axis, 0)  # a view: the axis filtered first
+        n = len(line)
+        # sums[0]: the cell before the line (0) and the first two; sums[l]: + entering - leaving
+        sums = np.empty(line.shape)
+        sums[0] = 0.0 + line[0] + (line[1] if n > 1 else 0.0)
+        if n > 1:
+            entering = np.zeros((n - 1,) + line.shape[1:])
+            entering[: n - 2] = line[2:]
+            leaving = np.zeros_like(entering)
+            leaving[1:] = line[: n - 2]
+            np.subtract(entering, leaving, out=sums[1:])
+        np.cumsum(sums, axis=0, out=sums)
+        sums /= 3.0
+        out = np.moveaxis(sums, 0, axis)
     return out
 
 

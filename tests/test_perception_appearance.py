@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from usdworld.evaluation.colour_difference import delta_e76
+from usdworld.parameters.perception import DEFAULT_PERCEPTION
 from usdworld.perception.appearance import (
+    box_mean3,
+    sampled_pixels,
     MeasuredColour,
     nearer_cutting_boxes,
     object_colours,
@@ -171,3 +176,39 @@ def test_nearer_cutting_boxes_are_exactly_the_occluders_that_clear_a_pixel(boxes
         np.logical_and.reduce(every + [np.ones((y1 - y0, x1 - x0), dtype=bool)]),
         np.logical_and.reduce(kept + [np.ones((y1 - y0, x1 - x0), dtype=bool)]),
     )
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 40), st.integers(1, 300), st.integers(0, 2**32 - 1))
+def test_sampled_pixels_are_trimmed_colours_subsample_of_the_region(h: int, w: int, most: int, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    rgb = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+    region = rng.random((h, w)) < 0.6
+    got = sampled_pixels(rgb, region, most)
+    every = rgb[region]
+    expected = every if len(every) <= most else every[np.linspace(0, len(every) - 1, most).astype(np.int64)]
+    assert got.dtype == np.uint8 and np.array_equal(got, expected)
+    if region.any():  # the colour of the subsample decoded is the colour of every pixel decoded
+        params = dataclasses.replace(DEFAULT_PERCEPTION, colour_max_samples=most)
+        a = trimmed_colour(uint8_to_linear(got), "mask", params)
+        b = trimmed_colour(uint8_to_linear(every), "mask", params)
+        assert np.array_equal(a.linear_rgb, b.linear_rgb) and np.array_equal(a.spread, b.spread) and a.pixels == b.pixels
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(st.integers(1, 9), min_size=1, max_size=3), st.integers(0, 2**32 - 1), st.booleans())
+def test_box_mean3_is_scipys_uniform_filter_bit_for_bit(shape: list[int], seed: int, counts: bool) -> None:
+    from scipy.ndimage import uniform_filter  # the reference; the build no longer imports scipy
+
+    rng = np.random.default_rng(seed)
+    values = rng.poisson(3.0, size=shape).astype(np.float64) if counts else rng.random(shape) * 100.0
+    assert np.array_equal(box_mean3(values), uniform_filter(values, size=3, mode="constant"))
+
+
+def test_the_colour_measure_does_not_import_scipy() -> None:
+    import subprocess
+    import sys
+
+    code = "import sys, usdworld.perception.appearance; print('scipy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

@@ -19,6 +19,7 @@ from usdworld.perception.light import (
     half_planes,
     in_swept,
     inside_convex,
+    present_ids,
     sky_colours,
 )
 
@@ -221,3 +222,11 @@ def test_shadowed_ground_hidden_in_the_unknown_band_earns_no_trust() -> None:
     est = estimate_light(rgb, ground, np.zeros((H, W), bool), "labels", posts, ground_from_px, 0.5, 0.6, PARAMS)
     assert est.method == "cast_shadows" and est.fit_iou > 0.5
     assert abs((math.degrees(est.sun_azimuth) - 140.0 + 180.0) % 360.0 - 180.0) <= 5.0
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.integers(-5, 70000), min_size=1, max_size=200), st.integers(0, 1))
+def test_present_ids_are_np_uniques_values(values: list[int], small: int) -> None:
+    ids = np.array(values, dtype=np.int64) if not small else np.abs(np.array(values, dtype=np.int64)) % 7
+    got = present_ids(ids.reshape(1, -1))
+    assert got.tolist() == np.unique(ids).tolist()

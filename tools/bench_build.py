@@ -1,11 +1,12 @@
 """Benchmark ``usdworld build`` on a 2048x1024 Cityscapes-format frame.
 
 Makes a synthetic street frame (``usdworld.synth``, rendered headless), then measures
-in-process, after one warm-up: the median wall time of the whole build (reading,
-perception, layout, authoring, writing the world folder) and of merely decoding its
-input files, over ``--runs`` runs each, and where a build's time goes (cProfile's cumulative
-time of each stage over ``--runs`` profiled builds, as shares: the profiler slows Python code
-more than numpy and OpenCV calls).
+in-process, after one warm-up: the median wall and CPU time of the whole build (reading,
+perception, layout, authoring, writing the world folder), of its compute alone
+(``build_model``: no writing) and of merely decoding its input files, over ``--runs`` runs
+each, and where a build's time goes: each stage's share (cProfile's time of the calls
+``usdworld/pipeline.py`` makes to the stage's functions, over ``--runs`` profiled builds; the
+profiler slows Python code more than numpy and OpenCV calls).
 
 With ``--command`` it also times the whole ``usdworld build`` command against its floor, a
 Python process that imports ``pxr.Usd`` and ``cv2`` and decodes the three PNGs, the two taking
@@ -14,11 +15,16 @@ on a shared machine). Both run with byte-compiled modules (``PYTHONPYCACHEPREFIX
 temporary folder, filled by a warm-up run), as an installed package does: without them every
 command compiles usdworld's modules again.
 
+With ``--compare CHECKOUT`` (another checkout of usdworld, e.g. main's) the same frame is
+built in process by this checkout and by the other one, each in a fresh process, taking turns
+``--rounds`` times, and the other's whole command joins the turns of ``--command``: before and
+after in the same run.
+
 Prints the load average, the machine and markdown tables for BENCHMARKS.md.
 
 Usage::
 
-    python tools/bench_build.py [--runs 9] [--size 2048x1024] [--seed 3] [--command]
+    python tools/bench_build.py [--runs 9] [--size 2048x1024] [--seed 3] [--command] [--compare ../main]
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ from __future__ import annotations
 import argparse
 import cProfile
 import datetime
+import json
 import os
 import platform
 import pstats
@@ -50,30 +57,68 @@ from usdworld.synth import make_street_scene, write_cityscapes_frame
 #: The checkout whose usdworld this process imported: the command runs the same one.
 REPO = Path(usdworld.__file__).resolve().parents[1]
 
-#: The stages of a build, as (name, [(module file suffix, function name), ...]) for the profile.
+#: The stages of a build, as (name, [(module file suffix, function name), ...]): the functions
+#: ``usdworld/pipeline.py`` calls, each timed only where pipeline.py calls it (cProfile's time of
+#: that caller-callee edge), so a helper that a stage also calls inside is not counted twice.
 STAGES = (
-    ("decoding the inputs (image, labels, camera)", [("io/images.py", "read_image"), ("io/labels.py", "read_segmentation"), ("io/camera_files.py", "read_camera")]),
-    # LSD runs in a thread while the labels are decoded: the profile sees the wait for it.
-    ("street vanishing point: waiting for LSD's segments", [("concurrent/futures/_base.py", "result")]),
-    ("street vanishing point: RANSAC", [("geometry/vanishing.py", "find_vanishing_point")]),
-    ("perception (objects from the labels)", [("perception/objects.py", "objects_from_segmentation")]),
-    ("camera estimate", [("pipeline.py", "_camera")]),
+    (
+        "decoding the inputs (image, labels, camera)",
+        [("io/images.py", "read_image"), ("pipeline.py", "_read_segmentation"), ("io/camera_files.py", "read_camera"), ("pipeline.py", "_read_detections")],
+    ),
+    ("street vanishing point: LSD segments", [("geometry/vanishing.py", "detect_segments")]),
+    ("street vanishing point: RANSAC (street and vertical)", [("geometry/vanishing.py", "find_vanishing_point"), ("geometry/vanishing.py", "find_vertical_vanishing_point")]),
+    ("perception (objects from the labels)", [("pipeline.py", "_objects")]),
+    ("asset catalogue", [("authoring/asset_measures.py", "asset_catalogue")]),
+    (
+        "camera estimate (street view, focal, lanes, roll, pose)",
+        [("layout/camera_cues.py", "street_view"), ("layout/focal_cues.py", "estimate_focal"), ("geometry/lanes.py", "find_lane_markings"),
+         ("geometry/roll.py", "roll_from_vertical"), ("pipeline.py", "_camera"), ("io/exif.py", "read_exif_focal")],
+    ),
+    ("dense depth", [("usdworld/depth_stage.py", "estimate_depth")]),
+    ("ground homography and road axis", [("pipeline.py", "_ground_fit"), ("layout/yaw.py", "road_axis"), ("layout/surfaces.py", "surface_points"), ("pipeline.py", "_label_mask")]),
     ("placement", [("layout/placement.py", "place_objects")]),
-    ("ground surfaces", [("layout/surfaces.py", "fill_hidden_ground"), ("layout/surfaces.py", "build_surfaces"), ("layout/surfaces.py", "surface_points")]),
+    ("ground surfaces", [("layout/surfaces.py", "fill_hidden_ground"), ("layout/surfaces.py", "build_surfaces")]),
+    ("light (sun from the shadows, sky)", [("usdworld/light_stage.py", "estimate_scene_light"), ("usdworld/light_stage.py", "world_lighting"), ("usdworld/light_stage.py", "light_rig")]),
+    ("appearance (colours from the photo)", [("usdworld/appearance_stage.py", "photo_appearances")]),
     ("report (make_report)", [("usdworld/report.py", "make_report")]),
     ("authoring: write_world (the layers, assets)", [("authoring/world.py", "write_world")]),
-    ("report.json (json.dumps)", [("json/__init__.py", "dumps")]),
+    ("report.json (json.dumps, write)", [("json/__init__.py", "dumps"), ("pathlib.py", "write_text")]),
+    ("output folder (prepare, swap in)", [("usdworld/output_dir.py", "prepare_output"), ("usdworld/output_dir.py", "swap_in"), ("tempfile.py", "mkdtemp")]),
 )
 
 
-def _median_s(fn, runs: int) -> float:
+def _median_s(fn, runs: int) -> tuple[float, float]:
+    """Median wall and CPU seconds (this process, all threads) of ``runs`` calls after one warm-up."""
     fn()
-    times = []
+    walls, cpus = [], []
     for _ in range(runs):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+        walls.append(time.perf_counter() - t0)
+        cpus.append(time.process_time() - c0)
+    return statistics.median(walls), statistics.median(cpus)
+
+
+def _frame(tmp: Path, width: int, height: int, seed: int) -> dict[str, Path]:
+    scene = make_street_scene(np.random.default_rng(seed), width, height)
+    return write_cityscapes_frame(scene, tmp / "in", "bench_000000_000001")
+
+
+def _in_process(files: dict[str, Path], out: Path, runs: int) -> dict[str, tuple[float, float]]:
+    """Median (wall, CPU) seconds of the whole build, of its compute alone and of decoding the inputs."""
+    request = BuildRequest(image=files["image"], labels=files["labels"], instances=files["instances"], camera=files["camera"], output=out)
+    libraries = library_dirs(None)
+
+    def decode() -> None:
+        image = read_image(request.image)
+        read_segmentation(request.labels, request.instances, image)
+        read_camera(request.camera, image)
+
+    return {
+        "build": _median_s(lambda: build(request), runs),
+        "compute": _median_s(lambda: build_model(request, libraries), runs),
+        "decode": _median_s(decode, runs),
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -82,76 +127,164 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--size", default="2048x1024")
     parser.add_argument("--seed", type=int, default=3)
     parser.add_argument("--command", action="store_true", help="also time the whole command against its floor")
+    parser.add_argument(
+        "--compare",
+        type=Path,
+        metavar="CHECKOUT",
+        help="also time another checkout's build (e.g. main), in fresh processes taking turns with this one's, and its command",
+    )
+    parser.add_argument("--rounds", type=int, default=3, help="turns of --compare's in-process runs (default 3)")
+    parser.add_argument("--in-process-json", type=Path, metavar="FRAME_DIR", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.in_process_json is not None:  # a child of --compare: this checkout's in-process medians as JSON
+        files = {k: next(args.in_process_json.glob(f"*{suffix}")) for k, suffix in _SUFFIXES.items()}
+        with tempfile.TemporaryDirectory() as tmp:
+            print(json.dumps(_in_process(files, Path(tmp) / "world", args.runs)))
+        return 0
     width, height = (int(v) for v in args.size.lower().split("x"))
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        scene = make_street_scene(np.random.default_rng(args.seed), width, height)
-        files = write_cityscapes_frame(scene, tmp / "in", "bench_000000_000001")
-        request = BuildRequest(
-            image=files["image"], labels=files["labels"], instances=files["instances"], camera=files["camera"], output=tmp / "world"
-        )
-        libraries = library_dirs(None)
-
-        def decode() -> None:
-            image = read_image(request.image)
-            read_segmentation(request.labels, request.instances, image)
-            read_camera(request.camera, image)
-
-        t_build = _median_s(lambda: build(request), args.runs)
-        t_model = _median_s(lambda: build_model(request, libraries), args.runs)
-        t_decode = _median_s(decode, args.runs)
+        files = _frame(tmp, width, height, args.seed)
+        timings = _in_process(files, tmp / "world", args.runs)
+        request = BuildRequest(image=files["image"], labels=files["labels"], instances=files["instances"], camera=files["camera"], output=tmp / "world")
         objects = len(build(request).model.placements)
         shares = _profile(lambda: build(request), args.runs)
-        command = _command_vs_floor(files, tmp, args.runs) if args.command else None
+        stage_cpu = _stage_cpu(lambda: build(request), args.runs)
+        pairs = _compare_in_process(files, args.compare, args.runs, args.rounds) if args.compare else None
+        command = _command_vs_floor(files, tmp, args.runs, args.compare) if args.command or args.compare else None
     print(
         f"{datetime.datetime.now():%Y-%m-%d %H:%M}, {platform.machine()}, {os.cpu_count()} cores, "
         f"python {platform.python_version()}, load average {os.getloadavg()[0]:.2f} at the end"
     )
-    print("| input | objects | build (median) | of which compute (no writing) | decode inputs only | build / decode |")
+    print(f"\n{width}x{height} Cityscapes-format frame, synth seed {args.seed}, {objects} objects; median of {args.runs}, wall / CPU:\n")
+    print("| checkout | build | of which compute (no writing) | decode inputs only | build / decode, wall | CPU |")
     print("|---|---|---|---|---|---|")
-    print(
-        f"| {width}x{height} Cityscapes-format, synth seed {args.seed} | {objects} | {t_build * 1000:.0f} ms "
-        f"| {t_model * 1000:.0f} ms | {t_decode * 1000:.0f} ms | {t_build / t_decode:.1f}x |"
-    )
-    print("\n| stage (cProfile, cumulative) | share of the build |")
-    print("|---|---|")
+    rows = [(f"this one ({REPO.name}), in this process", timings)]
+    if pairs is not None:
+        rows += [(f"{name}, fresh process, round {i + 1}", t) for i, round_ in enumerate(pairs) for name, t in round_]
+    for name, t in rows:
+        (bw, bc), (mw, mc), (dw, dc) = t["build"], t["compute"], t["decode"]
+        print(
+            f"| {name} | {bw * 1000:.0f} / {bc * 1000:.0f} ms | {mw * 1000:.0f} / {mc * 1000:.0f} ms "
+            f"| {dw * 1000:.0f} / {dc * 1000:.0f} ms | {bw / dw:.1f}x | {bc / dc:.1f}x |"
+        )
+    print(f"\n| stage | CPU per build (median of {args.runs}, no profiler) | share of the build (cProfile: its calls from pipeline.py) |")
+    print("|---|---|---|")
     for name, share in shares:
-        print(f"| {name} | {100 * share:.0f} % |")
+        cpu = stage_cpu.get(name)
+        print(f"| {name} | {'' if cpu is None else f'{cpu * 1000:.1f} ms'} | {100 * share:.0f} % |")
     if command is not None:
-        print("\n| whole process, median of {0} taking turns | wall | CPU (user + system) |".format(args.runs))
-        print("|---|---|---|")
+        print("\n| whole process, median of {0} taking turns | wall | CPU (user + system) | wall / floor | CPU / floor |".format(args.runs))
+        print("|---|---|---|---|---|")
+        (fw, fc) = next(iter(command.values()))
         for name, (wall, cpu) in command.items():
-            print(f"| {name} | {wall:.2f} s | {cpu:.2f} s |")
-        (fw, fc), (cw, cc) = command.values()
-        print(f"| ratio command / floor | {cw / fw:.2f}x | {cc / fc:.2f}x |")
+            print(f"| {name} | {wall:.2f} s | {cpu:.2f} s | {wall / fw:.2f}x | {cpu / fc:.2f}x |")
     return 0
 
 
+#: The frame's files by role, as their names end.
+_SUFFIXES = {"image": "_leftImg8bit.png", "labels": "_gtFine_labelIds.png", "instances": "_gtFine_instanceIds.png", "camera": "_camera.json"}
+
+
+def _compare_in_process(files: dict[str, Path], other: Path, runs: int, rounds: int) -> list[list[tuple[str, dict]]]:
+    """Per round, the in-process medians of this checkout and of ``other``, each in a fresh process, taking turns."""
+    frame = files["image"].parent
+    out = []
+    for _ in range(rounds):
+        round_ = []
+        for name, repo in ((f"this one ({REPO.name})", REPO), (f"{Path(other).resolve().name}", Path(other).resolve())):
+            env = _env(repo, frame.parent)
+            cmd = [sys.executable, str(Path(__file__).resolve()), "--runs", str(runs), "--in-process-json", str(frame)]
+            result = subprocess.run(cmd, check=True, env=env, capture_output=True, text=True, cwd=frame.parent)
+            round_.append((name, {k: tuple(v) for k, v in json.loads(result.stdout.strip().splitlines()[-1]).items()}))
+        out.append(round_)
+    return out
+
+
+def _env(repo: Path, tmp: Path) -> dict[str, str]:
+    """The environment of a child process running ``repo``'s usdworld with byte-compiled modules."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPYCACHEPREFIX"] = str(tmp / "pycache" / repo.name)
+    env["PYTHONPATH"] = os.pathsep.join([str(repo), *filter(None, [os.environ.get("PYTHONPATH")])])
+    return env
+
+
+def _stage_cpu(fn, runs: int) -> dict[str, float]:
+    """Each stage's CPU seconds per build (median over ``runs`` builds), timed without a profiler.
+
+    The functions of :data:`STAGES` that ``usdworld/pipeline.py`` imports by name are wrapped
+    in its namespace for the measurement (so only its own calls are timed, as in the profile);
+    the stages it calls otherwise (``json.dumps``, ``tempfile``) are left blank and fall into
+    the rest, which is the whole build's CPU less the stages'.
+    """
+    import usdworld.pipeline as pipeline
+
+    spent: dict[str, float] = {}
+    wrapped = {}
+    timed_stages: set[str] = set()
+    for name, functions in STAGES:
+        for _, fn_name in functions:
+            if not callable(getattr(pipeline, fn_name, None)):
+                fn_name = f"_{fn_name}"  # imported under a private alias (``_prepare_output``)
+            original = getattr(pipeline, fn_name, None)
+            if original is None or not callable(original) or fn_name in wrapped:
+                continue
+
+            def timed(*args, __original=original, __stage=name, **kwargs):
+                c0 = time.process_time()
+                try:
+                    return __original(*args, **kwargs)
+                finally:
+                    spent[__stage] = spent.get(__stage, 0.0) + time.process_time() - c0
+
+            wrapped[fn_name] = original
+            timed_stages.add(name)
+            setattr(pipeline, fn_name, timed)
+    per_build: dict[str, list[float]] = {}
+    try:
+        fn()
+        for _ in range(runs):
+            spent.clear()
+            c0 = time.process_time()
+            fn()
+            total = time.process_time() - c0
+            for name in timed_stages:
+                per_build.setdefault(name, []).append(spent.get(name, 0.0))
+            per_build.setdefault("everything else (pipeline.py's own lines)", []).append(total - sum(spent.values()))
+            per_build.setdefault("the whole build", []).append(total)
+    finally:
+        for fn_name, original in wrapped.items():
+            setattr(pipeline, fn_name, original)
+    return {name: statistics.median(values) for name, values in per_build.items()}
+
+
 def _profile(fn, runs: int) -> list[tuple[str, float]]:
-    """Each stage's share of the build's time, from cProfile over ``runs`` builds."""
+    """Each stage's share of the build's time, from cProfile over ``runs`` builds.
+
+    A stage's time is that of its functions' calls from ``usdworld/pipeline.py`` (the
+    caller-callee edges), so nested calls are not counted twice.
+    """
     profile = cProfile.Profile()
     profile.enable()
     for _ in range(runs):
         fn()
     profile.disable()
     stats = pstats.Stats(profile).stats  # type: ignore[attr-defined]
-    total = max(ct for (file, _, func), (_, _, _, ct, _) in stats.items() if func == "build" and file.endswith("pipeline.py"))
+    total = max(ct for (file, _, func), (_, _, _, ct, _) in stats.items() if func == "build" and file.endswith("usdworld/pipeline.py"))
     shares = []
     for name, functions in STAGES:
-        spent = sum(
-            ct for (file, _, func), (_, _, _, ct, _) in stats.items() if any(file.endswith(f) and func == fn_name for f, fn_name in functions)
-        )
+        spent = 0.0
+        for (file, _, func), (_, _, _, _, callers) in stats.items():
+            if any(file.endswith(f) and func == fn_name for f, fn_name in functions):
+                spent += sum(edge[3] for (caller, _, _), edge in callers.items() if caller.endswith("usdworld/pipeline.py"))
         shares.append((name, spent / total))
-    shares.append(("everything else", 1.0 - sum(share for _, share in shares)))
+    shares.append(("everything else (pipeline.py's own lines)", 1.0 - sum(share for _, share in shares)))
+    shares.append(("the whole build", 1.0))
     return shares
 
 
-def _command_vs_floor(files: dict, tmp: Path, runs: int) -> dict[str, tuple[float, float]]:
-    """Median (wall, CPU) seconds of the floor process and of the whole ``usdworld build``."""
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    env["PYTHONPYCACHEPREFIX"] = str(tmp / "pycache")
-    env["PYTHONPATH"] = os.pathsep.join([str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])])
+def _command_vs_floor(files: dict, tmp: Path, runs: int, other: Path | None = None) -> dict[str, tuple[float, float]]:
+    """Median (wall, CPU) seconds of the floor process and of the whole ``usdworld build`` (and ``other``'s), in turns."""
     pngs = [str(files[k]) for k in ("image", "labels", "instances")]
     floor = [
         sys.executable,
@@ -162,20 +295,25 @@ def _command_vs_floor(files: dict, tmp: Path, runs: int) -> dict[str, tuple[floa
     ]
     command = [sys.executable, "-m", "usdworld", "build", pngs[0], "--labels", pngs[1], "--instances", pngs[2]]
     command += ["--camera", str(files["camera"]), "-o", str(tmp / "cmd_world")]
+    procs = {"floor: import pxr.Usd and cv2, decode the three PNGs": (floor, _env(REPO, tmp))}
+    procs[f"`usdworld build`, whole command ({REPO.name})"] = (command, _env(REPO, tmp))
+    if other is not None:
+        procs[f"`usdworld build`, whole command ({Path(other).resolve().name})"] = (command, _env(Path(other).resolve(), tmp))
 
-    def timed(args: list[str]) -> tuple[float, float]:
+    def timed(args: list[str], env: dict[str, str]) -> tuple[float, float]:
         usage = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
-        subprocess.run(args, check=True, env=env, stdout=subprocess.DEVNULL)
+        subprocess.run(args, check=True, env=env, stdout=subprocess.DEVNULL, cwd=tmp)  # not the checkout: -m would import it
         wall = time.perf_counter() - t0
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         return wall, (after.ru_utime - usage.ru_utime) + (after.ru_stime - usage.ru_stime)
 
-    timed(floor), timed(command)  # warm-up: byte-compile into the cache, warm the file cache
-    results: dict[str, list[tuple[float, float]]] = {"floor: import pxr.Usd and cv2, decode the three PNGs": [], "`usdworld build`, whole command": []}
+    for args, env in procs.values():  # warm-up: byte-compile into the cache, warm the file cache
+        timed(args, env)
+    results: dict[str, list[tuple[float, float]]] = {name: [] for name in procs}
     for _ in range(runs):
-        for name, args in zip(results, (floor, command)):
-            results[name].append(timed(args))
+        for name, (args, env) in procs.items():
+            results[name].append(timed(args, env))
     return {name: (statistics.median(w for w, _ in r), statistics.median(c for _, c in r)) for name, r in results.items()}
 
 

@@ -389,6 +389,53 @@ def write_edits_layer(path: Path) -> None:
     layer.Save()
 
 
+#: Most assets whose dependencies :func:`asset_dependencies` remembers (a library holds a few dozen).
+_MAX_REMEMBERED_ASSETS = 256
+#: Resolved asset root -> (each dependency's (mtime_ns, size), the dependencies).
+_DEPENDENCIES: dict[Path, tuple[tuple[tuple[int, int], ...], tuple[Path, ...]]] = {}
+
+
+def _stamp(path: Path) -> tuple[int, int]:
+    status = path.stat()
+    return status.st_mtime_ns, status.st_size
+
+
+def asset_dependencies(src: Path) -> tuple[Path, ...]:
+    """Every file an asset needs: its root layer, the layers it composes and their assets (resolved).
+
+    ``UsdUtils.ComputeAllDependencies`` parses every layer; its answer is remembered per
+    asset, with each file's modification time and size, and given again while none of the
+    files has changed (a process building many worlds, a batch worker, parses the library's
+    assets once). An edit to any of the files changes its stamp, so the asset is read again;
+    at most ``_MAX_REMEMBERED_ASSETS`` assets are remembered.
+
+    Args:
+        src: the asset's root layer, resolved.
+
+    Returns:
+        The files, the root layer first.
+
+    Raises:
+        AuthoringError: a dependency that does not resolve.
+    """
+    remembered = _DEPENDENCIES.get(src)
+    if remembered is not None:
+        stamps, deps = remembered
+        try:
+            if tuple(_stamp(d) for d in deps) == stamps:
+                return deps
+        except OSError:
+            pass  # a file went away: read the asset again (and say what is missing)
+    layers, assets, unresolved = UsdUtils.ComputeAllDependencies(Sdf.AssetPath(str(src)))
+    if unresolved:
+        raise AuthoringError(f"{src}: unresolved dependencies {', '.join(unresolved)}; fix the asset library")
+    deps = tuple(Path(p).resolve() for p in [layer.realPath or layer.identifier for layer in layers] + list(assets))
+    if len(_DEPENDENCIES) >= _MAX_REMEMBERED_ASSETS:
+        _DEPENDENCIES.pop(next(iter(_DEPENDENCIES)))
+    _DEPENDENCIES[src] = (tuple(_stamp(d) for d in deps), deps)
+    return deps
+
+
 def copy_asset(src: Path, dst_dir: Path) -> Path:
     """Copy an asset and every layer it depends on (sublayers, references) into a folder.
 
@@ -405,11 +452,7 @@ def copy_asset(src: Path, dst_dir: Path) -> Path:
         The copied root layer.
     """
     src = Path(src).resolve()
-    layers, assets, unresolved = UsdUtils.ComputeAllDependencies(Sdf.AssetPath(str(src)))
-    if unresolved:
-        raise AuthoringError(f"{src}: unresolved dependencies {', '.join(unresolved)}; fix the asset library")
-    for dep in [Path(layer.realPath or layer.identifier) for layer in layers] + [Path(a) for a in assets]:
-        dep = dep.resolve()
+    for dep in asset_dependencies(src):
         try:
             rel = dep.relative_to(src.parent)
         except ValueError as exc:

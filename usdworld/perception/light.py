@@ -158,6 +158,26 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     return uint8_to_linear(rgb) @ LUMA
 
 
+def present_ids(ids: np.ndarray) -> np.ndarray:
+    """(M,) int the distinct values of an integer array, ascending (as ``np.unique``).
+
+    A histogram when the values are small non-negative ids (no sort), else ``np.unique``.
+
+    Args:
+        ids: (...) int array.
+    """
+    ids = np.asarray(ids)
+    if ids.size == 0 or ids.min() < 0:
+        return np.unique(ids)
+    top = int(ids.max())
+    if top < 256:  # OpenCV's histogram of 8-bit values, one pass
+        hist = cv2.calcHist([np.ascontiguousarray(ids, dtype=np.uint8).reshape(-1, 1)], [0], None, [256], [0, 256])
+        return np.flatnonzero(hist.ravel())
+    if top < 1 << 16:
+        return np.flatnonzero(np.bincount(ids.ravel()))
+    return np.unique(ids)
+
+
 def inner_ground(ground_ids: np.ndarray, edge_px: int) -> np.ndarray:
     """(H, W) int32 surface ids with ``edge_px`` pixels taken off every surface's outline.
 
@@ -173,10 +193,10 @@ def inner_ground(ground_ids: np.ndarray, edge_px: int) -> np.ndarray:
         return ids
     kernel = np.ones((2 * edge_px + 1, 2 * edge_px + 1), dtype=np.uint8)
     out = np.zeros_like(ids)
-    for sid in np.unique(ids):
+    for sid in present_ids(ids):
         if sid == 0:
             continue
-        inner = cv2.erode((ids == sid).astype(np.uint8), kernel, borderType=cv2.BORDER_REPLICATE).astype(bool)
+        inner = cv2.erode((ids == sid).view(np.uint8), kernel, borderType=cv2.BORDER_REPLICATE).view(bool)
         out[inner] = sid
     return out
 
@@ -193,7 +213,7 @@ def lit_references(lum: np.ndarray, ground_ids: np.ndarray, percentile: float) -
         surface id -> lit luminance (surfaces with a positive one only).
     """
     refs = {}
-    for sid in np.unique(ground_ids):
+    for sid in present_ids(ground_ids):
         if sid == 0:
             continue
         ref = float(np.percentile(lum[ground_ids == sid], percentile))
@@ -297,6 +317,8 @@ def _ring_samples(
         px_from_ground = -px_from_ground
     pts_all, rel_all = [], []
     used = []
+    lit = np.zeros(max(refs, default=0) + 1)  # surface id -> its lit luminance (0: no reference)
+    lit[list(refs)] = list(refs.values())
     footprints = [_hull(c.footprint_ground) for c in casters]
     # Each footprint grown by the margin lies within its bounding box grown by ``grow``: only the
     # footprints whose grown box meets a caster's sampling square can hide any of its samples.
@@ -328,7 +350,7 @@ def _ring_samples(
         ok &= np.isin(sid, list(refs))
         if not np.any(ok):
             continue
-        ref = np.array([refs[int(s)] for s in sid[ok]])
+        ref = lit[sid[ok]]
         pts_all.append(pts[ok])
         rel_all.append(lum[v[ok], u[ok]] / ref)
         used.append(i)
@@ -370,13 +392,19 @@ def in_swept(slack: np.ndarray, rate: np.ndarray) -> np.ndarray:
         slack: (P, K) float64 ``a . p - b`` per point and half-plane (<= 0: inside it).
         rate: (P, K) float64 ``a . v``, the sweep vector along each half-plane's normal.
     """
-    moving = np.abs(rate) > 1e-12
+    # Half-plane by half-plane (K is a footprint's few edges): the same bounds, without (P, K) temporaries.
+    lower = np.zeros(len(slack))
+    upper = np.ones(len(slack))
+    inside = np.ones(len(slack), dtype=bool)
     with np.errstate(divide="ignore", invalid="ignore"):
-        bound = np.where(moving, slack / np.where(moving, rate, 1.0), 0.0)
-    fixed_out = ~moving & (slack > 0)  # a half-plane the sweep runs along, and the point outside it
-    lower = np.where(rate > 1e-12, bound, -np.inf).max(axis=1)
-    upper = np.where(rate < -1e-12, bound, np.inf).min(axis=1)
-    return (np.maximum(lower, 0.0) <= np.minimum(upper, 1.0)) & ~fixed_out.any(axis=1)
+        for k in range(slack.shape[1]):
+            s, r = slack[:, k], rate[:, k]
+            rising, falling = r > 1e-12, r < -1e-12
+            bound = s / r
+            np.maximum(lower, np.where(rising, bound, -np.inf), out=lower)
+            np.minimum(upper, np.where(falling, bound, np.inf), out=upper)
+            inside &= rising | falling | ~(s > 0)  # a half-plane the sweep runs along: the point must be inside it
+    return (lower <= upper) & inside
 
 
 @dataclass(frozen=True)
@@ -385,7 +413,7 @@ class _Pairs:
 
     sample: np.ndarray  # (P,) sample index
     caster: np.ndarray  # (P,) caster index
-    normals: np.ndarray  # (P, K, 2) the caster's footprint half-planes
+    normals: np.ndarray  # (C, K, 2) each caster's footprint half-planes (padded with 0 . x <= 1)
     slack: np.ndarray  # (P, K) a . p - b
     height: np.ndarray  # (P,) the caster's height (the least it can be when its top is not seen), m
     height_max: np.ndarray  # (P,) the most the caster's height can be, m
@@ -410,7 +438,7 @@ def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
         # pad to k half-planes with always-true rows (0 . x <= 1)
         a = np.vstack([a, np.zeros((k - len(a), 2))])
         b = np.concatenate([b, np.ones(k - len(b))])
-        normals.append(np.broadcast_to(a, (len(near), k, 2)))
+        normals.append(a)
         slack.append(samples.points_ground[near] @ a.T - b)
         height.append(np.full(len(near), c.height_m))
         height_max.append(np.full(len(near), c.tallest_m))
@@ -420,7 +448,7 @@ def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
     return _Pairs(
         np.concatenate(samples.neighbours),
         np.concatenate([np.full(len(near), i) for i, near in enumerate(samples.neighbours)]),
-        np.concatenate(normals),
+        np.array(normals).reshape(len(casters), k, 2),
         np.concatenate(slack),
         np.concatenate(height),
         np.concatenate(height_max),
@@ -429,73 +457,103 @@ def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
     )
 
 
+@dataclass(frozen=True)
+class _Strip:
+    """The pairs that a sun at one azimuth can shadow at all, and what their tests need.
+
+    A caster's swept footprint lies inside its bounding disc swept along the shadow, a
+    stadium: only the pairs inside that stadium's bounding strip (of any length) need the
+    exact test, so these arrays, cut to the strip once per azimuth, serve every elevation.
+    """
+
+    pair: np.ndarray  # (S,) index into the pairs
+    sample: np.ndarray  # (S,) sample index
+    along: np.ndarray  # (S,) the sample's distance along the shadow from the footprint's centre, m
+    margin: np.ndarray  # (S,) the footprint's radius (+1e-9), m
+    height: np.ndarray  # (S,) the caster's least height, m
+    height_max: np.ndarray  # (S,) the caster's greatest height, m
+    unknown_top: np.ndarray  # (S,) bool the caster's top is not seen (height_max > height)
+    slack: np.ndarray  # (S, K) a . p - b
+    rate: np.ndarray  # (S, K) a . away: the unit shadow direction along each half-plane's normal
+
+
+def _strip(pairs: _Pairs, azimuth: float) -> _Strip:
+    """The pairs within the bounding strip of every shadow cast away from a sun at ``azimuth``."""
+    away = -np.array([math.cos(azimuth), math.sin(azimuth)])
+    margin = pairs.radius + 1e-9
+    along = pairs.offset @ away
+    across = pairs.offset @ np.array([-away[1], away[0]])
+    band = np.flatnonzero((np.abs(across) <= margin) & (along >= -margin))
+    height, height_max = pairs.height[band], pairs.height_max[band]
+    return _Strip(
+        band,
+        pairs.sample[band],
+        along[band],
+        margin[band],
+        height,
+        height_max,
+        height_max > height,
+        pairs.slack[band],
+        (pairs.normals @ away)[pairs.caster[band]],  # each caster's (K, 2) @ (2,) once, as per pair before
+    )
+
+
 def _predicted(
-    pairs: _Pairs,
-    n_samples: int,
-    azimuth: float,
-    elevation: float,
-    reach_max_m: float,
-    strips: dict[float, tuple[np.ndarray, np.ndarray]] | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Samples in some caster's shadow for a sun at (azimuth, elevation), and those that may be.
+    strip: _Strip, n_samples: int, elevations: Sequence[float], reach_max_m: float
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Samples in some caster's shadow for a sun at one azimuth and each of some elevations, and those that may be.
 
     A caster whose top is not seen casts at least the shadow of its least height and at
     most that of its greatest: the ground between is unknown unless another caster's
     shadow surely covers it.
 
-    ``strips`` caches, per azimuth, the pairs across the shadow's strip and their distance
-    along it (the same for every elevation).
+    Args:
+        strip: the pairs of the sun's azimuth (:func:`_strip`, the same for every elevation).
+        n_samples: N, the number of ground samples.
+        elevations: the sun's elevations, radians.
+        reach_max_m: the longest shadow, metres.
 
     Returns:
-        (N,) bool surely shadowed samples and (N,) bool samples that may or may not be.
+        Per elevation, (N,) bool surely shadowed samples and (N,) bool samples that may or may not be.
     """
-    inside = _pairs_in_shadow(pairs, azimuth, elevation, reach_max_m, strips)
-    sure = np.bincount(pairs.sample, weights=inside, minlength=n_samples) > 0
-    unsure = np.zeros(n_samples, dtype=bool)
-    unknown_top = pairs.height_max > pairs.height
-    if np.any(unknown_top):
-        longest = _pairs_in_shadow(
-            pairs, azimuth, elevation, reach_max_m, strips, pairs.height_max, unknown_top
-        )
-        unsure = (np.bincount(pairs.sample, weights=longest, minlength=n_samples) > 0) & ~sure
-    return sure, unsure
+    sure = np.zeros((len(elevations), n_samples), dtype=bool)
+    for e, hits in enumerate(_strip_in_shadow(strip, elevations, reach_max_m, strip.height)):
+        sure[e, strip.sample[hits]] = True
+    unsure = np.zeros_like(sure)
+    if np.any(strip.unknown_top):
+        for e, hits in enumerate(_strip_in_shadow(strip, elevations, reach_max_m, strip.height_max, strip.unknown_top)):
+            unsure[e, strip.sample[hits]] = True
+        unsure &= ~sure
+    return list(zip(sure, unsure))
 
 
-def _pairs_in_shadow(
-    pairs: _Pairs,
-    azimuth: float,
-    elevation: float,
-    reach_max_m: float,
-    strips: dict[float, tuple[np.ndarray, np.ndarray]] | None = None,
-    height: np.ndarray | None = None,
-    only: np.ndarray | None = None,
-) -> np.ndarray:
-    """(P,) bool: each pair's sample lies in its caster's shadow for a sun at (azimuth, elevation).
+def _strip_in_shadow(
+    strip: _Strip, elevations: Sequence[float], reach_max_m: float, height: np.ndarray, only: np.ndarray | None = None
+) -> list[np.ndarray]:
+    """Per elevation, (T,) int indices into the strip of the pairs whose sample lies in its caster's shadow.
 
-    ``height``: (P,) float64 the casters' heights, metres (default ``pairs.height``);
-    ``only``: (P,) bool the pairs tested (default all; the others are False).
+    The pairs of every elevation are tested in one :func:`in_swept` (the same numbers as one
+    call per elevation: each row is tested on its own).
+
+    Args:
+        strip: the pairs of one azimuth.
+        elevations: the sun's elevations, radians.
+        reach_max_m: the longest shadow, metres.
+        height: (S,) float64 the casters' heights, metres.
+        only: (S,) bool the pairs tested (default all).
     """
-    length = np.minimum((pairs.height if height is None else height) / math.tan(elevation), reach_max_m)
-    away = -np.array([math.cos(azimuth), math.sin(azimuth)])
-    # The swept footprint lies inside its bounding disc swept along the shadow, a stadium:
-    # only the pairs inside that stadium's bounding strip need the exact test (a necessary
-    # condition, so the result is exact; it skips most of each caster's ring).
-    margin = pairs.radius + 1e-9
-    strip = strips.get(azimuth) if strips is not None else None
-    if strip is None:
-        along = pairs.offset @ away
-        across = pairs.offset @ np.array([-away[1], away[0]])
-        band = np.flatnonzero((np.abs(across) <= margin) & (along >= -margin))
-        strip = (band, along[band])
-        if strips is not None:
-            strips[azimuth] = strip
-    band, along_band = strip
-    near = band[along_band <= length[band] + margin[band]]
-    if only is not None:
-        near = near[only[near]]
-    inside = np.zeros(len(pairs.sample), dtype=bool)
-    inside[near] = in_swept(pairs.slack[near], (pairs.normals[near] @ away) * length[near, None])
-    return inside
+    nears, lengths = [], []
+    for elevation in elevations:
+        length = np.minimum(height / math.tan(elevation), reach_max_m)
+        near = np.flatnonzero(strip.along <= length + strip.margin)
+        if only is not None:
+            near = near[only[near]]
+        nears.append(near)
+        lengths.append(length[near])
+    every = np.concatenate(nears)
+    inside = in_swept(strip.slack[every], strip.rate[every] * np.concatenate(lengths)[:, None])
+    ends = np.cumsum([len(near) for near in nears])[:-1]
+    return [near[hit] for near, hit in zip(nears, np.split(inside, ends), strict=True)]
 
 
 def _overlap(
@@ -548,21 +606,41 @@ def fit_sun(
     n = len(samples.points_ground)
     lo, hi = params.elevation_range_deg
 
-    strips: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+    strips: dict[float, _Strip] = {}
+    scores: dict[tuple[float, float], float] = {}  # the refining grids meet cells already scored
+
+    def score_all(az: float, els: Sequence[float]) -> None:
+        """Score a sun at ``az`` and each of ``els`` (clipped to the range) not scored yet, in one batch."""
+        todo = list(dict.fromkeys(e for e in (float(np.clip(el, lo, hi)) for el in els) if (float(az), e) not in scores))
+        if not todo:
+            return
+        azimuth = math.radians(az)
+        if azimuth not in strips:
+            strips[azimuth] = _strip(pairs, azimuth)
+        predicted = _predicted(strips[azimuth], n, [math.radians(e) for e in todo], params.reach_max_m)
+        for e, (pred, unsure) in zip(todo, predicted, strict=True):
+            scores[(float(az), e)] = _overlap(pred, observed, weight, unsure)
 
     def score(az: float, el: float) -> tuple[float, float, float]:
         el = float(np.clip(el, lo, hi))
-        pred, unsure = _predicted(pairs, n, math.radians(az), math.radians(el), params.reach_max_m, strips)
-        return _overlap(pred, observed, weight, unsure), az % 360.0, el
+        score_all(az, [el])
+        return scores[(float(az), el)], az % 360.0, el
 
     step = params.coarse_step_deg
-    best = max(score(az, el) for az in np.arange(0.0, 360.0, step) for el in np.arange(lo, hi + 1e-9, step))
+    coarse = np.arange(lo, hi + 1e-9, step)
+    for az in np.arange(0.0, 360.0, step):
+        score_all(az, coarse)
+    best = max(score(az, el) for az in np.arange(0.0, 360.0, step) for el in coarse)
     for fine in (step / 3.0, 1.0):
         _, az0, el0 = best
         offsets = np.arange(-3, 4) * fine
+        for da in offsets:
+            score_all(az0 + da, [el0 + de for de in offsets])
         best = max([best] + [score(az0 + da, el0 + de) for da in offsets for de in offsets])
     _, az, el = best
-    inside = _pairs_in_shadow(pairs, math.radians(az), math.radians(el), params.reach_max_m)
+    strip = _strip(pairs, math.radians(az))
+    inside = np.zeros(len(pairs.sample), dtype=bool)
+    inside[strip.pair[_strip_in_shadow(strip, [math.radians(el)], params.reach_max_m, strip.height)[0]]] = True
     pred = np.bincount(pairs.sample, weights=inside, minlength=n) > 0
     meeting = len(np.unique(pairs.caster[inside & observed[pairs.sample]]))
     return math.radians(az), math.radians(el), _overlap(pred, observed, weight), pred, meeting
@@ -581,11 +659,10 @@ def sky_colours(
     Returns:
         (3,) zenith and (3,) horizon linear RGB (medians).
     """
-    rows, cols = np.nonzero(sky_mask)
-    order = np.argsort(rows, kind="stable")
-    k = max(1, int(round(len(order) * params.sky_top_fraction)))
-    top = uint8_to_linear(rgb[rows[order[:k]], cols[order[:k]]])  # only the pixels measured
-    bottom = uint8_to_linear(rgb[rows[order[-k:]], cols[order[-k:]]])
+    rows, cols = np.nonzero(sky_mask)  # in row order: the top rows' pixels first
+    k = max(1, int(round(len(rows) * params.sky_top_fraction)))
+    top = uint8_to_linear(rgb[rows[:k], cols[:k]])  # only the pixels measured
+    bottom = uint8_to_linear(rgb[rows[-k:], cols[-k:]])
     return np.median(top, axis=0), np.median(bottom, axis=0)
 
 

@@ -288,7 +288,7 @@ class Renderer:
             _write(lit, "u_shininess", float(lt.shininess))
             _write(lit, "u_inv_gamma", 1.0 / lt.gamma)
             _write(lit, "u_normal_offset", 1.5 * texel)
-            _write(lit, "u_texel", 1.0 / self._shadow_size)
+            _write(lit, "u_map_size", float(self._shadow_size))
             _write(lit, "u_shadow_map", 0)
             self._shadow_tex.use(location=0)
             ctx.enable(ctx.DEPTH_TEST)

@@ -126,7 +126,7 @@ uniform float u_specular;
 uniform float u_shininess;
 uniform float u_inv_gamma;
 uniform float u_normal_offset;   // metres (about 1.5 shadow texels)
-uniform float u_texel;           // 1 / shadow map size
+uniform float u_map_size;        // shadow map size, texels
 in vec3 v_pos;
 in vec3 v_normal;
 in vec3 v_color;
@@ -137,10 +137,21 @@ float sun_visibility(vec3 n) {
     vec3 s = p.xyz / p.w * 0.5 + 0.5;
     if (s.x < 0.0 || s.x > 1.0 || s.y < 0.0 || s.y > 1.0) return 1.0;
     float ref = s.z - 5e-4;
-    float sum = 0.0;
-    for (int dx = -1; dx <= 1; ++dx)
-        for (int dy = -1; dy <= 1; ++dy)
-            sum += texture(u_shadow_map, vec3(s.xy + vec2(dx, dy) * u_texel, ref));
+    // A 3x3 PCF: nine bilinear depth comparisons at whole-texel offsets -1, 0, 1 weigh the 4x4
+    // texels around s by (1 - f, 1, 1, f) per axis (f: s's fraction between texel centres).
+    // Two bilinear taps per axis give the same weights: one between the first two texels
+    // (weights 1 - f and 1: total 2 - f), one between the last two (1 and f: total 1 + f).
+    vec2 t = s.xy * u_map_size - 0.5;   // texel centres at whole numbers
+    vec2 i = floor(t);
+    vec2 f = t - i;
+    vec2 w0 = 2.0 - f;
+    vec2 w1 = 1.0 + f;
+    vec2 c0 = (i - 0.5 + 1.0 / w0) / u_map_size;
+    vec2 c1 = (i + 1.5 + f / w1) / u_map_size;
+    float sum = w0.x * w0.y * texture(u_shadow_map, vec3(c0.x, c0.y, ref))
+              + w1.x * w0.y * texture(u_shadow_map, vec3(c1.x, c0.y, ref))
+              + w0.x * w1.y * texture(u_shadow_map, vec3(c0.x, c1.y, ref))
+              + w1.x * w1.y * texture(u_shadow_map, vec3(c1.x, c1.y, ref));
     return sum / 9.0;
 }
 

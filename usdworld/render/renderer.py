@@ -268,13 +268,7 @@ class Renderer:
         self._color_fbo.use()
         self._color_fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
         lt = self.lighting
-        sky = self._programs["sky"]
-        _write(sky, "u_world_from_px", world_from_cam[:3, :3] @ np.linalg.inv(K))
-        _write(sky, "u_size", np.array([self.width, self.height], dtype=np.float64))
-        _write(sky, "u_zenith", lt.sky_zenith_srgb)
-        _write(sky, "u_horizon", lt.sky_horizon_srgb)
-        ctx.disable(ctx.DEPTH_TEST)
-        self._sky_vao.render(mode=ctx.TRIANGLES, vertices=3)
+        ctx.enable(ctx.DEPTH_TEST)
         if buffers.n_vertices:
             lit = self._programs["lit"]
             _write(lit, "u_view_proj", view_proj)
@@ -291,7 +285,6 @@ class Renderer:
             _write(lit, "u_map_size", float(self._shadow_size))
             _write(lit, "u_shadow_map", 0)
             self._shadow_tex.use(location=0)
-            ctx.enable(ctx.DEPTH_TEST)
             # Depth first, then shade only the fragment that is seen (no shading of hidden ones).
             _write(self._programs["depth"], "u_view_proj", view_proj)
             self._color_fbo.color_mask = (False, False, False, False)
@@ -299,7 +292,18 @@ class Renderer:
             self._color_fbo.color_mask = (True, True, True, True)
             ctx.depth_func = "<="
             buffers.draw(ctx, "lit")
-            ctx.depth_func = "<"
+        # The sky last, at the far plane: it passes "<=" only where no surface was drawn (the
+        # surfaces' depth is < 1: the pre-pass's "<" test against the cleared 1 writes no other).
+        sky = self._programs["sky"]
+        _write(sky, "u_world_from_px", world_from_cam[:3, :3] @ np.linalg.inv(K))
+        _write(sky, "u_size", np.array([self.width, self.height], dtype=np.float64))
+        _write(sky, "u_zenith", lt.sky_zenith_srgb)
+        _write(sky, "u_horizon", lt.sky_horizon_srgb)
+        ctx.depth_func = "<="
+        self._color_fbo.depth_mask = False
+        self._sky_vao.render(mode=ctx.TRIANGLES, vertices=3)
+        self._color_fbo.depth_mask = True
+        ctx.depth_func = "<"
         data = self._color_fbo.read(components=3, alignment=1)
         ctx.finish()
         return np.frombuffer(data, dtype=np.uint8).reshape(self.height, self.width, 3)[::-1].copy()

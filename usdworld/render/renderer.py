@@ -7,16 +7,18 @@ Example:
     >>> result.rgb.shape, result.class_ids.dtype                   # doctest: +SKIP
     ((512, 1024, 3), dtype('int32'))
 
-Passes (one draw call each, two for the colour; no multisampling anywhere, so every id pixel is exact):
+Passes (one draw call per mesh batch each; no multisampling anywhere, so every id pixel is exact):
 
 1. shadow: depth from an orthographic sun camera into a ``shadow_map_size``\u00b2 depth texture;
    its box follows the view, or is fixed once for a whole camera path over a static scene
    (:meth:`Renderer.fix_shadow_box`: the fly-through draws it once);
-2. colour: sky gradient, then Blinn-Phong + hemisphere ambient with a 3x3 PCF shadow
-   lookup (normal offset + small bias), gamma-encoded to 8 bits; a depth-only pre-pass
-   first, so only the nearest surface of each pixel is shaded;
-3. labels: class id, instance id and object index as int32 and the OpenCV camera depth
-   ``z`` in metres as float32 (0 where no surface was hit) in one multi-target pass.
+2. labels: class id, instance id and object index as int32 and the OpenCV camera depth
+   ``z`` in metres as float32 (0 where no surface was hit) in one multi-target pass;
+3. colour: Blinn-Phong + hemisphere ambient with a 3x3 PCF shadow lookup (normal offset +
+   small bias; four bilinear depth comparisons), gamma-encoded to 8 bits, shading only the
+   nearest surface of each pixel against a depth pre-pass (in :meth:`Renderer.render`, the
+   label pass's depth; :meth:`Renderer.render_rgb` draws its own), then the sky gradient
+   where no surface was drawn.
 """
 
 from __future__ import annotations
@@ -198,9 +200,11 @@ class Renderer:
             }
             size = (self.width, self.height)
             self._make_shadow_target(self.lighting.shadow_map_size)
+            # One depth buffer for both: render() draws the labels first and the colour pass
+            # shades against their depth (it is the depth pre-pass's: the same positions).
+            depth = ctx.depth_renderbuffer(size)
             self._color_fbo = ctx.framebuffer(
-                color_attachments=[ctx.renderbuffer(size, 4, dtype="f1")],
-                depth_attachment=ctx.depth_renderbuffer(size),
+                color_attachments=[ctx.renderbuffer(size, 4, dtype="f1")], depth_attachment=depth
             )
             self._label_fbo = ctx.framebuffer(
                 color_attachments=[
@@ -209,7 +213,7 @@ class Renderer:
                     ctx.renderbuffer(size, 1, dtype="i4"),
                     ctx.renderbuffer(size, 1, dtype="f4"),
                 ],
-                depth_attachment=ctx.depth_renderbuffer(size),
+                depth_attachment=depth,
             )
             self._sky_vao = ctx.vertex_array(self._programs["sky"], [])
         except Exception as exc:
@@ -253,12 +257,20 @@ class Renderer:
             K: (3, 3) float64 camera matrix for this renderer's width x height.
             world_from_cam: (4, 4) float64 pose, OpenCV camera -> world (Z up, metres).
         """
-        rgb = self.render_rgb(scene, K, world_from_cam)
         class_ids, instance_ids, object_ids, depth = self.render_labels(scene, K, world_from_cam)
+        # The labels' depth buffer is the colour pass's depth pre-pass (the same "<" test on the
+        # same positions, gl_Position being invariant in both programs): it is not drawn again.
+        rgb = self._color_pass(scene, K, world_from_cam, depth_drawn=True)
         return RenderResult(rgb, class_ids, instance_ids, object_ids, depth)
 
     def render_rgb(self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray) -> np.ndarray:
         """(H, W, 3) uint8 lit colour with shadows and sky (same arguments as :meth:`render`)."""
+        return self._color_pass(scene, K, world_from_cam, depth_drawn=False)
+
+    def _color_pass(
+        self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray, depth_drawn: bool
+    ) -> np.ndarray:
+        """The colour; ``depth_drawn``: the depth buffer holds this view's depth (from the labels)."""
         ctx = self._context()
         K, world_from_cam = self._check_camera(K, world_from_cam)
         buffers = self._upload(scene)
@@ -266,7 +278,9 @@ class Renderer:
         sun_vp, texel = self._shadow_pass(scene, buffers, K, world_from_cam)
 
         self._color_fbo.use()
+        self._color_fbo.depth_mask = not depth_drawn  # a clear with the mask off keeps the depth
         self._color_fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        self._color_fbo.depth_mask = True
         lt = self.lighting
         ctx.enable(ctx.DEPTH_TEST)
         if buffers.n_vertices:
@@ -286,10 +300,11 @@ class Renderer:
             _write(lit, "u_shadow_map", 0)
             self._shadow_tex.use(location=0)
             # Depth first, then shade only the fragment that is seen (no shading of hidden ones).
-            _write(self._programs["depth"], "u_view_proj", view_proj)
-            self._color_fbo.color_mask = (False, False, False, False)
-            buffers.draw(ctx, "depth")
-            self._color_fbo.color_mask = (True, True, True, True)
+            if not depth_drawn:
+                _write(self._programs["depth"], "u_view_proj", view_proj)
+                self._color_fbo.color_mask = (False, False, False, False)
+                buffers.draw(ctx, "depth")
+                self._color_fbo.color_mask = (True, True, True, True)
             ctx.depth_func = "<="
             buffers.draw(ctx, "lit")
         # The sky last, at the far plane: it passes "<=" only where no surface was drawn (the

@@ -66,8 +66,9 @@ void main() {
 }
 """
 
-# Depth only, for the colour pass's depth pre-pass: ``invariant`` here and in LIT_VS makes
-# both programs compute the same gl_Position, so the lit pass's "<=" test passes exactly the
+# Depth only, for the colour pass's depth pre-pass: ``invariant`` here, in LIT_VS and in
+# LABEL_VS (whose depth serves as the pre-pass in ``Renderer.render``) makes the programs
+# compute the same gl_Position, so the lit pass's "<=" test passes exactly the
 # surface that is seen and shades each pixel once.
 DEPTH_VS = (
     """
@@ -172,6 +173,7 @@ void main() {
 LABEL_VS = (
     """
 #version 410
+invariant gl_Position;
 uniform mat4 u_view_proj;
 uniform mat4 u_view;
 in ivec3 in_ids;          // class, instance, object (per instance)

@@ -47,3 +47,25 @@ def test_render_shades_against_the_label_depth_and_matches_the_separate_passes(
         assert mine.tobytes() == alone.tobytes()
     assert set(np.unique(together.class_ids)) >= {7, 8, 11, 17, 26}  # every box shows
     assert len(np.unique(together.rgb.reshape(-1, 3), axis=0)) > 50
+
+
+def test_a_sun_of_no_light_draws_no_shadow_map_and_changes_no_pixel(monkeypatch: pytest.MonkeyPatch) -> None:
+    cam = camera(K=np.array([[260.0, 0.0, 161.3], [0.0, 250.0, 83.6], [0.0, 0.0, 1.0]]), pitch=0.1, roll=0.02)
+    scene = _street_with_ties()
+    overcast = Lighting(sun_direction_world=sun_direction(20.0, 30.0), sun_color=np.zeros(3))
+    drawn: list[str] = []
+    draw = renderer_module._SceneBuffers.draw
+    monkeypatch.setattr(
+        renderer_module._SceneBuffers, "draw", lambda self, ctx, name: (drawn.append(name), draw(self, ctx, name))
+    )
+    with Renderer(W, H, lighting=overcast) as r:
+        ambient = r.render(scene, cam.K, cam.world_from_cam())
+    assert drawn == ["label", "lit_ambient"]
+    # The full lit shader with its sun terms times a zero sun colour (and a drawn shadow map).
+    monkeypatch.setattr(renderer_module.shaders, "LIT_AMBIENT_FS", renderer_module.shaders.LIT_FS)
+    monkeypatch.setattr(renderer_module, "_sunlit", lambda lighting: True)
+    with Renderer(W, H, lighting=overcast) as r:
+        full = r.render(scene, cam.K, cam.world_from_cam())
+    assert "shadow" in drawn[2:]
+    assert np.array_equal(ambient.rgb, full.rgb)
+    assert len(np.unique(ambient.rgb.reshape(-1, 3), axis=0)) > 20

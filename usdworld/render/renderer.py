@@ -72,6 +72,11 @@ def _write(prog: Any, name: str, value: np.ndarray | float) -> None:
         prog[name].value = value
 
 
+def _sunlit(lighting: Lighting) -> bool:
+    """Whether the sun adds any light (an overcast world's sun colour is 0)."""
+    return bool(np.any(np.asarray(lighting.sun_color) != 0))
+
+
 #: One instance's record in the instance buffer: the top three rows of world_from_local
 #: (double), the columns of its linear part's cofactor matrix (normals), its ids and its colour.
 _INSTANCE = np.dtype(
@@ -133,7 +138,8 @@ class _BatchBuffers:
             lit += [(col, "3f", "in_color"), (inst_rev, f"{_ROWS} 3f 3f 3f 24x/i", *names)]
         else:
             lit += [(inst_rev, f"{_ROWS} 3f 3f 3f 12x 3f/i", *names, "in_color")]
-        self.vaos["lit"] = ctx.vertex_array(programs["lit"], lit, index_buffer=ibo, index_element_size=4)
+        for name in ("lit", "lit_ambient"):
+            self.vaos[name] = ctx.vertex_array(programs[name], lit, index_buffer=ibo, index_element_size=4)
 
     def render(self, ctx: Any, name: str) -> None:
         self.vaos[name].render(mode=ctx.TRIANGLES, instances=self.n_instances)
@@ -156,7 +162,7 @@ class _SceneBuffers:
 
     def draw(self, ctx: Any, name: str) -> None:
         """One pass over every batch: in scene order, the lit pass last to first (see above)."""
-        for b in reversed(self.batches) if name == "lit" else self.batches:
+        for b in reversed(self.batches) if name.startswith("lit") else self.batches:
             b.render(ctx, name)
 
     def release(self) -> None:
@@ -196,6 +202,7 @@ class Renderer:
                 "sky": ctx.program(vertex_shader=shaders.SKY_VS, fragment_shader=shaders.SKY_FS),
                 "depth": ctx.program(vertex_shader=shaders.DEPTH_VS, fragment_shader=shaders.DEPTH_FS),
                 "lit": ctx.program(vertex_shader=shaders.LIT_VS, fragment_shader=shaders.LIT_FS),
+                "lit_ambient": ctx.program(vertex_shader=shaders.LIT_VS, fragment_shader=shaders.LIT_AMBIENT_FS),
                 "label": ctx.program(vertex_shader=shaders.LABEL_VS, fragment_shader=shaders.LABEL_FS),
             }
             size = (self.width, self.height)
@@ -275,7 +282,10 @@ class Renderer:
         K, world_from_cam = self._check_camera(K, world_from_cam)
         buffers = self._upload(scene)
         view_proj = self._view_proj(scene, K, world_from_cam)
-        sun_vp, texel = self._shadow_pass(scene, buffers, K, world_from_cam)
+        # A sun of no light (an overcast world) adds exactly 0: no shadow map, no sun terms.
+        sunlit = _sunlit(self.lighting)
+        sun_vp, texel = self._shadow_pass(scene, buffers, K, world_from_cam) if sunlit else (np.eye(4), 0.0)
+        pass_name = "lit" if sunlit else "lit_ambient"
 
         self._color_fbo.use()
         self._color_fbo.depth_mask = not depth_drawn  # a clear with the mask off keeps the depth
@@ -284,7 +294,7 @@ class Renderer:
         lt = self.lighting
         ctx.enable(ctx.DEPTH_TEST)
         if buffers.n_vertices:
-            lit = self._programs["lit"]
+            lit = self._programs[pass_name]
             _write(lit, "u_view_proj", view_proj)
             _write(lit, "u_sun_vp", sun_vp)
             _write(lit, "u_sun_dir", lt.sun_direction_world)
@@ -306,7 +316,7 @@ class Renderer:
                 buffers.draw(ctx, "depth")
                 self._color_fbo.color_mask = (True, True, True, True)
             ctx.depth_func = "<="
-            buffers.draw(ctx, "lit")
+            buffers.draw(ctx, pass_name)
         # The sky last, at the far plane: it passes "<=" only where no surface was drawn (the
         # surfaces' depth is < 1: the pre-pass's "<" test against the cleared 1 writes no other).
         sky = self._programs["sky"]

@@ -116,6 +116,9 @@ void main() {
 
 LIT_FS = """
 #version 410
+#ifndef SUNLIT
+#define SUNLIT 1
+#endif
 uniform sampler2DShadow u_shadow_map;
 uniform mat4 u_sun_vp;
 uniform vec3 u_sun_dir;
@@ -160,12 +163,16 @@ void main() {
     vec3 n = normalize(v_normal);
     vec3 v = normalize(u_eye - v_pos);
     if (dot(n, v) < 0.0) n = -n;   // two-sided
+    vec3 ambient = mix(u_ground_ambient, u_sky_ambient, 0.5 + 0.5 * n.z);
+#if SUNLIT
     float ndl = dot(n, u_sun_dir);
     float lit = ndl > 0.0 ? sun_visibility(n) : 0.0;
-    vec3 ambient = mix(u_ground_ambient, u_sky_ambient, 0.5 + 0.5 * n.z);
     vec3 h = normalize(u_sun_dir + v);
     float spec = ndl > 0.0 ? u_specular * pow(max(dot(n, h), 0.0), u_shininess) : 0.0;
     vec3 linear = v_color * (ambient + u_sun_color * max(ndl, 0.0) * lit) + u_sun_color * spec * lit;
+#else
+    vec3 linear = v_color * ambient;   // the above with u_sun_color = 0, exactly
+#endif
     f_color = vec4(pow(clamp(linear, 0.0, 1.0), vec3(u_inv_gamma)), 1.0);
 }
 """
@@ -206,3 +213,7 @@ void main() {
     f_depth = v_depth;
 }
 """
+
+#: The lit pass under a sun of no light (an overcast world): ambient only, no shadow lookup;
+#: the same pixels as LIT_FS with ``u_sun_color`` = 0, where every sun term is exactly 0.
+LIT_AMBIENT_FS = LIT_FS.replace("#version 410\n", "#version 410\n#define SUNLIT 0\n", 1)

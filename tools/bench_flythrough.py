@@ -83,7 +83,10 @@ with Renderer(width, height, lighting=lighting_from_stage(stage)) as renderer:
 
 
 def _env(checkout: Path) -> dict[str, str]:
-    return dict(os.environ, PYTHONPATH=os.pathsep.join([str(checkout), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    """The environment that runs ``checkout``'s code: first on PYTHONPATH, and no current folder
+    ahead of it (``python -m`` and ``-c`` put the current folder first unless PYTHONSAFEPATH is set)."""
+    path = os.pathsep.join([str(checkout), *filter(None, [os.environ.get("PYTHONPATH")])])
+    return dict(os.environ, PYTHONPATH=path, PYTHONSAFEPATH="1")
 
 
 def _command(world: Path, out: Path, frames: int, width: int, height: int, checkout: Path = REPO) -> tuple[float, float]:

@@ -240,7 +240,10 @@ def _make_worlds(tmp: Path, env: dict[str, str]) -> dict[str, Path]:
 
 
 def _env(checkout: Path) -> dict[str, str]:
-    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(checkout), os.environ.get("PYTHONPATH", "")])}
+    """The environment that runs ``checkout``'s code: first on PYTHONPATH, and no current folder
+    ahead of it (``python -m`` and ``-c`` put the current folder first unless PYTHONSAFEPATH is set)."""
+    path = os.pathsep.join([str(checkout), os.environ.get("PYTHONPATH", "")])
+    return {**os.environ, "PYTHONPATH": path, "PYTHONSAFEPATH": "1"}
 
 
 def _bench_command(repeats: int, baseline: Path | None = None) -> None:

@@ -13,9 +13,13 @@ Rendering plus encoding alone is what the fly-through cost when they ran one aft
 the larger of the two is the floor that overlapping them can reach. Prints the load average,
 the machine and a markdown table for BENCHMARKS.md.
 
+``--baseline CHECKOUT`` (e.g. ``/work/main``) also times, in the same rounds and alternating
+with this checkout, the whole command and the rendering alone (a fresh process that renders
+the N frames after one warm-up frame, wall and CPU) with that checkout's code.
+
 Usage::
 
-    python tools/bench_flythrough.py [--frames 120] [--size 1280x640] [--repeat 3]
+    python tools/bench_flythrough.py [--frames 120] [--size 1280x640] [--repeat 3] [--baseline /work/main]
 """
 
 from __future__ import annotations
@@ -47,12 +51,56 @@ from usdworld.render.video import Mp4Writer
 from usdworld.synth import make_street_scene, write_cityscapes_frame
 
 
-def _command(world: Path, out: Path, frames: int, width: int, height: int) -> tuple[float, float]:
+#: Rendering the fly-through's frames alone in a fresh process (argv: world, frames, WxH): prints
+#: the wall and CPU seconds of the N frames after one warm-up frame (the process's own CPU,
+#: llvmpipe's threads included).
+RENDER_ALONE = r"""
+import sys, time
+from pathlib import Path
+from usdworld.authoring.inspect import open_world
+from usdworld.render import flythrough as fly
+from usdworld.render.outputs import view_camera, world_image_size
+from usdworld.render.renderer import Renderer
+from usdworld.render.scene import RenderScene
+from usdworld.render.world_lights import lighting_from_stage
+world, frames = Path(sys.argv[1]), int(sys.argv[2])
+width, height = (int(v) for v in sys.argv[3].split("x"))
+stage = open_world(world)
+size = world_image_size(stage)
+source = view_camera(stage, *size)
+K = fly.video_intrinsics(source.K, size, (width, height))
+fly.add_source_vehicle(stage, fly.car_asset_for(world))
+scene = RenderScene.from_stage(stage)
+poses = fly.flythrough_poses(source.world_from_cam, frames, fly.clear_path(fly.FlythroughPath(), scene, source.world_from_cam))
+with Renderer(width, height, lighting=lighting_from_stage(stage)) as renderer:
+    renderer.fix_shadow_box(scene, K, poses)
+    renderer.render_rgb(scene, K, poses[0])
+    t0, c0 = time.perf_counter(), time.process_time()
+    for pose in poses:
+        renderer.render_rgb(scene, K, pose)
+    print(time.perf_counter() - t0, time.process_time() - c0)
+"""
+
+
+def _env(checkout: Path) -> dict[str, str]:
+    """The environment that runs ``checkout``'s code: first on PYTHONPATH, and no current folder
+    ahead of it (``python -m`` and ``-c`` put the current folder first unless PYTHONSAFEPATH is set)."""
+    path = os.pathsep.join([str(checkout), *filter(None, [os.environ.get("PYTHONPATH")])])
+    return dict(os.environ, PYTHONPATH=path, PYTHONSAFEPATH="1")
+
+
+def _command(world: Path, out: Path, frames: int, width: int, height: int, checkout: Path = REPO) -> tuple[float, float]:
     """Wall and CPU seconds (the process and its ffmpeg) of the whole command."""
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])]))
     args = [sys.executable, "-m", "usdworld", "-q", "flythrough", str(world), "-o", str(out)]
     args += ["--frames", str(frames), "--size", f"{width}x{height}"]
-    wall, cpu, _ = run_timed(args, env)
+    wall, cpu, _ = run_timed(args, _env(checkout))
+    return wall, cpu
+
+
+def _render_alone_process(world: Path, frames: int, width: int, height: int, checkout: Path) -> tuple[float, float]:
+    """Wall and CPU seconds of rendering the frames alone in a fresh process (:data:`RENDER_ALONE`)."""
+    out = run_timed([sys.executable, "-c", RENDER_ALONE, str(world), str(frames), f"{width}x{height}"], _env(checkout))[2]
+    wall, cpu = (float(v) for v in out.split())
     return wall, cpu
 
 
@@ -93,7 +141,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--frames", type=int, default=120)
     parser.add_argument("--size", default="1280x640")
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--baseline", type=Path, default=None, help="another checkout timed in the same rounds")
     args = parser.parse_args(argv)
+    checkouts = {"this": REPO} if args.baseline is None else {"baseline": args.baseline.resolve(), "this": REPO}
     width, height = (int(v) for v in args.size.lower().split("x"))
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -110,12 +160,19 @@ def main(argv: list[str] | None = None) -> int:
         ).world
         _in_process(world, tmp / "warm.mp4", 2, width, height)  # warm-up: imports, shaders
         runs: dict[str, list[float]] = {k: [] for k in ("cmd", "cmd_cpu", "inproc", "render", "encode")}
+        compared: dict[tuple[str, str], list[float]] = {}
         loads = []
         for _ in range(args.repeat):
             loads.append(os.getloadavg()[0])
-            wall, cpu = _command(world, tmp / "cmd.mp4", args.frames, width, height)
-            runs["cmd"].append(wall)
-            runs["cmd_cpu"].append(cpu)
+            for code, checkout in checkouts.items():
+                wall, cpu = _command(world, tmp / "cmd.mp4", args.frames, width, height, checkout)
+                compared.setdefault((code, "cmd"), []).append(wall)
+                compared.setdefault((code, "cmd_cpu"), []).append(cpu)
+                wall, cpu = _render_alone_process(world, args.frames, width, height, checkout)
+                compared.setdefault((code, "alone"), []).append(wall)
+                compared.setdefault((code, "alone_cpu"), []).append(cpu)
+            runs["cmd"].append(compared[("this", "cmd")][-1])
+            runs["cmd_cpu"].append(compared[("this", "cmd_cpu")][-1])
             runs["inproc"].append(_in_process(world, tmp / "inproc.mp4", args.frames, width, height))
             t_render, images = _frames_alone(world, args.frames, width, height)
             runs["render"].append(t_render)
@@ -141,7 +198,25 @@ def main(argv: list[str] | None = None) -> int:
     ]
     for name, seconds in rows:
         print(f"| {name} | {seconds:.2f} | {1000 * seconds / args.frames:.0f} ms | {seconds / serial:.2f} |")
+    heads = {code: _head(checkout) for code, checkout in checkouts.items()}
+    print(
+        f"\nFresh processes, the same rounds ({', '.join(f'{c}: {checkouts[c]} ({h})' for c, h in heads.items())}); "
+        f"median of {args.repeat}, seconds (per frame):\n"
+    )
+    print("| code | whole command wall | whole command CPU (with ffmpeg) | rendering alone wall | rendering alone CPU |")
+    print("|---|---|---|---|---|")
+    for code in checkouts:
+        cells = [statistics.median(compared[(code, k)]) for k in ("cmd", "cmd_cpu", "alone", "alone_cpu")]
+        print(f"| {code} | " + " | ".join(f"{v:.2f} ({1000 * v / args.frames:.0f} ms)" for v in cells) + " |")
     return 0
+
+
+def _head(checkout: Path) -> str:
+    """The checkout's commit, short (or '?' outside git)."""
+    import subprocess
+
+    proc = subprocess.run(["git", "-C", str(checkout), "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
+    return proc.stdout.strip() or "?"
 
 
 if __name__ == "__main__":

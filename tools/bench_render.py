@@ -25,6 +25,8 @@ reported, with the load average. A breakdown of one render in a fresh process fo
 imports, stage open, scene extraction, GL context, the passes, encoding (parallel, this
 module's PNG settings) and writing, and, as the reference in the same process, encoding the
 same files one after another at zlib level 6 (what the command did before).
+``--baseline CHECKOUT`` (e.g. ``/work/main``) runs every variant and the breakdown with that
+checkout's code too, alternating with this one's in the same rounds (fresh processes).
 """
 
 from __future__ import annotations
@@ -103,9 +105,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--flythrough-frames", type=int, default=120)
     parser.add_argument("--flythrough-size", default="960x480")
     parser.add_argument("--command-repeats", type=int, default=0, help="rounds of the whole-command timing")
+    parser.add_argument(
+        "--baseline",
+        type=Path,
+        default=None,
+        help="with --command-repeats: another checkout (e.g. /work/main) timed in the same rounds",
+    )
     args = parser.parse_args(argv)
     if args.command_repeats:  # the whole command instead of the passes
-        _bench_command(args.command_repeats)
+        _bench_command(args.command_repeats, args.baseline)
         return 0
     if args.repeats < 5:
         parser.error("--repeats must be >= 5")
@@ -186,9 +194,11 @@ scene = RenderScene.from_stage(stage)
 t3 = time.perf_counter()
 with Renderer(w, h) as r:
     t4 = time.perf_counter()
+    c4 = time.process_time()
     result = r.render(scene, pose.K, pose.world_from_cam)
     t5 = time.perf_counter()
-row = [t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4]
+    c5 = time.process_time()
+row = [t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4, c5 - c4]
 
 
 def reference(outputs):  # zlib level 6, OpenCV's other defaults, one file after another (as before)
@@ -229,51 +239,77 @@ def _make_worlds(tmp: Path, env: dict[str, str]) -> dict[str, Path]:
     return {"demo": tmp / "demo_world", "synth seed 3": tmp / "synth_world"}
 
 
-def _bench_command(repeats: int) -> None:
-    """Print the whole-command table and the breakdown (see the module docstring)."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+def _env(checkout: Path) -> dict[str, str]:
+    """The environment that runs ``checkout``'s code: first on PYTHONPATH, and no current folder
+    ahead of it (``python -m`` and ``-c`` put the current folder first unless PYTHONSAFEPATH is set)."""
+    path = os.pathsep.join([str(checkout), os.environ.get("PYTHONPATH", "")])
+    return {**os.environ, "PYTHONPATH": path, "PYTHONSAFEPATH": "1"}
+
+
+def _bench_command(repeats: int, baseline: Path | None = None) -> None:
+    """Print the whole-command table and the breakdown (see the module docstring).
+
+    With ``baseline`` (another checkout, e.g. main's), each round runs every variant with that
+    checkout's code and then with this one's, in fresh processes, on the same worlds.
+    """
+    checkouts = {"this": REPO} if baseline is None else {"baseline": baseline.resolve(), "this": REPO}
     with tempfile.TemporaryDirectory() as scratch:
         tmp = Path(scratch)
-        worlds = _make_worlds(tmp, env)
-        variants = [(name, write) for name in worlds for write in ("data", "all")]
-        times: dict[tuple[str, str], list[tuple[float, float]]] = {v: [] for v in variants}
+        worlds = _make_worlds(tmp, _env(REPO))
+        variants = [(code, name, write) for name in worlds for write in ("data", "all") for code in checkouts]
+        times: dict[tuple[str, str, str], list[tuple[float, float]]] = {v: [] for v in variants}
         loads = [os.getloadavg()[0]]
         for _ in range(repeats):
-            for name, write in variants:
+            for code, name, write in variants:
                 argv = [sys.executable, "-m", "usdworld", "-q", "render", str(worlds[name])]
                 argv += ["-o", str(tmp / "out"), "--size", "2048x1024", "--write", write]
-                wall, cpu, _ = run_timed(argv, env)
-                times[(name, write)].append((wall, cpu))
+                wall, cpu, _ = run_timed(argv, _env(checkouts[code]))
+                times[(code, name, write)].append((wall, cpu))
             loads.append(os.getloadavg()[0])
         breakdown = {}
-        for name, world in worlds.items():
-            argv = [sys.executable, "-c", BREAKDOWN, str(world), "2048x1024", str(tmp / "parts")]
-            breakdown[name] = [float(v) for v in run_timed(argv, env)[2].split()]
+        for _ in range(max(1, repeats // 2)):  # fresh processes; the median of each step
+            for code in checkouts:
+                for name, world in worlds.items():
+                    argv = [sys.executable, "-c", BREAKDOWN, str(world), "2048x1024", str(tmp / "parts")]
+                    row = [float(v) for v in run_timed(argv, _env(checkouts[code]))[2].split()]
+                    breakdown.setdefault((code, name), []).append(row)
     print(
         f"`usdworld render` at 2048x1024, whole command; median of {repeats} interleaved rounds; "
         f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.node()}, {os.cpu_count()} CPUs, "
-        f"load average (1 min) {min(loads):.1f}-{max(loads):.1f}.\n"
+        f"load average (1 min) {min(loads):.1f}-{max(loads):.1f}."
     )
-    print("| world | --write | files | wall s | CPU s |")
-    print("|---|---|---:|---:|---:|")
+    if baseline is not None:
+        print(f"baseline: {checkouts['baseline']} ({_head(checkouts['baseline'])}); this: {REPO} ({_head(REPO)})")
+    print("\n| code | world | --write | files | wall s | CPU s |")
+    print("|---|---|---|---:|---:|---:|")
     from usdworld.render.outputs import OUTPUT_GROUPS
 
-    for (name, write), runs in times.items():
+    for (code, name, write), runs in times.items():
         wall = statistics.median(r[0] for r in runs)
         cpu = statistics.median(r[1] for r in runs)
         n_files = len(OUTPUT_GROUPS[write]) - (2 if write == "all" and name != "demo" else 0)
-        print(f"| {name} | {write} | {n_files} | **{wall:.2f}** | {cpu:.2f} |")
+        print(f"| {code} | {name} | {write} | {n_files} | **{wall:.2f}** | {cpu:.2f} |")
     print(
-        "\nOne render in a fresh process, milliseconds (encoding and writing: best of 3, parallel, fast PNG settings; reference: "
+        "\nOne render in a fresh process, milliseconds wall, the median of "
+        f"{max(1, repeats // 2)} (encoding and writing: best of 3, parallel, fast PNG settings; reference: "
     )
     print("the same files one after another at zlib level 6, as before):\n")
     print(
-        "| world | imports | open + camera | scene | GL context | passes | data: encode | write | "
+        "| code | world | imports | open + camera | scene | GL context | passes | passes CPU | data: encode | write | "
         "reference encode | all (no photo): encode | write | reference encode |"
     )
-    print("|---|" + "---:|" * 11)
-    for name, row in breakdown.items():
-        print(f"| {name} | " + " | ".join(f"{v:.0f}" for v in row) + " |")
+    print("|---|---|" + "---:|" * 12)
+    for (code, name), rows in breakdown.items():
+        row = np.median(np.array(rows), axis=0)
+        print(f"| {code} | {name} | " + " | ".join(f"{v:.0f}" for v in row) + " |")
+
+
+def _head(checkout: Path) -> str:
+    """The checkout's commit, short (or '?' outside git)."""
+    import subprocess
+
+    proc = subprocess.run(["git", "-C", str(checkout), "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
+    return proc.stdout.strip() or "?"
 
 
 if __name__ == "__main__":

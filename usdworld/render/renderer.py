@@ -7,16 +7,18 @@ Example:
     >>> result.rgb.shape, result.class_ids.dtype                   # doctest: +SKIP
     ((512, 1024, 3), dtype('int32'))
 
-Passes (one draw call each, two for the colour; no multisampling anywhere, so every id pixel is exact):
+Passes (one draw call per mesh batch each; no multisampling anywhere, so every id pixel is exact):
 
 1. shadow: depth from an orthographic sun camera into a ``shadow_map_size``\u00b2 depth texture;
    its box follows the view, or is fixed once for a whole camera path over a static scene
    (:meth:`Renderer.fix_shadow_box`: the fly-through draws it once);
-2. colour: sky gradient, then Blinn-Phong + hemisphere ambient with a 3x3 PCF shadow
-   lookup (normal offset + small bias), gamma-encoded to 8 bits; a depth-only pre-pass
-   first, so only the nearest surface of each pixel is shaded;
-3. labels: class id, instance id and object index as int32 and the OpenCV camera depth
-   ``z`` in metres as float32 (0 where no surface was hit) in one multi-target pass.
+2. labels: class id, instance id and object index as int32 and the OpenCV camera depth
+   ``z`` in metres as float32 (0 where no surface was hit) in one multi-target pass;
+3. colour: Blinn-Phong + hemisphere ambient with a 3x3 PCF shadow lookup (normal offset +
+   small bias; four bilinear depth comparisons), gamma-encoded to 8 bits, shading only the
+   nearest surface of each pixel against a depth pre-pass (in :meth:`Renderer.render`, the
+   label pass's depth; :meth:`Renderer.render_rgb` draws its own), then the sky gradient
+   where no surface was drawn.
 """
 
 from __future__ import annotations
@@ -68,6 +70,11 @@ def _write(prog: Any, name: str, value: np.ndarray | float) -> None:
         prog[name].write(np.ascontiguousarray(value.T if value.ndim == 2 else value, dtype="f4").tobytes())
     else:
         prog[name].value = value
+
+
+def _sunlit(lighting: Lighting) -> bool:
+    """Whether the sun adds any light (an overcast world's sun colour is 0)."""
+    return bool(np.any(np.asarray(lighting.sun_color) != 0))
 
 
 #: One instance's record in the instance buffer: the top three rows of world_from_local
@@ -131,7 +138,8 @@ class _BatchBuffers:
             lit += [(col, "3f", "in_color"), (inst_rev, f"{_ROWS} 3f 3f 3f 24x/i", *names)]
         else:
             lit += [(inst_rev, f"{_ROWS} 3f 3f 3f 12x 3f/i", *names, "in_color")]
-        self.vaos["lit"] = ctx.vertex_array(programs["lit"], lit, index_buffer=ibo, index_element_size=4)
+        for name in ("lit", "lit_ambient"):
+            self.vaos[name] = ctx.vertex_array(programs[name], lit, index_buffer=ibo, index_element_size=4)
 
     def render(self, ctx: Any, name: str) -> None:
         self.vaos[name].render(mode=ctx.TRIANGLES, instances=self.n_instances)
@@ -154,7 +162,7 @@ class _SceneBuffers:
 
     def draw(self, ctx: Any, name: str) -> None:
         """One pass over every batch: in scene order, the lit pass last to first (see above)."""
-        for b in reversed(self.batches) if name == "lit" else self.batches:
+        for b in reversed(self.batches) if name.startswith("lit") else self.batches:
             b.render(ctx, name)
 
     def release(self) -> None:
@@ -194,13 +202,16 @@ class Renderer:
                 "sky": ctx.program(vertex_shader=shaders.SKY_VS, fragment_shader=shaders.SKY_FS),
                 "depth": ctx.program(vertex_shader=shaders.DEPTH_VS, fragment_shader=shaders.DEPTH_FS),
                 "lit": ctx.program(vertex_shader=shaders.LIT_VS, fragment_shader=shaders.LIT_FS),
+                "lit_ambient": ctx.program(vertex_shader=shaders.LIT_VS, fragment_shader=shaders.LIT_AMBIENT_FS),
                 "label": ctx.program(vertex_shader=shaders.LABEL_VS, fragment_shader=shaders.LABEL_FS),
             }
             size = (self.width, self.height)
             self._make_shadow_target(self.lighting.shadow_map_size)
+            # One depth buffer for both: render() draws the labels first and the colour pass
+            # shades against their depth (it is the depth pre-pass's: the same positions).
+            depth = ctx.depth_renderbuffer(size)
             self._color_fbo = ctx.framebuffer(
-                color_attachments=[ctx.renderbuffer(size, 4, dtype="f1")],
-                depth_attachment=ctx.depth_renderbuffer(size),
+                color_attachments=[ctx.renderbuffer(size, 4, dtype="f1")], depth_attachment=depth
             )
             self._label_fbo = ctx.framebuffer(
                 color_attachments=[
@@ -209,7 +220,7 @@ class Renderer:
                     ctx.renderbuffer(size, 1, dtype="i4"),
                     ctx.renderbuffer(size, 1, dtype="f4"),
                 ],
-                depth_attachment=ctx.depth_renderbuffer(size),
+                depth_attachment=depth,
             )
             self._sky_vao = ctx.vertex_array(self._programs["sky"], [])
         except Exception as exc:
@@ -253,30 +264,37 @@ class Renderer:
             K: (3, 3) float64 camera matrix for this renderer's width x height.
             world_from_cam: (4, 4) float64 pose, OpenCV camera -> world (Z up, metres).
         """
-        rgb = self.render_rgb(scene, K, world_from_cam)
         class_ids, instance_ids, object_ids, depth = self.render_labels(scene, K, world_from_cam)
+        # The labels' depth buffer is the colour pass's depth pre-pass (the same "<" test on the
+        # same positions, gl_Position being invariant in both programs): it is not drawn again.
+        rgb = self._color_pass(scene, K, world_from_cam, depth_drawn=True)
         return RenderResult(rgb, class_ids, instance_ids, object_ids, depth)
 
     def render_rgb(self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray) -> np.ndarray:
         """(H, W, 3) uint8 lit colour with shadows and sky (same arguments as :meth:`render`)."""
+        return self._color_pass(scene, K, world_from_cam, depth_drawn=False)
+
+    def _color_pass(
+        self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray, depth_drawn: bool
+    ) -> np.ndarray:
+        """The colour; ``depth_drawn``: the depth buffer holds this view's depth (from the labels)."""
         ctx = self._context()
         K, world_from_cam = self._check_camera(K, world_from_cam)
         buffers = self._upload(scene)
         view_proj = self._view_proj(scene, K, world_from_cam)
-        sun_vp, texel = self._shadow_pass(scene, buffers, K, world_from_cam)
+        # A sun of no light (an overcast world) adds exactly 0: no shadow map, no sun terms.
+        sunlit = _sunlit(self.lighting)
+        sun_vp, texel = self._shadow_pass(scene, buffers, K, world_from_cam) if sunlit else (np.eye(4), 0.0)
+        pass_name = "lit" if sunlit else "lit_ambient"
 
         self._color_fbo.use()
+        self._color_fbo.depth_mask = not depth_drawn  # a clear with the mask off keeps the depth
         self._color_fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        self._color_fbo.depth_mask = True
         lt = self.lighting
-        sky = self._programs["sky"]
-        _write(sky, "u_world_from_px", world_from_cam[:3, :3] @ np.linalg.inv(K))
-        _write(sky, "u_size", np.array([self.width, self.height], dtype=np.float64))
-        _write(sky, "u_zenith", lt.sky_zenith_srgb)
-        _write(sky, "u_horizon", lt.sky_horizon_srgb)
-        ctx.disable(ctx.DEPTH_TEST)
-        self._sky_vao.render(mode=ctx.TRIANGLES, vertices=3)
+        ctx.enable(ctx.DEPTH_TEST)
         if buffers.n_vertices:
-            lit = self._programs["lit"]
+            lit = self._programs[pass_name]
             _write(lit, "u_view_proj", view_proj)
             _write(lit, "u_sun_vp", sun_vp)
             _write(lit, "u_sun_dir", lt.sun_direction_world)
@@ -288,18 +306,29 @@ class Renderer:
             _write(lit, "u_shininess", float(lt.shininess))
             _write(lit, "u_inv_gamma", 1.0 / lt.gamma)
             _write(lit, "u_normal_offset", 1.5 * texel)
-            _write(lit, "u_texel", 1.0 / self._shadow_size)
+            _write(lit, "u_map_size", float(self._shadow_size))
             _write(lit, "u_shadow_map", 0)
             self._shadow_tex.use(location=0)
-            ctx.enable(ctx.DEPTH_TEST)
             # Depth first, then shade only the fragment that is seen (no shading of hidden ones).
-            _write(self._programs["depth"], "u_view_proj", view_proj)
-            self._color_fbo.color_mask = (False, False, False, False)
-            buffers.draw(ctx, "depth")
-            self._color_fbo.color_mask = (True, True, True, True)
+            if not depth_drawn:
+                _write(self._programs["depth"], "u_view_proj", view_proj)
+                self._color_fbo.color_mask = (False, False, False, False)
+                buffers.draw(ctx, "depth")
+                self._color_fbo.color_mask = (True, True, True, True)
             ctx.depth_func = "<="
-            buffers.draw(ctx, "lit")
-            ctx.depth_func = "<"
+            buffers.draw(ctx, pass_name)
+        # The sky last, at the far plane: it passes "<=" only where no surface was drawn (the
+        # surfaces' depth is < 1: the pre-pass's "<" test against the cleared 1 writes no other).
+        sky = self._programs["sky"]
+        _write(sky, "u_world_from_px", world_from_cam[:3, :3] @ np.linalg.inv(K))
+        _write(sky, "u_size", np.array([self.width, self.height], dtype=np.float64))
+        _write(sky, "u_zenith", lt.sky_zenith_srgb)
+        _write(sky, "u_horizon", lt.sky_horizon_srgb)
+        ctx.depth_func = "<="
+        self._color_fbo.depth_mask = False
+        self._sky_vao.render(mode=ctx.TRIANGLES, vertices=3)
+        self._color_fbo.depth_mask = True
+        ctx.depth_func = "<"
         data = self._color_fbo.read(components=3, alignment=1)
         ctx.finish()
         return np.frombuffer(data, dtype=np.uint8).reshape(self.height, self.width, 3)[::-1].copy()

@@ -66,8 +66,9 @@ void main() {
 }
 """
 
-# Depth only, for the colour pass's depth pre-pass: ``invariant`` here and in LIT_VS makes
-# both programs compute the same gl_Position, so the lit pass's "<=" test passes exactly the
+# Depth only, for the colour pass's depth pre-pass: ``invariant`` here, in LIT_VS and in
+# LABEL_VS (whose depth serves as the pre-pass in ``Renderer.render``) makes the programs
+# compute the same gl_Position, so the lit pass's "<=" test passes exactly the
 # surface that is seen and shades each pixel once.
 DEPTH_VS = (
     """
@@ -115,6 +116,9 @@ void main() {
 
 LIT_FS = """
 #version 410
+#ifndef SUNLIT
+#define SUNLIT 1
+#endif
 uniform sampler2DShadow u_shadow_map;
 uniform mat4 u_sun_vp;
 uniform vec3 u_sun_dir;
@@ -126,7 +130,7 @@ uniform float u_specular;
 uniform float u_shininess;
 uniform float u_inv_gamma;
 uniform float u_normal_offset;   // metres (about 1.5 shadow texels)
-uniform float u_texel;           // 1 / shadow map size
+uniform float u_map_size;        // shadow map size, texels
 in vec3 v_pos;
 in vec3 v_normal;
 in vec3 v_color;
@@ -137,10 +141,21 @@ float sun_visibility(vec3 n) {
     vec3 s = p.xyz / p.w * 0.5 + 0.5;
     if (s.x < 0.0 || s.x > 1.0 || s.y < 0.0 || s.y > 1.0) return 1.0;
     float ref = s.z - 5e-4;
-    float sum = 0.0;
-    for (int dx = -1; dx <= 1; ++dx)
-        for (int dy = -1; dy <= 1; ++dy)
-            sum += texture(u_shadow_map, vec3(s.xy + vec2(dx, dy) * u_texel, ref));
+    // A 3x3 PCF: nine bilinear depth comparisons at whole-texel offsets -1, 0, 1 weigh the 4x4
+    // texels around s by (1 - f, 1, 1, f) per axis (f: s's fraction between texel centres).
+    // Two bilinear taps per axis give the same weights: one between the first two texels
+    // (weights 1 - f and 1: total 2 - f), one between the last two (1 and f: total 1 + f).
+    vec2 t = s.xy * u_map_size - 0.5;   // texel centres at whole numbers
+    vec2 i = floor(t);
+    vec2 f = t - i;
+    vec2 w0 = 2.0 - f;
+    vec2 w1 = 1.0 + f;
+    vec2 c0 = (i - 0.5 + 1.0 / w0) / u_map_size;
+    vec2 c1 = (i + 1.5 + f / w1) / u_map_size;
+    float sum = w0.x * w0.y * texture(u_shadow_map, vec3(c0.x, c0.y, ref))
+              + w1.x * w0.y * texture(u_shadow_map, vec3(c1.x, c0.y, ref))
+              + w0.x * w1.y * texture(u_shadow_map, vec3(c0.x, c1.y, ref))
+              + w1.x * w1.y * texture(u_shadow_map, vec3(c1.x, c1.y, ref));
     return sum / 9.0;
 }
 
@@ -148,12 +163,16 @@ void main() {
     vec3 n = normalize(v_normal);
     vec3 v = normalize(u_eye - v_pos);
     if (dot(n, v) < 0.0) n = -n;   // two-sided
+    vec3 ambient = mix(u_ground_ambient, u_sky_ambient, 0.5 + 0.5 * n.z);
+#if SUNLIT
     float ndl = dot(n, u_sun_dir);
     float lit = ndl > 0.0 ? sun_visibility(n) : 0.0;
-    vec3 ambient = mix(u_ground_ambient, u_sky_ambient, 0.5 + 0.5 * n.z);
     vec3 h = normalize(u_sun_dir + v);
     float spec = ndl > 0.0 ? u_specular * pow(max(dot(n, h), 0.0), u_shininess) : 0.0;
     vec3 linear = v_color * (ambient + u_sun_color * max(ndl, 0.0) * lit) + u_sun_color * spec * lit;
+#else
+    vec3 linear = v_color * ambient;   // the above with u_sun_color = 0, exactly
+#endif
     f_color = vec4(pow(clamp(linear, 0.0, 1.0), vec3(u_inv_gamma)), 1.0);
 }
 """
@@ -161,6 +180,7 @@ void main() {
 LABEL_VS = (
     """
 #version 410
+invariant gl_Position;
 uniform mat4 u_view_proj;
 uniform mat4 u_view;
 in ivec3 in_ids;          // class, instance, object (per instance)
@@ -193,3 +213,7 @@ void main() {
     f_depth = v_depth;
 }
 """
+
+#: The lit pass under a sun of no light (an overcast world): ambient only, no shadow lookup;
+#: the same pixels as LIT_FS with ``u_sun_color`` = 0, where every sun term is exactly 0.
+LIT_AMBIENT_FS = LIT_FS.replace("#version 410\n", "#version 410\n#define SUNLIT 0\n", 1)

@@ -86,3 +86,23 @@ def test_reading_a_render_scene_loads_neither_the_world_writer_nor_numpy_ma() ->
     )
     loaded = set(json.loads(out.stdout.splitlines()[-1]))
     assert not loaded & {"usdworld.authoring.world", "usdworld.authoring.appearance", "numpy.ma"}
+
+
+def test_a_build_loads_no_renderer() -> None:
+    """The build reads the sun's model from ``usdworld.render.lighting``; the package loads its
+    renderer, scene reader and camera modules only when one of their names is used."""
+    probe = (
+        "import json, sys\n"
+        "import usdworld.pipeline\n"
+        "before = sorted(m for m in sys.modules if m.startswith('usdworld.render'))\n"
+        "from usdworld.render import Renderer, RenderScene\n"
+        "import usdworld.render as r\n"
+        "assert Renderer is r.renderer.Renderer and RenderScene is r.scene.RenderScene\n"
+        "print(json.dumps(before))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe], cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True, text=True, check=True
+    )
+    loaded = set(json.loads(out.stdout.splitlines()[-1]))
+    assert "usdworld.render.lighting" in loaded
+    assert not loaded & {"usdworld.render.renderer", "usdworld.render.scene", "usdworld.render.camera", "usdworld.render.batches"}

@@ -384,7 +384,7 @@ def resolve_footprints(
                 name=d.name,
                 obj=obj,
                 variant=d.variant,
-                position_world=np.array([center[0], center[1], z]),
+                position_world=np.array([*d.origin(center, d.yaw), z]),
                 yaw=d.yaw,
                 yaw_source=d.yaw_source,
                 yaw_confidence=d.yaw_confidence,

@@ -216,14 +216,19 @@ class Draft:
             ground: (2,) float64 the contact's centre on the ground, metres.
             yaw: rotation about Z, radians.
         """
-        c, s = np.cos(yaw), np.sin(yaw)
-        ox, oy = (float(x) for x in self.contact_offset)
-        return np.asarray(ground, dtype=np.float64) - np.array([c * ox - s * oy, s * ox + c * oy])
+        return np.asarray(ground, dtype=np.float64)[:2] - turned(self.contact_offset, yaw)
 
     @property
     def depth_method(self) -> str:
         """The method as written to USD (:func:`depth_method_label`)."""
         return depth_method_label(self.method, self.behind, self.rule)
+
+
+def turned(offset: np.ndarray, yaw: float) -> np.ndarray:
+    """(2,) float64 an asset-frame ground offset turned by ``yaw`` (radians) into the world."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    ox, oy = (float(x) for x in offset)
+    return np.array([c * ox - s * oy, s * ox + c * oy])
 
 
 def depth_of_ground_point(camera: PinholeCamera, p_ground: np.ndarray) -> float:

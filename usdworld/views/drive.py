@@ -61,7 +61,7 @@ import numpy as np
 
 from usdworld.layout.draft import turned
 from usdworld.parameters.views import ViewsParams
-from usdworld.views.fusion import FusedObject, Observation, combine, fuse, fusion_method
+from usdworld.views.fusion import FusedObject, Observation, combine, fuse, fusion_method, sized_by_a_whole_view
 
 #: Classes that can move in a drive, with the parameter that bounds their speed.
 VEHICLE_CLASSES = ("car", "truck", "bus", "motorcycle", "bicycle")
@@ -450,7 +450,8 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
         fused = FusedObject(placement, tuple(members), "tracked", cov)
         return DriveObject(fused, True, times, positions, np.full(len(times), yaw), fit.velocity.copy())
     xy, cov = combine(members)
-    placement = dataclasses.replace(primary, name=name).with_contact_at(np.array([xy[0], xy[1], z]))
+    sized = sized_by_a_whole_view(primary, members)
+    placement = dataclasses.replace(sized, name=name).with_contact_at(np.array([xy[0], xy[1], z]))
     position = placement.position_world
     fused = FusedObject(placement, tuple(members), fusion_method(members, cov, params), cov)
     velocity = fit.velocity.copy()

@@ -143,6 +143,34 @@ def combine(group: Sequence[Observation]) -> tuple[np.ndarray, np.ndarray]:
     return cov @ vec, cov
 
 
+def sized_by_a_whole_view(primary: Placement, members: Sequence[Observation]) -> Placement:
+    """``primary`` with the variant and size of the most precise member that measured them.
+
+    A view that cuts an object's top or hides its bottom measures neither its height nor
+    its variant: its placement keeps the class's default variant at the clamped or unit
+    scale (the nearest views of a street lamp cut its head). The first member, in order of
+    precision, whose scale was measured (``scale_measured`` finite) gives the variant, scale,
+    stretch, size and contact offset; the primary keeps the rest (yaw, evidence, cues).
+
+    Args:
+        primary: the most precise member's placement.
+        members: the object's observations, most precise first.
+    """
+    for o in members:
+        p = o.placement
+        if math.isfinite(p.scale_measured):
+            return dataclasses.replace(
+                primary,
+                variant=p.variant,
+                scale=p.scale,
+                stretch=p.stretch,
+                scale_measured=p.scale_measured,
+                size_m=p.size_m,
+                contact_offset=p.contact_offset,
+            )
+    return primary
+
+
 def fusion_method(group: Sequence[Observation], cov: np.ndarray, params: ViewsParams) -> str:
     if len(group) == 1:
         return "single"
@@ -214,6 +242,7 @@ def fuse(obs: Sequence[Observation], params: ViewsParams) -> list[FusedObject]:
         cls = primary.obj.class_name
         counters[cls] = counters.get(cls, 0) + 1
         contact = np.array([xy[0], xy[1], primary.position_world[2]])
-        placement = dataclasses.replace(primary, name=f"{cls}_{counters[cls]:04d}").with_contact_at(contact)
+        sized = sized_by_a_whole_view(primary, members)
+        placement = dataclasses.replace(sized, name=f"{cls}_{counters[cls]:04d}").with_contact_at(contact)
         out.append(FusedObject(placement, tuple(members), fusion_method(members, cov, params), cov))
     return out

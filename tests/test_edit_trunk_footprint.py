@@ -33,7 +33,8 @@ def test_a_bus_under_a_lamps_arm_does_not_overlap_the_lamp():
     )
     table = footprints([lamp])
     assert table.centers[0] == pytest.approx([10.0, 5.9625])  # the mast, away from the road
-    bus = pm.Candidate("bus", np.array([10.0, 3.9]), np.array([11.0, 2.5]), 0.0)  # its side 0.75 m from the origin
+    # its side (y 5.15) past the lamp's origin (y 5), short of the mast (y 5.80 to 6.13)
+    bus = pm.Candidate("bus", np.array([10.0, 3.9]), np.array([11.0, 2.5]), 0.0)
     assert pm.fit_violations(bus, table) == []
     closer = pm.Candidate("bus", np.array([10.0, 4.6]), np.array([11.0, 2.5]), 0.0)  # its side past the mast
     assert [v.other for v in pm.fit_violations(closer, table)] == ["pole_0001"]

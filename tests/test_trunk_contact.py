@@ -15,7 +15,12 @@ from hypothesis import strategies as st
 from layout_support import box_object
 
 from usdworld.authoring.asset_library import library_dirs, load_mesh_arrays
-from usdworld.authoring.asset_measures import CONTACT_HEIGHT_M, asset_catalogue, measure_mesh, variant_measures
+from usdworld.authoring.asset_measures import (
+    CONTACT_HEIGHT_M,
+    asset_catalogue,
+    measure_mesh,
+    variant_measures,
+)
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.asset_catalogue import AssetCatalogue
 from usdworld.io.class_table import load_class_table

@@ -154,7 +154,9 @@ def test_the_variant_and_size_come_from_the_nearest_view_that_measured_them() ->
     a farther view saw all of it and chose the street lamp at scale 1.1. The fused lamp is
     that street lamp, its mast where the views put it, its yaw and evidence the nearest view's."""
     offset = np.array([-0.875, 0.0]) * 1.1
-    cut = dataclasses.replace(_placement("pole", 20.0, -5.0), variant="plain", yaw=math.pi / 2, scale_measured=math.nan)
+    cut = dataclasses.replace(
+        _placement("pole", 20.0, -5.0), variant="plain", yaw=math.pi / 2, scale_measured=math.nan
+    )
     whole = dataclasses.replace(
         _placement("pole", 20.0, -5.0, ref=2),
         variant="street_lamp",

@@ -112,7 +112,9 @@ def draft_object(
         upper_m=front.depth_m if front.method is DepthMethod.CONTACT_PARTIAL else float("inf"),
         behind=forced.behind if forced is not None else None,
         yaw_confidence=heading.confidence,
-        contact_offset=sizes.contact_offset(sized.variant) * sized.scale * sized.stretch[:2] if trunk else np.zeros(2),
+        contact_offset=(
+            sizes.contact_offset(sized.variant) * sized.scale * sized.stretch[:2] if trunk else np.zeros(2)
+        ),
     )
 
 
@@ -146,7 +148,8 @@ def _size(
     aspect = obj.width_px / obj.height_px if use_aspect else float("nan")
     # Trees and poles (a lamp's arm turned over the road) show their variant in the shape
     # of their top, even when their bottom is hidden.
-    shape_seen = (prior.yaw == "none" or (prior.yaw == "face_road" and not facade)) and not obj.box_only and not obj.top_truncated and not sides_cut
+    turned_alike = prior.yaw == "none" or (prior.yaw == "face_road" and not facade)
+    shape_seen = turned_alike and not obj.box_only and not obj.top_truncated and not sides_cut
     top_shape = top_shape_ratio(obj.mask) if shape_seen else None
     variant = choose_variant(sizes, measured_h, aspect, yaw - bearing, top_shape, params.top_shape_offset)
     base = np.array(sizes.by_variant[variant], dtype=np.float64)

@@ -147,10 +147,11 @@ class Placement:
     def contact_world(self) -> np.ndarray:
         """(3,) float64 the centre of its ground contact (its origin but for trunks standing
         off-centre in their asset, like a street lamp's mast), metres."""
-        return np.asarray(self.position_world, dtype=np.float64) + np.array([*turned(self.contact_offset, self.yaw), 0.0])
+        offset = turned(self.contact_offset, self.yaw)
+        return np.asarray(self.position_world, dtype=np.float64) + np.array([offset[0], offset[1], 0.0])
 
     def with_contact_at(self, contact_world: np.ndarray, yaw: float | None = None) -> Placement:
-        """This placement moved (and turned to ``yaw`` when given) so that its contact stands at ``contact_world``.
+        """This placement moved (turned to ``yaw`` when given) so its contact stands at ``contact_world``.
 
         Args:
             contact_world: (3,) float64 where its contact's centre goes, metres.

@@ -61,7 +61,14 @@ import numpy as np
 
 from usdworld.layout.draft import turned
 from usdworld.parameters.views import ViewsParams
-from usdworld.views.fusion import FusedObject, Observation, combine, fuse, fusion_method, sized_by_a_whole_view
+from usdworld.views.fusion import (
+    FusedObject,
+    Observation,
+    combine,
+    fuse,
+    fusion_method,
+    sized_by_a_whole_view,
+)
 
 #: Classes that can move in a drive, with the parameter that bounds their speed.
 VEHICLE_CLASSES = ("car", "truck", "bus", "motorcycle", "bicycle")

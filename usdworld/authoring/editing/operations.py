@@ -243,9 +243,12 @@ def move(
         )
 
 
-def _footprint_centre(origin_xy: np.ndarray, offset: tuple[float, float], scale: float, yaw_deg: float) -> np.ndarray:
-    """(2,) float64 centre of a new object's rule footprint: its origin plus its unscaled asset-frame
-    ``offset`` (:meth:`~usdworld.authoring.editing.state.WorldState.footprint_offset`) at ``scale``, turned by ``yaw_deg``."""
+def _footprint_centre(
+    origin_xy: np.ndarray, offset: tuple[float, float], scale: float, yaw_deg: float
+) -> np.ndarray:
+    """(2,) float64 centre of a new object's rule footprint: its origin plus its unscaled
+    asset-frame ``offset`` (:meth:`~usdworld.authoring.editing.state.WorldState.footprint_offset`)
+    at ``scale``, turned by ``yaw_deg``."""
     c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
     ox, oy = offset[0] * scale, offset[1] * scale
     return np.asarray(origin_xy, dtype=np.float64)[:2] + np.array([c * ox - s * oy, s * ox + c * oy])
@@ -338,7 +341,8 @@ def add(
         scale = rules.neighbour_scale(class_name, xy, others, prior.scale_range)
         length, width = ed.state.footprint_size(class_name, variant)
         centre = _footprint_centre(xy, ed.state.footprint_offset(class_name, variant), scale, yaw)
-        cand = rules.Candidate(class_name, centre, np.array([length * scale, width * scale]), math.radians(yaw))
+        size = np.array([length * scale, width * scale])
+        cand = rules.Candidate(class_name, centre, size, math.radians(yaw))
         name = _next_name(ed, class_name)
         v = _gate(
             "add", name, rules.check_placement(cand, others, ed.state.ground(), ed.surface_rules), force

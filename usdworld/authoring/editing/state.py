@@ -78,7 +78,7 @@ class ObjectState:
     footprint_offset: tuple[float, float] = (0.0, 0.0)
 
     def footprint_centre(self, origin_xy: np.ndarray, yaw_rad: float) -> np.ndarray:
-        """(2,) float64 where its rule footprint's centre lies with its origin at ``origin_xy`` turned by ``yaw_rad``."""
+        """(2,) float64 its rule footprint's centre, its origin at ``origin_xy`` turned by ``yaw_rad``."""
         c, s = math.cos(yaw_rad), math.sin(yaw_rad)
         ox, oy = self.footprint_offset
         return np.asarray(origin_xy, dtype=np.float64)[:2] + np.array([c * ox - s * oy, s * ox + c * oy])
@@ -90,7 +90,10 @@ def footprints(states: list[ObjectState]) -> rules.Footprints:
     return rules.Footprints(
         tuple(s.name for s in live),
         tuple(s.class_name for s in live),
-        np.array([s.footprint_centre(s.position_world[:2], math.radians(s.yaw_deg)) for s in live]).reshape(-1, 2),
+        np.array(
+            [s.footprint_centre(s.position_world[:2], math.radians(s.yaw_deg)) for s in live],
+            dtype=np.float64,
+        ).reshape(-1, 2),
         np.array([s.footprint_lw for s in live], dtype=np.float64).reshape(-1, 2),
         np.radians([s.yaw_deg for s in live]),
         np.array([s.scale for s in live], dtype=np.float64),

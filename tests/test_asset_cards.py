@@ -34,7 +34,7 @@ def test_every_built_in_asset_has_a_current_card() -> None:
 
 def test_a_card_gives_exactly_what_measuring_the_files_gives(tmp_path: Path) -> None:
     """The numbers a card holds are bit-identical to measuring (worlds do not change with cards)."""
-    for class_name in ("car", "tree", "person"):
+    for class_name in ("car", "tree", "person", "pole"):
         usda = _copy_class(class_name, tmp_path / class_name)
         card = read_card(usda)
         assert card is not None
@@ -46,9 +46,13 @@ def test_a_card_gives_exactly_what_measuring_the_files_gives(tmp_path: Path) -> 
             mesh = asset_library.load_mesh_arrays(class_name, v or None, (usda.parent,))
             m = measure_mesh(mesh.vertices, mesh.faces)
             got = card["measures"][v]
-            assert (tuple(got["contact_half"]), got["contact_mean_reach"], tuple(got["top_half"]), got["top_shape"]) == (
-                m.contact_half, m.contact_mean_reach, m.top_half, m.top_shape
-            )
+            assert (
+                tuple(got["contact_half"]),
+                got["contact_mean_reach"],
+                tuple(got["top_half"]),
+                got["top_shape"],
+                tuple(got["contact_offset"]),
+            ) == (m.contact_half, m.contact_mean_reach, m.top_half, m.top_shape, m.contact_offset)
 
 
 def test_a_card_is_ignored_once_its_asset_changes(tmp_path: Path) -> None:

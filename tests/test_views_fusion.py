@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -128,3 +129,48 @@ def test_depth_sigma_fuses_the_cues_and_falls_back_without_them() -> None:
         }
     )
     assert depth_sigma(two, PARAMS) == pytest.approx(1.0 / math.sqrt(2.0))
+
+
+def test_views_of_a_lamp_that_chose_different_variants_fuse_its_mast_not_their_origins() -> None:
+    """Two views see one lamp's mast at (20, -5): the nearer chose the street lamp (mast 0.875 m
+    behind its origin, arm turned over the road, +Y), the farther a plain pole. Fused, the mast
+    stays at (20, -5) and the origin follows the chosen variant, not the mean of the two origins."""
+    offset = np.array([-0.875, 0.0])
+    lamp = dataclasses.replace(
+        _placement("pole", 20.0, -4.0), variant="street_lamp", yaw=math.pi / 2, contact_offset=offset
+    ).with_contact_at(np.array([20.0, -5.0, 0.0]))
+    plain = _placement("pole", 20.0, -5.0, ref=2)
+    assert lamp.position_world[:2] == pytest.approx([20.0, -5.0 + 0.875])  # the arm's side of the mast
+    near = Observation(0, "v0", "v0.png", lamp, np.array([10.0, -5.0]), 0.5, 0.1)
+    far = Observation(1, "v1", "v1.png", plain, np.array([0.0, -5.0]), 2.0, 0.1)
+    (obj,) = fuse([near, far], PARAMS)
+    assert obj.placement.variant == "street_lamp"
+    assert obj.placement.contact_world[:2] == pytest.approx([20.0, -5.0], abs=1e-9)
+    assert obj.placement.position_world[:2] == pytest.approx([20.0, -4.125], abs=1e-9)
+
+
+def test_the_variant_and_size_come_from_the_nearest_view_that_measured_them() -> None:
+    """The nearest view of a lamp cuts its head (no height: default variant at unit scale);
+    a farther view saw all of it and chose the street lamp at scale 1.1. The fused lamp is
+    that street lamp, its mast where the views put it, its yaw and evidence the nearest view's."""
+    offset = np.array([-0.875, 0.0]) * 1.1
+    cut = dataclasses.replace(
+        _placement("pole", 20.0, -5.0), variant="plain", yaw=math.pi / 2, scale_measured=math.nan
+    )
+    whole = dataclasses.replace(
+        _placement("pole", 20.0, -5.0, ref=2),
+        variant="street_lamp",
+        yaw=math.pi / 2,
+        scale=1.1,
+        scale_measured=1.1,
+        size_m=np.array([2.05, 0.3, 7.96]) * 1.1,
+        contact_offset=offset,
+    ).with_contact_at(np.array([20.0, -5.0, 0.0]))
+    near = Observation(0, "v0", "v0.png", cut, np.array([10.0, -5.0]), 0.5, 0.1)
+    far = Observation(1, "v1", "v1.png", whole, np.array([0.0, -5.0]), 2.0, 0.1)
+    (obj,) = fuse([near, far], PARAMS)
+    p = obj.placement
+    assert (p.variant, p.scale, p.obj.ref) == ("street_lamp", 1.1, 1)
+    assert p.size_m == pytest.approx([2.255, 0.33, 8.756])
+    assert p.contact_world[:2] == pytest.approx([20.0, -5.0], abs=1e-9)
+    assert p.position_world[:2] == pytest.approx([20.0, -5.0 + 0.9625], abs=1e-9)

@@ -39,8 +39,9 @@ from usdworld.atomic import write_text_atomic
 
 #: File name suffix of a card: ``<class>.card.json``.
 CARD_SUFFIX = ".card.json"
-#: Layout version of the card; a card of another version is ignored.
-CARD_VERSION = 1
+#: Layout version of the card; a card of another version is ignored (2: measures hold
+#: ``contact_offset``).
+CARD_VERSION = 2
 
 
 def card_path(usda: Path) -> Path:
@@ -120,6 +121,7 @@ def card_text(digest: str, info: Any, measures: dict[str, Any], validation: dict
                 "contact_mean_reach": m.contact_mean_reach,
                 "top_half": list(m.top_half),
                 "top_shape": m.top_shape,
+                "contact_offset": list(m.contact_offset),
             }
             for v, m in measures.items()
         },

@@ -2,6 +2,9 @@
 
 * contact half extents: where the variant touches the ground (a car's tyre bottoms, a
   person's soles): the lowest image point of an object is its nearest contact;
+* contact offset: the centre of that contact's footprint (the middle of its extent along
+  each axis) in the asset's frame: a street lamp's mast stands ~0.9 m behind its origin,
+  which is the centre of the whole footprint, arm included;
 * mean contact reach: that distance averaged over every heading, for objects whose
   heading is unknown (people);
 * top half extents: its top (a roof, a head), whose near or far edge is the silhouette's
@@ -48,17 +51,21 @@ class VariantMeasures:
     """Shape measures of one asset variant at unit scale.
 
     Attributes:
-        contact_half: (half length, half width) of its ground contact, metres.
+        contact_half: (half length, half width) of its ground contact about the origin
+            (the largest absolute coordinate of a contact point on each axis), metres.
         contact_mean_reach: mean over headings of how far its nearest contact lies from
             the origin, metres.
         top_half: (half length, half width) of its top, metres.
         top_shape: its side view's top-shape ratio.
+        contact_offset: (x, y) centre of its ground contact's extent, metres: where a
+            trunk's or post's base stands relative to the origin.
     """
 
     contact_half: tuple[float, float]
     contact_mean_reach: float
     top_half: tuple[float, float]
     top_shape: float
+    contact_offset: tuple[float, float]
 
 
 def measure_mesh(vertices: np.ndarray, faces: np.ndarray) -> VariantMeasures:
@@ -74,11 +81,13 @@ def measure_mesh(vertices: np.ndarray, faces: np.ndarray) -> VariantMeasures:
     top = verts[verts[:, 2] >= z1 - TOP_BAND_FRACTION * (z1 - z0)][:, :2]
     angles = np.linspace(0.0, 2.0 * np.pi, 360, endpoint=False)
     directions = np.column_stack([np.cos(angles), np.sin(angles)])
+    middle = 0.5 * (low.min(axis=0) + low.max(axis=0))
     return VariantMeasures(
         contact_half=(float(np.abs(low[:, 0]).max()), float(np.abs(low[:, 1]).max())),
         contact_mean_reach=float(np.mean(np.max(low @ directions.T, axis=0))),
         top_half=(float(np.abs(top[:, 0]).max()), float(np.abs(top[:, 1]).max())),
         top_shape=_side_view_top_shape(verts, np.asarray(faces)),
+        contact_offset=(float(middle[0]) + 0.0, float(middle[1]) + 0.0),
     )
 
 
@@ -111,6 +120,7 @@ def _cached(
                 contact_mean_reach=float(m["contact_mean_reach"]),
                 top_half=(float(m["top_half"][0]), float(m["top_half"][1])),
                 top_shape=float(m["top_shape"]),
+                contact_offset=(float(m["contact_offset"][0]), float(m["contact_offset"][1])),
             )
     mesh = asset_library.load_mesh_arrays(class_name, variant, libraries)
     return measure_mesh(mesh.vertices, mesh.faces)
@@ -173,5 +183,6 @@ def asset_catalogue(class_names: Iterable[str], libraries: tuple[Path, ...] | No
             top_half_by_variant={v: x.top_half for v, x in m.items()},
             contact_mean_reach_by_variant={v: x.contact_mean_reach for v, x in m.items()},
             top_shape_by_variant={v: x.top_shape for v, x in m.items()},
+            contact_offset_by_variant={v: x.contact_offset for v, x in m.items()},
         )
     return AssetCatalogue(sizes)

@@ -42,6 +42,9 @@ class AssetSizes:
         top_shape_by_variant: each variant's side-view top shape
             (:func:`usdworld.perception.shape.top_shape_ratio`): a conifer's against a
             broad tree's, a plain pole's against a street lamp's.
+        contact_offset_by_variant: (x, y) centre of each variant's ground contact's extent,
+            metres: a street lamp's mast stands behind its origin (the centre of a footprint
+            that spans the arm). Missing variants use (0, 0).
     """
 
     by_variant: dict[str, tuple[float, float, float]]
@@ -50,6 +53,7 @@ class AssetSizes:
     top_half_by_variant: dict[str, tuple[float, float]] = field(default_factory=dict)
     contact_mean_reach_by_variant: dict[str, float] = field(default_factory=dict)
     top_shape_by_variant: dict[str, float] = field(default_factory=dict)
+    contact_offset_by_variant: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.default_variant not in self.by_variant:
@@ -57,7 +61,13 @@ class AssetSizes:
                 f"asset sizes: default variant '{self.default_variant}' has no size; "
                 f"sized variants: {sorted(self.by_variant)}"
             )
-        for name in ("contact_half_by_variant", "top_half_by_variant", "contact_mean_reach_by_variant", "top_shape_by_variant"):
+        for name in (
+            "contact_half_by_variant",
+            "top_half_by_variant",
+            "contact_mean_reach_by_variant",
+            "top_shape_by_variant",
+            "contact_offset_by_variant",
+        ):
             extra = sorted(set(getattr(self, name)) - set(self.by_variant))
             if extra:
                 raise InputError(f"asset sizes -> {name}: variant(s) {extra} have no size")
@@ -78,6 +88,15 @@ class AssetSizes:
         if variant in self.contact_half_by_variant:
             return np.asarray(self.contact_half_by_variant[variant], dtype=np.float64)
         return 0.5 * np.asarray(self.by_variant[variant][:2], dtype=np.float64)
+
+    def contact_offset(self, variant: str) -> np.ndarray:
+        """(2,) float64 centre of a variant's ground contact in its frame at unit scale, metres."""
+        return np.asarray(self.contact_offset_by_variant.get(variant, (0.0, 0.0)), dtype=np.float64)
+
+    def contact_own_half(self, variant: str) -> np.ndarray:
+        """(2,) float64 half extents of a variant's ground contact about its own centre
+        (:meth:`contact_offset`), unit scale: a street lamp's mast's, not mast to arm."""
+        return np.maximum(self.contact_half(variant) - np.abs(self.contact_offset(variant)), 0.0)
 
     def top_half(self, variant: str) -> np.ndarray:
         """(2,) float64 half extents of a variant's top at unit scale."""

@@ -11,7 +11,7 @@ the string written to USD and ``report.json``.
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -160,7 +160,9 @@ class Draft:
         obj: the image evidence.
         name: prim name ``<class>_<NNNN>``.
         variant: asset variant chosen.
-        ground: (2,) float64 footprint centre on the ground.
+        ground: (2,) float64 footprint centre on the ground; for ``trunk`` classes the
+            centre of the trunk's or post's contact (what the photo shows), which lies
+            ``contact_offset`` from the asset's origin.
         yaw: rotation about Z, radians.
         yaw_source: how the yaw was chosen.
         scale: uniform scale applied to the asset.
@@ -179,6 +181,9 @@ class Draft:
         rule: ``''`` or the ordering rule(s) that changed the depth (``rule1``, ``rule1+rule2``).
         yaw_confidence: how sure the yaw's facing direction is, in [0, 1]
             (:class:`usdworld.layout.heading.Heading`).
+        contact_offset: (2,) float64 where ``ground`` lies from the asset's origin, in the
+            asset's frame at the object's scale, metres (a street lamp's mast; zero for
+            classes placed by their origin): :meth:`origin` undoes it.
     """
 
     obj: ImageObject
@@ -202,11 +207,28 @@ class Draft:
     behind: str | None = None
     rule: str = ""
     yaw_confidence: float = 1.0
+    contact_offset: np.ndarray = field(default_factory=lambda: np.zeros(2))
+
+    def origin(self, ground: np.ndarray, yaw: float) -> np.ndarray:
+        """(2,) float64 asset origin of an object whose contact stands at ``ground`` turned by ``yaw``.
+
+        Args:
+            ground: (2,) float64 the contact's centre on the ground, metres.
+            yaw: rotation about Z, radians.
+        """
+        return np.asarray(ground, dtype=np.float64)[:2] - turned(self.contact_offset, yaw)
 
     @property
     def depth_method(self) -> str:
         """The method as written to USD (:func:`depth_method_label`)."""
         return depth_method_label(self.method, self.behind, self.rule)
+
+
+def turned(offset: np.ndarray, yaw: float) -> np.ndarray:
+    """(2,) float64 an asset-frame ground offset turned by ``yaw`` (radians) into the world."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    ox, oy = (float(x) for x in offset)
+    return np.array([c * ox - s * oy, s * ox + c * oy])
 
 
 def depth_of_ground_point(camera: PinholeCamera, p_ground: np.ndarray) -> float:

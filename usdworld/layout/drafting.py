@@ -73,7 +73,8 @@ def draft_object(
     centring = replace(prior, yaw="camera") if prior.yaw == "along_road" else prior
     yaw, _ = object_yaw(centring, front_ground, ctx.axis, obj, ctx.camera, ctx.params)
     sized = _size(obj, prior, sizes, ctx, front, front_ground, yaw)
-    ground, depth, back = _centre(obj, prior, sizes, ctx, front.depth_m, front_ground, yaw, sized)
+    trunk = ctx.classes.has(obj.class_name, "trunk")
+    ground, depth, back = _centre(obj, prior, sizes, ctx, front.depth_m, front_ground, yaw, sized, trunk)
     heading = object_heading(prior, ground, ctx.axis, obj, ctx.camera, ctx.params)
     yaw, yaw_source = heading.yaw, heading.source
     if obj.is_thing:
@@ -87,8 +88,8 @@ def draft_object(
         for c in front.cues
     )
     # Trees, poles and signs collide by their trunk or post: people stand under crowns,
-    # lamp arms and sign plates.
-    trunk = ctx.classes.has(obj.class_name, "trunk")
+    # lamp arms and sign plates. Their ground point is the trunk's, which need not be the
+    # asset's origin (a street lamp's mast stands behind the middle of mast and arm).
     return Draft(
         obj=obj,
         name=name,
@@ -100,7 +101,7 @@ def draft_object(
         stretch=sized.stretch,
         scale_measured=sized.scale_measured,
         size=sized.size,
-        footprint=2.0 * sizes.contact_half(sized.variant) * sized.scale if trunk else sized.size[:2],
+        footprint=2.0 * sizes.contact_own_half(sized.variant) * sized.scale if trunk else sized.size[:2],
         depth_m=depth,
         method=front.method,
         cues=centre_cues,
@@ -111,6 +112,9 @@ def draft_object(
         upper_m=front.depth_m if front.method is DepthMethod.CONTACT_PARTIAL else float("inf"),
         behind=forced.behind if forced is not None else None,
         yaw_confidence=heading.confidence,
+        contact_offset=(
+            sizes.contact_offset(sized.variant) * sized.scale * sized.stretch[:2] if trunk else np.zeros(2)
+        ),
     )
 
 
@@ -142,9 +146,10 @@ def _size(
     # vehicles and people perspective dominates it, so only their height counts.
     use_aspect = whole and not sides_cut and not obj.is_thing and obj.height_px > 0
     aspect = obj.width_px / obj.height_px if use_aspect else float("nan")
-    # Objects that look the same from every side (trees, poles) show their variant in the
-    # shape of their top, even when their bottom is hidden.
-    shape_seen = prior.yaw == "none" and not obj.box_only and not obj.top_truncated and not sides_cut
+    # Trees and poles (a lamp's arm turned over the road) show their variant in the shape
+    # of their top, even when their bottom is hidden.
+    turned_alike = prior.yaw == "none" or (prior.yaw == "face_road" and not facade)
+    shape_seen = turned_alike and not obj.box_only and not obj.top_truncated and not sides_cut
     top_shape = top_shape_ratio(obj.mask) if shape_seen else None
     variant = choose_variant(sizes, measured_h, aspect, yaw - bearing, top_shape, params.top_shape_offset)
     base = np.array(sizes.by_variant[variant], dtype=np.float64)
@@ -187,6 +192,7 @@ def _centre(
     front_ground: np.ndarray,
     yaw: float,
     sized: _Size,
+    trunk: bool,
 ) -> tuple[np.ndarray, float, float]:
     """The footprint centre behind the front: ((2,) ground point, its depth, depth minus front's), metres.
 
@@ -214,7 +220,8 @@ def _centre(
         )
         depth = depth_of_ground_point(camera, ground)
         return ground, depth, depth - front
-    reach = size[:2] if obj.box_only else 2.0 * sizes.contact_half(variant) * scale
+    contact_half = sizes.contact_own_half(variant) if trunk else sizes.contact_half(variant)
+    reach = size[:2] if obj.box_only else 2.0 * contact_half * scale
     if prior.yaw in ("camera", "along_road") and not obj.box_only:
         # Turned to face the camera, or along the street either way, only for want of its
         # real heading: expect any heading.

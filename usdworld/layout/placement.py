@@ -40,6 +40,7 @@ from usdworld.layout.draft import (
     depth_method_label,
     depth_of_ground_point,
     point_at_depth,
+    turned,
 )
 from usdworld.layout.drafting import draft_object
 from usdworld.layout.occlusion import (
@@ -117,6 +118,9 @@ class Placement:
         behind: the occluder's name when ``method`` is ``BEHIND``.
         rule: ``''`` or the ordering rule(s) that changed the depth.
         yaw_confidence: how sure the yaw's facing direction is, in [0, 1].
+        contact_offset: (2,) float64 the centre of its ground contact from its origin, in the
+            asset's frame at its scale, metres (a street lamp's mast; zero for most classes):
+            what the photos measure is :attr:`contact_world`.
     """
 
     name: str
@@ -137,6 +141,26 @@ class Placement:
     behind: str | None = None
     rule: str = ""
     yaw_confidence: float = 1.0
+    contact_offset: np.ndarray = field(default_factory=lambda: np.zeros(2))
+
+    @property
+    def contact_world(self) -> np.ndarray:
+        """(3,) float64 the centre of its ground contact (its origin but for trunks standing
+        off-centre in their asset, like a street lamp's mast), metres."""
+        offset = turned(self.contact_offset, self.yaw)
+        return np.asarray(self.position_world, dtype=np.float64) + np.array([offset[0], offset[1], 0.0])
+
+    def with_contact_at(self, contact_world: np.ndarray, yaw: float | None = None) -> Placement:
+        """This placement moved (turned to ``yaw`` when given) so its contact stands at ``contact_world``.
+
+        Args:
+            contact_world: (3,) float64 where its contact's centre goes, metres.
+            yaw: its new rotation about Z, radians (None: keep its own).
+        """
+        yaw = self.yaw if yaw is None else yaw
+        p = np.asarray(contact_world, dtype=np.float64).copy()
+        p[:2] -= turned(self.contact_offset, yaw)
+        return replace(self, position_world=p, yaw=yaw)
 
     @property
     def depth_method(self) -> str:
@@ -384,7 +408,7 @@ def resolve_footprints(
                 name=d.name,
                 obj=obj,
                 variant=d.variant,
-                position_world=np.array([center[0], center[1], z]),
+                position_world=np.array([*d.origin(center, d.yaw), z]),
                 yaw=d.yaw,
                 yaw_source=d.yaw_source,
                 yaw_confidence=d.yaw_confidence,
@@ -399,6 +423,7 @@ def resolve_footprints(
                 confidence=d.confidence,
                 behind=d.behind,
                 rule=d.rule,
+                contact_offset=d.contact_offset,
             )
         )
     return placements, piled, no_room

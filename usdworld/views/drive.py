@@ -59,8 +59,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from usdworld.layout.draft import turned
 from usdworld.parameters.views import ViewsParams
-from usdworld.views.fusion import FusedObject, Observation, combine, fuse, fusion_method
+from usdworld.views.fusion import (
+    FusedObject,
+    Observation,
+    combine,
+    fuse,
+    fusion_method,
+    sized_by_a_whole_view,
+)
 
 #: Classes that can move in a drive, with the parameter that bounds their speed.
 VEHICLE_CLASSES = ("car", "truck", "bus", "motorcycle", "bicycle")
@@ -162,7 +170,7 @@ class _Track:
     def add(self, t: float, item: FusedObject) -> None:
         self.times.append(t)
         self.items.append(item)
-        pos = np.array([o.placement.position_world[:2] for o in self.items])
+        pos = np.array([o.placement.contact_world[:2] for o in self.items])
         cov = np.array([o.covariance for o in self.items])
         self.fit = fit_motion(self.times, pos, cov, self.sigma_speed)
 
@@ -235,7 +243,7 @@ def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params:
     score = np.zeros((len(items), len(tracks)))
     for j, item in enumerate(items):
         cls = item.placement.obj.class_name
-        z = item.placement.position_world[:2]
+        z = item.placement.contact_world[:2]
         for k, tr in enumerate(tracks):
             if tr.class_name != cls or tr.fit is None:
                 continue
@@ -355,7 +363,7 @@ def _standing_estimate(tr: _Track, params: ViewsParams) -> tuple[np.ndarray, np.
     frame = min((item.covariance for item in tr.items), key=lambda c: float(np.trace(c)))
     rho = params.frame_error_correlation
     if len(tr.items) >= params.scatter_min_frames and rho < 1.0:
-        positions = np.array([item.placement.position_world[:2] for item in tr.items])
+        positions = np.array([item.placement.contact_world[:2] for item in tr.items])
         cameras = np.array([item.observations[0].camera_ground for item in tr.items])
         measured = frame_scatter(positions, cameras) / (1.0 - rho)
         if float(np.trace(measured)) > float(np.trace(frame)):
@@ -421,7 +429,7 @@ def _joined(a: _Track, b: _Track) -> _Track:
     out = _Track(a.class_name, a.sigma_speed, [t for t, _ in pairs], [item for _, item in pairs])
     out.fit = fit_motion(
         out.times,
-        np.array([item.placement.position_world[:2] for item in out.items]),
+        np.array([item.placement.contact_world[:2] for item in out.items]),
         np.array([item.covariance for item in out.items]),
         out.sigma_speed,
     )
@@ -443,13 +451,15 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
         xy = np.array([fit.predict(float(t))[0] for t in times])
         positions = np.c_[xy, np.full(len(times), z)]
         yaw = _yaw_of(fit.velocity, primary.yaw, params)
-        placement = dataclasses.replace(primary, name=name, position_world=positions[0].copy(), yaw=yaw)
+        placement = dataclasses.replace(primary, name=name).with_contact_at(positions[0], yaw)
+        positions = positions - np.array([*turned(primary.contact_offset, yaw), 0.0])  # contacts -> origins
         cov = fit.predict(float(times[0]))[1]
         fused = FusedObject(placement, tuple(members), "tracked", cov)
         return DriveObject(fused, True, times, positions, np.full(len(times), yaw), fit.velocity.copy())
     xy, cov = combine(members)
-    position = np.array([xy[0], xy[1], z])
-    placement = dataclasses.replace(primary, name=name, position_world=position)
+    sized = sized_by_a_whole_view(primary, members)
+    placement = dataclasses.replace(sized, name=name).with_contact_at(np.array([xy[0], xy[1], z]))
+    position = placement.position_world
     fused = FusedObject(placement, tuple(members), fusion_method(members, cov, params), cov)
     velocity = fit.velocity.copy()
     return DriveObject(

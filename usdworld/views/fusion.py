@@ -50,7 +50,7 @@ class Observation:
 
     def covariance(self) -> np.ndarray:
         """(2, 2) float64 ground-plane covariance of the position, metres squared."""
-        d = self.placement.position_world[:2] - self.camera_ground
+        d = self.placement.contact_world[:2] - self.camera_ground
         d = d / max(float(np.linalg.norm(d)), 1e-9)
         n = np.array([-d[1], d[0]])
         return self.sigma_range_m**2 * np.outer(d, d) + self.sigma_lateral_m**2 * np.outer(n, n)
@@ -120,7 +120,7 @@ def observations(
     out = []
     for p in placements:
         moved = to_world(p, world_from_ground)
-        rng = float(np.linalg.norm(moved.position_world[:2] - camera))
+        rng = float(np.linalg.norm(moved.contact_world[:2] - camera))
         cut = params.cut_sigma_share * float(max(p.size_m[0], p.size_m[1])) if p.obj.cut_sides else 0.0
         lateral = max(params.lateral_sigma_min_m, params.lateral_sigma_rel * rng) + cut
         out.append(
@@ -130,15 +130,45 @@ def observations(
 
 
 def combine(group: Sequence[Observation]) -> tuple[np.ndarray, np.ndarray]:
-    """Information-weighted mean (2,) and covariance (2, 2) of a group's ground positions."""
+    """Information-weighted mean (2,) and covariance (2, 2) of a group's ground contacts
+    (:attr:`~usdworld.layout.placement.Placement.contact_world`: what each view measured,
+    whichever variant it chose)."""
     info = np.zeros((2, 2))
     vec = np.zeros(2)
     for o in group:
         inv = np.linalg.inv(o.covariance())
         info += inv
-        vec += inv @ o.placement.position_world[:2]
+        vec += inv @ o.placement.contact_world[:2]
     cov = np.linalg.inv(info)
     return cov @ vec, cov
+
+
+def sized_by_a_whole_view(primary: Placement, members: Sequence[Observation]) -> Placement:
+    """``primary`` with the variant and size of the most precise member that measured them.
+
+    A view that cuts an object's top or hides its bottom measures neither its height nor
+    its variant: its placement keeps the class's default variant at the clamped or unit
+    scale (the nearest views of a street lamp cut its head). The first member, in order of
+    precision, whose scale was measured (``scale_measured`` finite) gives the variant, scale,
+    stretch, size and contact offset; the primary keeps the rest (yaw, evidence, cues).
+
+    Args:
+        primary: the most precise member's placement.
+        members: the object's observations, most precise first.
+    """
+    for o in members:
+        p = o.placement
+        if math.isfinite(p.scale_measured):
+            return dataclasses.replace(
+                primary,
+                variant=p.variant,
+                scale=p.scale,
+                stretch=p.stretch,
+                scale_measured=p.scale_measured,
+                size_m=p.size_m,
+                contact_offset=p.contact_offset,
+            )
+    return primary
 
 
 def fusion_method(group: Sequence[Observation], cov: np.ndarray, params: ViewsParams) -> str:
@@ -211,7 +241,8 @@ def fuse(obs: Sequence[Observation], params: ViewsParams) -> list[FusedObject]:
         xy, cov = combine(members)
         cls = primary.obj.class_name
         counters[cls] = counters.get(cls, 0) + 1
-        position = np.array([xy[0], xy[1], primary.position_world[2]])
-        placement = dataclasses.replace(primary, name=f"{cls}_{counters[cls]:04d}", position_world=position)
+        contact = np.array([xy[0], xy[1], primary.position_world[2]])
+        sized = sized_by_a_whole_view(primary, members)
+        placement = dataclasses.replace(sized, name=f"{cls}_{counters[cls]:04d}").with_contact_at(contact)
         out.append(FusedObject(placement, tuple(members), fusion_method(members, cov, params), cov))
     return out

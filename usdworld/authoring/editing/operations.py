@@ -223,7 +223,8 @@ def move(
         xy = np.array(given if key == "to" else np.add(obj.position_world[:2], given), dtype=np.float64)
         states = ed.state.near(obj, xy)
         surface, z = ed.state.where(xy)
-        cand = rules.Candidate(obj.class_name, xy, np.array(obj.footprint_lw), math.radians(obj.yaw_deg))
+        yaw = math.radians(obj.yaw_deg)
+        cand = rules.Candidate(obj.class_name, obj.footprint_centre(xy, yaw), np.array(obj.footprint_lw), yaw)
         others = footprints(states).without(obj.name)
         found = rules.check_placement(cand, others, ed.state.ground(), ed.surface_rules)
         v = _gate("move", obj.name, found, force)
@@ -242,6 +243,17 @@ def move(
         )
 
 
+def _footprint_centre(
+    origin_xy: np.ndarray, offset: tuple[float, float], scale: float, yaw_deg: float
+) -> np.ndarray:
+    """(2,) float64 centre of a new object's rule footprint: its origin plus its unscaled
+    asset-frame ``offset`` (:meth:`~usdworld.authoring.editing.state.WorldState.footprint_offset`)
+    at ``scale``, turned by ``yaw_deg``."""
+    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
+    ox, oy = offset[0] * scale, offset[1] * scale
+    return np.asarray(origin_xy, dtype=np.float64)[:2] + np.array([c * ox - s * oy, s * ox + c * oy])
+
+
 def rotate(ed: Editing, name: str, yaw_deg: float, *, force: bool = False) -> EditResult:
     """Set an object's yaw (rotation about Z) to ``yaw_deg`` degrees."""
     _finite("rotate", "yaw_deg", yaw_deg, f"rotate: yaw_deg must be finite, got {yaw_deg}")
@@ -249,9 +261,8 @@ def rotate(ed: Editing, name: str, yaw_deg: float, *, force: bool = False) -> Ed
         obj = ed.state.one(name, op="rotate")
         states = ed.state.near(obj, np.array(obj.position_world[:2]))
         yaw = wrap_deg(yaw_deg)
-        cand = rules.Candidate(
-            obj.class_name, np.array(obj.position_world[:2]), np.array(obj.footprint_lw), math.radians(yaw)
-        )
+        centre = obj.footprint_centre(np.array(obj.position_world[:2]), math.radians(yaw))
+        cand = rules.Candidate(obj.class_name, centre, np.array(obj.footprint_lw), math.radians(yaw))
         others = footprints(states).without(obj.name)
         found = rules.check_placement(cand, others, ed.state.ground(), ed.surface_rules, surface=False)
         v = _gate("rotate", obj.name, found, force)
@@ -329,7 +340,9 @@ def add(
         yaw = wrap_deg(yaw_deg) if yaw_deg is not None else _default_yaw(ed, class_name, prior, xy, states)
         scale = rules.neighbour_scale(class_name, xy, others, prior.scale_range)
         length, width = ed.state.footprint_size(class_name, variant)
-        cand = rules.Candidate(class_name, xy, np.array([length * scale, width * scale]), math.radians(yaw))
+        centre = _footprint_centre(xy, ed.state.footprint_offset(class_name, variant), scale, yaw)
+        size = np.array([length * scale, width * scale])
+        cand = rules.Candidate(class_name, centre, size, math.radians(yaw))
         name = _next_name(ed, class_name)
         v = _gate(
             "add", name, rules.check_placement(cand, others, ed.state.ground(), ed.surface_rules), force
@@ -389,8 +402,9 @@ def replace(
             fallback = float(np.clip(obj.scale, *prior.scale_range))
             scale = rules.neighbour_scale(with_class, xy, others, prior.scale_range, fallback)
         length, width = ed.state.footprint_size(with_class, variant)
+        centre = _footprint_centre(xy, ed.state.footprint_offset(with_class, variant), scale, obj.yaw_deg)
         cand = rules.Candidate(
-            with_class, xy, np.array([length * scale, width * scale]), math.radians(obj.yaw_deg)
+            with_class, centre, np.array([length * scale, width * scale]), math.radians(obj.yaw_deg)
         )
         found = rules.replacement_violations(obj.class_name, with_class, ed.replacement_rules)
         found += rules.check_placement(cand, others, ed.state.ground(), ed.surface_rules)
@@ -480,7 +494,7 @@ def reset(ed: Editing, name: str, *, force: bool = False) -> EditResult:
             obj = next(s for s in states if s.path == str(path))
             cand = rules.Candidate(
                 obj.class_name,
-                np.array(obj.position_world[:2]),
+                obj.footprint_centre(np.array(obj.position_world[:2]), math.radians(obj.yaw_deg)),
                 np.array(obj.footprint_lw),
                 math.radians(obj.yaw_deg),
             )

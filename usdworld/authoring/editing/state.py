@@ -56,6 +56,8 @@ class ObjectState:
         size_lw: scaled footprint (length, width), metres.
         footprint_lw: scaled footprint the permissibility rules use: ``size_lw``, but the
             trunk's or post's for classes with the ``trunk`` role (trees, poles, signs).
+        footprint_offset: (x, y) scaled centre of that footprint in the asset's frame,
+            metres: a street lamp's mast stands behind its origin (zero for most objects).
         active: False once deleted.
         status: ``base`` (untouched), ``edited``, ``added`` or ``deleted``.
         color: restyle colour ``#rrggbb`` or ''.
@@ -73,6 +75,13 @@ class ObjectState:
     active: bool
     status: str
     color: str = ""
+    footprint_offset: tuple[float, float] = (0.0, 0.0)
+
+    def footprint_centre(self, origin_xy: np.ndarray, yaw_rad: float) -> np.ndarray:
+        """(2,) float64 its rule footprint's centre, its origin at ``origin_xy`` turned by ``yaw_rad``."""
+        c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+        ox, oy = self.footprint_offset
+        return np.asarray(origin_xy, dtype=np.float64)[:2] + np.array([c * ox - s * oy, s * ox + c * oy])
 
 
 def footprints(states: list[ObjectState]) -> rules.Footprints:
@@ -81,7 +90,10 @@ def footprints(states: list[ObjectState]) -> rules.Footprints:
     return rules.Footprints(
         tuple(s.name for s in live),
         tuple(s.class_name for s in live),
-        np.array([s.position_world[:2] for s in live], dtype=np.float64).reshape(-1, 2),
+        np.array(
+            [s.footprint_centre(s.position_world[:2], math.radians(s.yaw_deg)) for s in live],
+            dtype=np.float64,
+        ).reshape(-1, 2),
         np.array([s.footprint_lw for s in live], dtype=np.float64).reshape(-1, 2),
         np.radians([s.yaw_deg for s in live]),
         np.array([s.scale for s in live], dtype=np.float64),
@@ -150,6 +162,7 @@ class WorldState:
         self._lower: Opinions | None = None  # the opinions below the edits layer (unchanged by edits)
         self._sizes: dict[tuple[str, str], tuple[float, float]] = {}
         self._trunk_sizes: dict[tuple[str, str], tuple[float, float]] = {}
+        self._trunk_offsets: dict[tuple[str, str], tuple[float, float]] = {}
         self._ground: rules.Ground | None = None
         self._states: dict[str, ObjectState] | None = None
         self._stale: set[str] = set()
@@ -170,7 +183,7 @@ class WorldState:
     def forget(self) -> None:
         """Drop every cache (the base layers were reloaded)."""
         self._ground, self._states = None, None
-        self._sizes, self._trunk_sizes = {}, {}
+        self._sizes, self._trunk_sizes, self._trunk_offsets = {}, {}, {}
         self._index, self._index_read, self._lower = None, False, None
 
     def unmask(self) -> None:
@@ -220,11 +233,22 @@ class WorldState:
             from usdworld.authoring.asset_measures import variant_measures
 
             try:
-                half = variant_measures(class_name, variant or None, self.libraries).contact_half
-                self._trunk_sizes[key] = (2.0 * half[0], 2.0 * half[1])
+                m = variant_measures(class_name, variant or None, self.libraries)
+                half = np.maximum(np.subtract(m.contact_half, np.abs(m.contact_offset)), 0.0)
+                self._trunk_sizes[key] = (2.0 * float(half[0]), 2.0 * float(half[1]))
+                self._trunk_offsets[key] = (float(m.contact_offset[0]), float(m.contact_offset[1]))
             except InputError:
                 self._trunk_sizes[key] = self.size(class_name, variant)
+                self._trunk_offsets[key] = (0.0, 0.0)
         return self._trunk_sizes[key]
+
+    def footprint_offset(self, class_name: str, variant: str) -> tuple[float, float]:
+        """Unscaled centre of :meth:`footprint_size`'s footprint in the asset's frame, metres:
+        the trunk's contact for ``trunk`` classes (a street lamp's mast), else (0, 0)."""
+        if not self.classes.has(class_name, "trunk"):
+            return (0.0, 0.0)
+        self.footprint_size(class_name, variant)
+        return self._trunk_offsets[(class_name, variant)]
 
     def _read(self, prim: Usd.Prim) -> ObjectState:
         name = prim.GetName()
@@ -253,6 +277,7 @@ class WorldState:
         sx, sy, scale = axes
         length, width = self.size(class_name, variant)
         foot_l, foot_w = self.footprint_size(class_name, variant)
+        off_x, off_y = self.footprint_offset(class_name, variant)
         spec = self.edits.GetPrimAtPath(prim.GetPath())
         active = prim.IsActive()
         status = (
@@ -274,6 +299,7 @@ class WorldState:
             active,
             status,
             color,
+            (off_x * sx, off_y * sy),
         )
 
     def _changed(self, notice: Usd.Notice.ObjectsChanged) -> None:
@@ -371,7 +397,7 @@ class WorldState:
         index = self._object_index() if self._partial else None
         if index is None:
             return self.all()
-        reach = 0.5 * math.hypot(*obj.footprint_lw)
+        reach = 0.5 * math.hypot(*obj.footprint_lw) + math.hypot(*obj.footprint_offset)
         objects = Sdf.Path(OBJECTS_PATH)
         self._compose([objects.AppendChild(n) for n in index.near(center, reach)])
         scope = self.stage.GetPrimAtPath(objects)

@@ -52,11 +52,11 @@ from usdworld.authoring.editing.orphans import OrphanEdit, orphan_edits
 from usdworld.authoring.editing.restyle import COLOR_KEY, parse_color
 from usdworld.authoring.editing.state import EDIT_MASK, ObjectState, WorldState
 from usdworld.authoring.editing.transaction import EditsTransaction, atomic_write_text
-from usdworld.authoring.stages import open_stage
+from usdworld.authoring.stages import open_stage, world_root
 from usdworld.errors import AuthoringError, EditRefused, InputError, RefusalReason
 from usdworld.io.class_table import ClassTable, load_class_table
 from usdworld.layout import permissible as rules
-from usdworld.world_files import ASSETS_DIR, OBJECTS_PATH, ROOT_LAYER
+from usdworld.world_files import ASSETS_DIR, OBJECTS_PATH
 
 __all__ = [
     "COLOR_KEY",
@@ -97,14 +97,7 @@ class WorldEditor:
         clock: Callable[[], str] = utc_now,
         classes: ClassTable | None = None,
     ) -> None:
-        root = Path(world)
-        if root.is_dir():
-            root = root / ROOT_LAYER
-        if not root.is_file():
-            raise InputError(
-                f"{root}: no such world; pass the world's root layer (e.g. OUT/world.usda) or its folder"
-            )
-        self.root = root
+        self.root = root = world_root(world)
         self.surface_rules = rules.load_surface_rules(surface_rules)
         self.replacement_rules = rules.load_replacement_rules(replacement_rules)
         self.classes = classes if classes is not None else load_class_table()

@@ -47,6 +47,25 @@ def open_stage(path: str | Path, what: str = "USD stage", mask: Sequence[str] | 
     return stage
 
 
+def world_root(world: str | Path) -> Path:
+    """A world's root layer file, from the file itself or the world's folder.
+
+    Args:
+        world: the root layer (``world.usda``) or the world folder.
+
+    Raises:
+        InputError: no root layer there.
+    """
+    root = Path(world)
+    if root.is_dir():
+        root = root / ROOT_LAYER
+    if not root.is_file():
+        raise InputError(
+            f"{root}: no such world; pass the world's root layer (e.g. OUT/world.usda) or its folder"
+        )
+    return root
+
+
 def world_layer_files(world: str | Path) -> tuple[Path, ...]:
     """The files of a world root's sublayers, strongest first: the edits layer first, the base
     layer (``layers/base.usda``, or ``layers/base.usdc`` in a large world) last.
@@ -59,13 +78,7 @@ def world_layer_files(world: str | Path) -> tuple[Path, ...]:
     Raises:
         InputError: no root layer there, or one that does not open or names no sublayers.
     """
-    root = Path(world)
-    if root.is_dir():
-        root = root / ROOT_LAYER
-    if not root.is_file():
-        raise InputError(
-            f"{root}: no such world; pass the world's root layer (e.g. OUT/world.usda) or its folder"
-        )
+    root = world_root(world)
     try:
         layer = Sdf.Layer.OpenAsAnonymous(str(root), metadataOnly=True)
     except Exception as exc:  # pxr raises Tf.ErrorException

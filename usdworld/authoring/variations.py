@@ -27,7 +27,8 @@ import numpy as np
 from pxr import Sdf, UsdGeom
 
 from usdworld.authoring.edits import WorldEditor, atomic_write_text
-from usdworld.authoring.world import ROOT_LAYER, WORLD_PATH
+from usdworld.authoring.stages import world_root
+from usdworld.authoring.world import WORLD_PATH
 from usdworld.errors import EditRefused, InputError, RefusalReason, UsdWorldError
 from usdworld.layout.permissible import surface_at
 
@@ -190,12 +191,7 @@ def make_variations(
     """
     if n < 1:
         raise InputError(f"-n: must be >= 1, got {n}")
-    root = Path(world)
-    root = root / ROOT_LAYER if root.is_dir() else root
-    if not root.is_file():
-        raise InputError(
-            f"{root}: no such world; pass the world's root layer (e.g. OUT/world.usda) or its folder"
-        )
+    root = world_root(world)
     out = Path(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)

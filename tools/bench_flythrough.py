@@ -48,6 +48,7 @@ from usdworld.render.outputs import view_camera, world_image_size
 from usdworld.render.renderer import Renderer
 from usdworld.render.scene import RenderScene
 from usdworld.render.video import Mp4Writer
+from usdworld.render.world_lights import lighting_from_stage
 from usdworld.synth import make_street_scene, write_cityscapes_frame
 
 
@@ -113,7 +114,8 @@ def _frames_alone(world: Path, frames: int, width: int, height: int) -> tuple[fl
     fly.add_source_vehicle(stage, fly.car_asset_for(world))
     scene = RenderScene.from_stage(stage)
     poses = fly.flythrough_poses(source.world_from_cam, frames, fly.clear_path(fly.FlythroughPath(), scene, source.world_from_cam))
-    with Renderer(width, height) as renderer:
+    # the world's own sun and sky, as render_flythrough and the command use
+    with Renderer(width, height, lighting=lighting_from_stage(stage)) as renderer:
         renderer.fix_shadow_box(scene, K, poses)  # one shadow map for the path, as render_flythrough
         renderer.render_rgb(scene, K, poses[0])  # context, upload and shadow map, as the first frame
         t0 = time.perf_counter()

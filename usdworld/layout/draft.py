@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
+from usdworld.geometry.rotation import turned
 from usdworld.io.class_table import ClassTable
 from usdworld.io.types import DepthMap
 from usdworld.io.asset_catalogue import AssetSizes
@@ -222,13 +223,6 @@ class Draft:
     def depth_method(self) -> str:
         """The method as written to USD (:func:`depth_method_label`)."""
         return depth_method_label(self.method, self.behind, self.rule)
-
-
-def turned(offset: np.ndarray, yaw: float) -> np.ndarray:
-    """(2,) float64 an asset-frame ground offset turned by ``yaw`` (radians) into the world."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    ox, oy = (float(x) for x in offset)
-    return np.array([c * ox - s * oy, s * ox + c * oy])
 
 
 def depth_of_ground_point(camera: PinholeCamera, p_ground: np.ndarray) -> float:

@@ -59,7 +59,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from usdworld.layout.draft import turned
+from usdworld.geometry.rotation import turned
 from usdworld.parameters.views import ViewsParams
 from usdworld.views.fusion import (
     FusedObject,

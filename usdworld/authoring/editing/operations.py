@@ -40,6 +40,7 @@ from usdworld.authoring.editing.state import ObjectState, WorldState, footprints
 from usdworld.authoring.editing.transaction import EditsTransaction
 from usdworld.authoring.editing.user_object import author_user_object, set_label
 from usdworld.errors import AuthoringError, EditRefused, InputError, RefusalReason
+from usdworld.geometry.rotation import turned
 from usdworld.io.class_table import ClassPrior, ClassTable
 from usdworld.layout import permissible as rules
 from usdworld.world_files import OBJECTS_PATH
@@ -249,9 +250,8 @@ def _footprint_centre(
     """(2,) float64 centre of a new object's rule footprint: its origin plus its unscaled
     asset-frame ``offset`` (:meth:`~usdworld.authoring.editing.state.WorldState.footprint_offset`)
     at ``scale``, turned by ``yaw_deg``."""
-    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
-    ox, oy = offset[0] * scale, offset[1] * scale
-    return np.asarray(origin_xy, dtype=np.float64)[:2] + np.array([c * ox - s * oy, s * ox + c * oy])
+    scaled = (offset[0] * scale, offset[1] * scale)
+    return np.asarray(origin_xy, dtype=np.float64)[:2] + turned(scaled, math.radians(yaw_deg))
 
 
 def rotate(ed: Editing, name: str, yaw_deg: float, *, force: bool = False) -> EditResult:

@@ -30,6 +30,7 @@ from usdworld.authoring.editing.index import ObjectIndex, Opinions, read_index
 from usdworld.authoring.editing.index_file import lower_opinions
 from usdworld.authoring.editing.restyle import COLOR_KEY
 from usdworld.errors import EditRefused, InputError, RefusalReason
+from usdworld.geometry.rotation import turned
 from usdworld.io.class_table import ClassTable
 from usdworld.layout import permissible as rules
 from usdworld.parameters.authoring import AuthoringParams
@@ -79,9 +80,7 @@ class ObjectState:
 
     def footprint_centre(self, origin_xy: np.ndarray, yaw_rad: float) -> np.ndarray:
         """(2,) float64 its rule footprint's centre, its origin at ``origin_xy`` turned by ``yaw_rad``."""
-        c, s = math.cos(yaw_rad), math.sin(yaw_rad)
-        ox, oy = self.footprint_offset
-        return np.asarray(origin_xy, dtype=np.float64)[:2] + np.array([c * ox - s * oy, s * ox + c * oy])
+        return np.asarray(origin_xy, dtype=np.float64)[:2] + turned(self.footprint_offset, yaw_rad)
 
 
 def footprints(states: list[ObjectState]) -> rules.Footprints:

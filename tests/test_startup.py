@@ -106,3 +106,19 @@ def test_a_build_loads_no_renderer() -> None:
     loaded = set(json.loads(out.stdout.splitlines()[-1]))
     assert "usdworld.render.lighting" in loaded
     assert not loaded & {"usdworld.render.renderer", "usdworld.render.scene", "usdworld.render.camera", "usdworld.render.batches"}
+
+
+def test_an_edit_loads_no_shading_schemas_and_no_build_layout() -> None:
+    """``usdworld edit`` moves and rotates without UsdShade/Sdr (only a restyle needs them) and
+    without the build's placement draft (the editor turns footprints with usdworld.geometry.rotation)."""
+    probe = (
+        "import json, sys\n"
+        "import usdworld.cli.edit_cmd, usdworld.authoring.edits\n"
+        "print(json.dumps(sorted(sys.modules)))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe], cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True, text=True, check=True
+    )
+    loaded = set(json.loads(out.stdout.splitlines()[-1]))
+    assert "usdworld.geometry.rotation" in loaded
+    assert not loaded & {"pxr.UsdShade", "pxr.Sdr", "usdworld.layout.draft"}

@@ -13,12 +13,16 @@ from __future__ import annotations
 
 import re
 from fnmatch import fnmatch
+from typing import TYPE_CHECKING
 
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 from usdworld.errors import EditRefused, RefusalReason
 from usdworld.perception.colour_space import srgb_to_linear
+
+if TYPE_CHECKING:
+    from pxr import UsdShade
 
 #: Prim customData key holding an object's restyle colour (``#rrggbb``).
 COLOR_KEY = "usdworld:restyleColor"
@@ -68,6 +72,8 @@ def parse_color(text: str) -> tuple[tuple[float, float, float], str]:
 
 def restyle_targets(prim: Usd.Prim) -> tuple[list[UsdShade.Material], list[UsdGeom.Mesh]]:
     """The materials a restyle recolours (:data:`RESTYLE_MATERIALS`, else all) and the meshes bound to them."""
+    from pxr import UsdShade  # with Sdr, ~10 ms: only an edit of materials needs it
+
     materials = [UsdShade.Material(p) for p in Usd.PrimRange(prim) if p.IsA(UsdShade.Material)]
     chosen = [
         m for m in materials if any(fnmatch(m.GetPrim().GetName(), pat) for pat in RESTYLE_MATERIALS)

@@ -1,9 +1,10 @@
 """Opening USD files with one-line errors (every reader of user-supplied stages goes through here),
-and the registration of usdworld's schema plugin."""
+the registration of usdworld's schema plugin, and reading a world's layers ahead on a thread."""
 
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -91,3 +92,47 @@ def world_layer_files(world: str | Path) -> tuple[Path, ...]:
 def base_layer_file(world: str | Path) -> Path:
     """The file of a world's base layer: the root's last sublayer (see :func:`world_layer_files`)."""
     return world_layer_files(world)[-1]
+
+
+class LayerPrefetch:
+    """A world's layer files read on a background thread, while the process does other work.
+
+    OpenUSD releases Python's global lock while it parses a layer, so a command can start
+    parsing a world's layers (a large world's crate base layer: about 0.1 s at 10,000
+    objects) and import the rest of its modules meanwhile. A stage opened later finds the
+    layers already in OpenUSD's layer registry, as long as they are held: :meth:`wait`
+    returns them; keep them until the stage is open. A file that does not open is left
+    out silently: the stage's own open reports it.
+
+    Args:
+        files: the layer files, e.g. :func:`world_layer_files`.
+    """
+
+    def __init__(self, files: Sequence[Path]) -> None:
+        self._files = tuple(os.path.abspath(f) for f in files)  # the identifiers a stage anchors
+        self._layers: list[Sdf.Layer] = []
+        self._thread = threading.Thread(target=self._read, name="usdworld-layer-prefetch", daemon=True)
+        self._thread.start()
+
+    def _read(self) -> None:
+        for file in self._files:
+            try:
+                layer = Sdf.Layer.FindOrOpen(file)
+            except Exception:  # pxr raises Tf.ErrorException; the stage's open reports it
+                continue
+            if layer is not None:
+                self._layers.append(layer)
+
+    def wait(self) -> tuple[Sdf.Layer, ...]:
+        """The layers that opened, once the thread is done (it reads each file once)."""
+        self._thread.join()
+        return tuple(self._layers)
+
+
+def prefetch_world_layers(world: str | Path) -> LayerPrefetch | None:
+    """Start reading a world's sublayers (:func:`world_layer_files`) on a thread, or None
+    when ``world`` is not a readable world (whoever opens it next reports why)."""
+    try:
+        return LayerPrefetch(world_layer_files(world))
+    except InputError:
+        return None

@@ -79,11 +79,24 @@ def _editor(
     replacement_rules: Optional[Path] = None,
     library: Optional[Path] = None,
 ):  # -> WorldEditor (imported lazily)
-    from usdworld.authoring.edits import WorldEditor
+    """The editor of the world argument.
 
-    return WorldEditor(
+    The world's layers are parsed on a thread (:class:`~usdworld.authoring.stages.LayerPrefetch`)
+    while the editor's modules (numpy, the rules) are imported; the editor's stage then
+    finds them parsed.
+    """
+    from usdworld.authoring.stages import prefetch_world_layers
+
+    prefetch = prefetch_world_layers(ctx.obj)
+    try:
+        from usdworld.authoring.edits import WorldEditor
+    finally:
+        held = prefetch.wait() if prefetch is not None else ()
+    editor = WorldEditor(
         ctx.obj, surface_rules=surface_rules, replacement_rules=replacement_rules, library=library
     )
+    del held  # the editor's stage holds them now
+    return editor
 
 
 def _done(result) -> None:  # EditResult

@@ -24,9 +24,18 @@ Measured per size (medians over ``--runs`` interleaved runs; the floors in the s
   object index, composing the object and its possible neighbours, the rules, the atomic save);
 * floors: a process that imports ``pxr.Usd``; a bare ``usdworld --help``.
 
+With ``--edit-rounds N``, a third table times the whole ``usdworld edit W move`` command alone,
+N rounds per size, each round on a fresh copy of the authored world (the first edit), this
+checkout and ``--reference`` back to back and the floor (``usdworld --help``) in the same
+round: the minimum and the median of the wall and of the child's CPU, and the median
+over the floor. Each checkout runs the command once before the rounds with bytecode
+writing allowed, so no round compiles modules (as in an installed package; a checkout run
+under ``PYTHONDONTWRITEBYTECODE=1`` would otherwise recompile its changed modules every time).
+
 Usage::
 
     python tools/bench_scale.py [--sizes 1000,10000,100000] [--runs 3] [--keep DIR] [--reference CHECKOUT]
+        [--edit-rounds N]
 
 With ``--reference``, a second table compares, one run each, in fresh processes, authoring,
 opening the world, the editor's parts, the whole edit command (twice: the second finds what
@@ -202,8 +211,11 @@ def tiled_model(model, n_objects: int):  # (WorldModel, int) -> WorldModel
 _HERE = Path(__file__).resolve().parents[1]
 
 
-def _env(repo: Path = _HERE) -> dict[str, str]:
-    return {**os.environ, "PYTHONPATH": str(repo) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+def _env(repo: Path = _HERE, bytecode: bool = False) -> dict[str, str]:
+    env = {**os.environ, "PYTHONPATH": str(repo) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    if bytecode:
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
 
 
 def _children_cpu() -> float:
@@ -220,6 +232,56 @@ def _timed(cmd: list[str], repo: Path = _HERE) -> tuple[float, float, str]:
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed ({done.returncode}): {done.stderr.strip()[-2000:]}")
     return wall, cpu, done.stdout
+
+
+def edit_rounds(
+    model, n: int, folder: Path, rounds: int, repos: dict[str, Path]
+) -> dict[str, list[tuple[float, float]]]:
+    """The whole ``usdworld edit W move`` command, ``rounds`` times per checkout, and the floor.
+
+    Each round runs every checkout on a fresh copy of the same authored world (so each
+    command is the world's first edit), then ``usdworld --help``.
+
+    Returns:
+        checkout tag (and ``floor``) -> (wall s, CPU s) per round.
+    """
+    from usdworld.authoring import asset_library
+    from usdworld.authoring.world import write_world
+
+    libraries = asset_library.library_dirs(None)
+    classes = sorted({p.obj.class_name for p in model.placements})
+    assets = {c: asset_library.asset_path(c, libraries) for c in classes}
+    mover = next(p.name for p in model.placements if p.obj.class_name == "car")
+    source = folder / f"edit_source_{n}"
+    write_world(model, source, assets, None)
+
+    def edit(tag: str, repo: Path, bytecode: bool = False) -> tuple[float, float]:
+        world = folder / f"edit_{tag}_{n}"
+        shutil.rmtree(world, ignore_errors=True)
+        shutil.copytree(source, world)
+        cmd = [sys.executable, "-m", "usdworld", "edit", str(world), "move", mover, "--by", "0.5,0"]
+        cmd.append("--force")
+        c0, t0 = _children_cpu(), time.perf_counter()
+        env = _env(repo, bytecode)
+        done = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=repo, check=False)
+        wall, cpu = time.perf_counter() - t0, _children_cpu() - c0
+        if done.returncode != 0:
+            raise SystemExit(f"{' '.join(cmd)} failed ({done.returncode}): {done.stderr.strip()[-2000:]}")
+        shutil.rmtree(world)
+        return wall, cpu
+
+    for tag, repo in repos.items():  # compile the checkouts' bytecode once, outside the rounds
+        edit(tag, repo, bytecode=True)
+        help_cmd = [sys.executable, "-m", "usdworld", "--help"]
+        subprocess.run(help_cmd, capture_output=True, env=_env(repo, True), cwd=repo, check=False)
+    out: dict[str, list[tuple[float, float]]] = {tag: [] for tag in [*repos, "floor"]}
+    for _ in range(rounds):
+        for tag, repo in repos.items():
+            out[tag].append(edit(tag, repo))
+        wall, cpu, _ = _timed([sys.executable, "-m", "usdworld", "--help"])
+        out["floor"].append((wall, cpu))
+    shutil.rmtree(source)
+    return out
 
 
 def _wall(cmd: list[str], repo: Path = _HERE) -> tuple[float, str]:
@@ -325,6 +387,12 @@ def main(argv: list[str] | None = None) -> int:
         "--no-measure", action="store_true", help="only the before/after table (with --reference)"
     )
     parser.add_argument(
+        "--edit-rounds",
+        type=int,
+        default=0,
+        help="also time the whole edit command this many rounds per size (with --reference: both checkouts)",
+    )
+    parser.add_argument(
         "--reference",
         type=Path,
         help="also author, edit and read the scene with this checkout (before/after)",
@@ -392,6 +460,28 @@ def main(argv: list[str] | None = None) -> int:
                         f"| {n:,d} | {what} | {f('author')} | {r[f'base_bytes_{tag}'] / 1e6:.2f} "
                         f"| {f('open')} ({f('parse_base')}) | {f('edit_open')} | {f('edit_move')} | {f('edit')} "
                         f"| {f('edit2')} | {scene} | {r['same_bytes']} | {os.getloadavg()[0]:.2f} |",
+                        flush=True,
+                    )
+        if args.edit_rounds:
+            repos = {"this checkout": _HERE}
+            if args.reference is not None:
+                repos = {f"reference {args.reference}": args.reference, **repos}
+            print(
+                f"\nwhole `usdworld edit W move`, {args.edit_rounds} rounds (fresh world copy each), "
+                f"load average {os.getloadavg()[0]:.2f}"
+            )
+            print("| objects | checkout | wall s min / median | CPU s min / median | median over the floor s | load |")
+            print("|---|---|---|---|---|---|")
+            for n in sizes:
+                timed = edit_rounds(tiled_model(model, n), n, folder, args.edit_rounds, repos)
+                floor = statistics.median(w for w, _ in timed["floor"])
+                for tag, rows in timed.items():
+                    walls, cpus = [w for w, _ in rows], [c for _, c in rows]
+                    over = "-" if tag == "floor" else f"{statistics.median(walls) - floor:.3f}"
+                    name = "floor: usdworld --help" if tag == "floor" else tag
+                    print(
+                        f"| {n:,d} | {name} | {min(walls):.3f} / {statistics.median(walls):.3f} "
+                        f"| {min(cpus):.3f} / {statistics.median(cpus):.3f} | {over} | {os.getloadavg()[0]:.2f} |",
                         flush=True,
                     )
     finally:

@@ -10,12 +10,15 @@ them as they happen.
 
 from __future__ import annotations
 
+import atexit
 import importlib
 import logging
+import os
 import sys
 import traceback
 import warnings
 from collections.abc import Sequence
+from typing import NoReturn
 
 import typer
 
@@ -42,6 +45,8 @@ COMMANDS = {
 }
 #: Options of the ``usdworld`` command itself (they come before the sub-command).
 ROOT_FLAGS = ("--debug", "--quiet", "-q")
+#: Sub-commands whose process ends without tearing the interpreter down (see :func:`run`).
+QUICK_EXIT_COMMANDS = frozenset({"edit"})
 
 
 def _root(
@@ -148,5 +153,29 @@ def _log_held_warnings(held: list[warnings.WarningMessage]) -> None:
 
 
 def run() -> None:
-    """Console-script entry point."""
-    sys.exit(main())
+    """Console-script entry point.
+
+    A command of :data:`QUICK_EXIT_COMMANDS` ends its process with :func:`quick_exit`: by
+    the time :func:`main` returns, an edit is saved (atomically, fsync'ed) and its lock
+    released, so what is left is tearing down the interpreter and OpenUSD's libraries
+    (module teardown, their registries' static destructors), which took 0.08-0.2 s after
+    a 10,000-object world's edit on the loaded 2-core machine, about a fifth of the command.
+    """
+    args = sys.argv[1:]
+    code = main(args)
+    names = commands_for(args)
+    if len(names) == 1 and names[0] in QUICK_EXIT_COMMANDS:
+        quick_exit(code)
+    sys.exit(code)
+
+
+def quick_exit(code: int) -> NoReturn:
+    """End the process with ``code`` after the exit handlers (``atexit``: logging's shutdown
+    among them) and with the standard streams flushed, skipping the interpreter's teardown."""
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe: nothing left to say there
+            pass
+    os._exit(code)

@@ -17,7 +17,7 @@ import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.class_table import ClassTable
-from usdworld.io.label_table import label_lookups
+from usdworld.io.label_table import label_lookups, label_mask
 from usdworld.io.types import Segmentation, SourceImage
 from usdworld.layout.model import LightRig
 from usdworld.layout.placement import Placement
@@ -158,7 +158,7 @@ def ground_and_sky(
         lookups = label_lookups()
         ids = np.zeros(shape, dtype=np.int32)
         for k, names in enumerate(GROUND_SURFACES, start=1):
-            ids[np.isin(labels, [lookups.id_of(n) for n in names])] = k
+            ids[label_mask(labels, [lookups.id_of(n) for n in names])] = k
         return ids, labels == lookups.id_of("sky"), "labels"
     blocked = _boxes_mask(placements, shape)
     top = int(np.clip(math.ceil(camera.horizon_v()), 0, shape[0]))

@@ -219,6 +219,8 @@ def _trimmed_colour_by_rows(px: np.ndarray, params=DEFAULT_PERCEPTION) -> tuple[
     lum = px @ np.array([0.2126, 0.7152, 0.0722])
     lo, hi = np.quantile(lum, [params.colour_trim_dark, 1.0 - params.colour_trim_bright])
     kept = px[(lum >= lo) & (lum <= hi)]
+    if len(kept) == 0:
+        kept = px
     lab = linear_to_lab(kept)
     low = lab.min(axis=0)
     idx = np.floor((lab - low) / params.colour_bin_lab).astype(np.int64)

@@ -122,10 +122,10 @@ def sampled_pixels(rgb: np.ndarray, region: np.ndarray, max_samples: int) -> np.
         region: (H, W) bool.
         max_samples: ``colour_max_samples``.
     """
-    rows, cols = np.nonzero(region)
-    if len(rows) > max_samples:
-        pick = np.linspace(0, len(rows) - 1, max_samples).astype(np.int64)
-        rows, cols = rows[pick], cols[pick]
+    flat = np.flatnonzero(region)  # row-major, as np.nonzero's pairs; one index array, not two
+    if len(flat) > max_samples:
+        flat = flat[np.linspace(0, len(flat) - 1, max_samples).astype(np.int64)]
+    rows, cols = np.divmod(flat, region.shape[1])
     return rgb[rows, cols]
 
 

@@ -14,7 +14,7 @@ from conftest import SHARED_DATA
 
 from usdworld.errors import InputError
 from usdworld.io.images import read_image
-from usdworld.io.label_table import LabelClass, by_id, by_name, label_mask, label_table
+from usdworld.io.label_table import LabelClass, by_id, by_name, label_mask, label_table, label_values
 from usdworld.io.labels import read_polygons, read_segmentation
 from usdworld.io.types import InputFile, SourceImage
 
@@ -262,3 +262,13 @@ def test_label_mask_is_np_isin(seed: int, ids: list[int], dtype: str) -> None:
     labels = np.random.default_rng(seed).integers(0, 40, size=(7, 11)).astype(dtype)
     got = label_mask(labels, ids)
     assert got.dtype == bool and np.array_equal(got, np.isin(labels, ids))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_label_values_are_the_tables_value_per_label(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    labels = rng.integers(0, 256, size=(5, 13)).astype(np.uint8)
+    table = rng.integers(0, 256, size=256).astype(np.uint8)
+    got = label_values(labels, table)
+    assert got.dtype == np.uint8 and np.array_equal(got, table[labels])

@@ -197,6 +197,16 @@ def label_lookups() -> LabelLookups:
     return lookups_from_table(label_table())
 
 
+def label_values(label_ids: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """(H, W) uint8 ``table[label_ids]``: a value per label id, by one OpenCV table lookup.
+
+    Args:
+        label_ids: (H, W) uint8 label id per pixel (as read from ``*_labelIds.png``).
+        table: (256,) uint8 value of each label id.
+    """
+    return cv2.LUT(np.ascontiguousarray(label_ids, dtype=np.uint8), np.asarray(table, dtype=np.uint8))
+
+
 def label_mask(label_ids: np.ndarray, ids) -> np.ndarray:
     """(H, W) bool: the pixels whose label is one of ``ids`` (``np.isin(label_ids, ids)``).
 
@@ -213,4 +223,4 @@ def label_mask(label_ids: np.ndarray, ids) -> np.ndarray:
         return np.isin(labels, wanted)
     table = np.zeros(256, dtype=np.uint8)
     table[wanted] = 1
-    return cv2.LUT(np.ascontiguousarray(labels), table).view(bool)
+    return label_values(labels, table).view(bool)

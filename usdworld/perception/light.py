@@ -217,11 +217,12 @@ def inner_ids_at(ground_ids: np.ndarray, v: np.ndarray, u: np.ndarray, edge_px: 
     h, w = ground_ids.shape
     sid = ground_ids[v, u].astype(np.int64)
     keep = np.ones(len(sid), dtype=bool)
+    cols = [np.clip(u + du, 0, w - 1) for du in range(-edge_px, edge_px + 1)]
     for dv in range(-edge_px, edge_px + 1):
         rows = np.clip(v + dv, 0, h - 1)
-        for du in range(-edge_px, edge_px + 1):
+        for du, col in zip(range(-edge_px, edge_px + 1), cols):
             if dv or du:
-                keep &= ground_ids[rows, np.clip(u + du, 0, w - 1)] == sid
+                keep &= ground_ids[rows, col] == sid
     return np.where(keep, sid, 0)
 
 
@@ -287,13 +288,36 @@ def inside_convex(points: np.ndarray, hull: np.ndarray, margin: float = 0.0) -> 
         ab = b - a
         t = np.clip(((points - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
         return np.linalg.norm(points - (a + t[:, None] * ab), axis=1) <= margin
-    edges = np.roll(hull, -1, axis=0) - hull
-    lengths = np.linalg.norm(edges, axis=1)
-    keep = lengths > 1e-12
-    edges, starts, lengths = edges[keep], hull[keep], lengths[keep]
-    rel = points[:, None, :] - starts[None, :, :]
-    cross = edges[None, :, 0] * rel[:, :, 1] - edges[None, :, 1] * rel[:, :, 0]
-    return np.all(cross >= -margin * lengths[None, :], axis=1)
+    return ConvexEdges.of(hull).inside(points, margin)
+
+
+@dataclass(frozen=True)
+class ConvexEdges:
+    """A counter-clockwise convex polygon's edges of non-zero length, for many :func:`inside_convex` tests.
+
+    Attributes:
+        edges: (K, 2) float64 edge vectors.
+        starts: (K, 2) float64 their start vertices.
+        lengths: (K,) float64 their lengths.
+    """
+
+    edges: np.ndarray
+    starts: np.ndarray
+    lengths: np.ndarray
+
+    @staticmethod
+    def of(hull: np.ndarray) -> ConvexEdges:
+        """The edges of a hull of M >= 3 vertices."""
+        edges = np.roll(hull, -1, axis=0) - hull
+        lengths = np.linalg.norm(edges, axis=1)
+        keep = lengths > 1e-12
+        return ConvexEdges(edges[keep], hull[keep], lengths[keep])
+
+    def inside(self, points: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        """(N,) bool: the (N, 2) points within ``margin`` metres inside the polygon (as :func:`inside_convex`)."""
+        rel = points[:, None, :] - self.starts[None, :, :]
+        cross = self.edges[None, :, 0] * rel[:, :, 1] - self.edges[None, :, 1] * rel[:, :, 0]
+        return np.all(cross >= -margin * self.lengths[None, :], axis=1)
 
 
 def _grown_reach(hull: np.ndarray, margin: float) -> float:
@@ -353,6 +377,16 @@ def _ring_samples(
     lit = np.zeros(max(refs, default=0) + 1)  # surface id -> its lit luminance (0: no reference)
     lit[list(refs)] = list(refs.values())
     footprints = [_hull(c.footprint_ground) for c in casters]
+
+    def inside(points: np.ndarray, j: int, margin: float) -> np.ndarray:
+        """:func:`inside_convex` of footprint ``j``, its edges found once."""
+        if len(footprints[j]) < 3:
+            return inside_convex(points, footprints[j], margin)
+        if j not in edges:
+            edges[j] = ConvexEdges.of(footprints[j])
+        return edges[j].inside(points, margin)
+
+    edges: dict[int, ConvexEdges] = {}
     # Each footprint grown by the margin lies within its bounding box grown by ``grow``: only the
     # footprints whose grown box meets a caster's sampling square can hide any of its samples.
     grow = np.array([_grown_reach(f, params.footprint_margin_m) for f in footprints])
@@ -365,10 +399,10 @@ def _ring_samples(
         n = params.samples_per_side
         gx, gy = np.meshgrid(np.linspace(lo[0], hi[0], n), np.linspace(lo[1], hi[1], n))
         pts = np.column_stack([gx.ravel(), gy.ravel()])
-        near = inside_convex(pts, footprints[i], reach)
+        near = inside(pts, i, reach)
         meets = np.flatnonzero(np.all(boxes_lo <= hi, axis=1) & np.all(boxes_hi >= lo, axis=1))
         for j in meets:  # ground under any footprint is not seen lit or shadowed
-            near &= ~inside_convex(pts, footprints[j], params.footprint_margin_m)
+            near &= ~inside(pts, j, params.footprint_margin_m)
         pts = pts[near]
         if len(pts) == 0:
             continue
@@ -393,7 +427,7 @@ def _ring_samples(
     neighbours = []
     for i in used:
         c, reach = casters[i], _reach(casters[i], params)
-        near = inside_convex(points, footprints[i], reach) if len(footprints[i]) >= 3 else np.ones(len(points), bool)
+        near = inside(points, i, reach) if len(footprints[i]) >= 3 else np.ones(len(points), bool)
         neighbours.append(np.flatnonzero(near))
     return _Samples(points, np.concatenate(rel_all), tuple(neighbours)), used
 

@@ -6,9 +6,12 @@ flat ground: the shadow is the convex hull of the footprint and the footprint mo
 the shadow direction). Ground samples in a ring around each footprint are projected into
 the photo with the ground homography; a sample counts as shadowed when its pixel is
 darker than the lit ground of its own surface (road, sidewalk, terrain) by
-``sunny_min_contrast``. The sun's azimuth and elevation are the ones whose predicted
+``sunny_min_contrast``; a surface's lit luminance is a percentile of its pixels, read on
+every k-th row and column of a photo ``k`` times ``reference_width_px`` wide (each sample
+reads its own pixel). The sun's azimuth and elevation are the ones whose predicted
 shadows (the union over all casters) overlap the shadowed samples best (intersection over
-union, a coarse grid and then one degree). Samples hidden in the photo (under another
+union, a coarse grid and then one degree; each pair of a sample and a caster needs one
+test per azimuth: the shortest shadow of the caster that covers the sample). Samples hidden in the photo (under another
 object, or not ground) are left out, so a shadow hidden behind its own caster costs nothing.
 An object whose top is out of view has a height known only between a least and a most
 (what the photo shows of it, its class's tallest): its shadow is sure up to the shorter of

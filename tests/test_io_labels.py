@@ -257,7 +257,9 @@ def test_real_cityscapes_frame() -> None:
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.integers(0, 2**31 - 1), st.lists(st.integers(0, 255), max_size=5), st.sampled_from(["uint8", "int32"]))
+@given(
+    st.integers(0, 2**31 - 1), st.lists(st.integers(0, 255), max_size=5), st.sampled_from(["uint8", "int32"])
+)
 def test_label_mask_is_np_isin(seed: int, ids: list[int], dtype: str) -> None:
     labels = np.random.default_rng(seed).integers(0, 40, size=(7, 11)).astype(dtype)
     got = label_mask(labels, ids)

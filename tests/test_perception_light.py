@@ -303,7 +303,8 @@ def test_sky_colours_are_the_medians_of_the_first_and_last_pixels_in_row_order(
 
 
 def test_reference_stride_keeps_photos_up_to_the_reference_width_whole() -> None:
-    assert [reference_stride(w, 1024) for w in (640, 1024, 1242, 1600, 2047, 2048, 4000)] == [1, 1, 1, 1, 1, 2, 3]
+    widths = (640, 1024, 1242, 1600, 2047, 2048, 4000)
+    assert [reference_stride(w, 1024) for w in widths] == [1, 1, 1, 1, 1, 2, 3]
 
 
 def test_a_wide_photos_lit_references_are_measured_on_every_kth_row_and_column() -> None:
@@ -321,5 +322,6 @@ def test_a_wide_photos_lit_references_are_measured_on_every_kth_row_and_column()
     lin = uint8_to_linear(np.array([lit_code, bright, dark_code], dtype=np.uint8))
     for width_px, lit in ((1024, lin[0]), (4096, lin[1])):
         params = LightParams(reference_width_px=width_px)
-        est = estimate_light(wide, ids, np.zeros(ids.shape, bool), "labels", CASTERS, wide_from_px, 0.5, 0.6, params)
+        sky = np.zeros(ids.shape, bool)
+        est = estimate_light(wide, ids, sky, "labels", CASTERS, wide_from_px, 0.5, 0.6, params)
         assert est.shadow_contrast == pytest.approx(lit / lin[2], rel=1e-9)

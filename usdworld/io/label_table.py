@@ -219,7 +219,8 @@ def label_mask(label_ids: np.ndarray, ids) -> np.ndarray:
     """
     labels = np.asarray(label_ids)
     wanted = [int(i) for i in ids]
-    if labels.dtype != np.uint8 or labels.ndim != 2 or labels.size == 0 or any(not 0 <= i < 256 for i in wanted):
+    small = all(0 <= i < 256 for i in wanted)
+    if labels.dtype != np.uint8 or labels.ndim != 2 or labels.size == 0 or not small:
         return np.isin(labels, wanted)
     table = np.zeros(256, dtype=np.uint8)
     table[wanted] = 1

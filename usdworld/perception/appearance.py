@@ -99,7 +99,8 @@ def trimmed_colour(
     for _ in range(2):
         step = lab_c - centre[:, None]
         step *= step
-        near = np.sqrt(step[0] + step[1] + step[2]) <= params.colour_radius_lab  # CIE76, as np.linalg.norm adds
+        # CIE76, the squares added in np.linalg.norm's order
+        near = np.sqrt(step[0] + step[1] + step[2]) <= params.colour_radius_lab
         if not near.any():
             near = np.ones(len(lab), dtype=bool)
         centre = np.median(lab_c[:, near], axis=1)

@@ -151,7 +151,7 @@ def _boxes_mask(placements: Sequence[Placement], shape: tuple[int, int]) -> np.n
 def ground_and_sky(
     seg: Segmentation | None, placements: Sequence[Placement], camera: PinholeCamera, image: SourceImage
 ) -> tuple[np.ndarray, np.ndarray, str]:
-    """(H, W) int ground surface ids (uint8 from labels, else int32), (H, W) bool sky, how the sky was found."""
+    """(H, W) int ground surface ids (uint8 from labels, else int32), (H, W) bool sky, the sky's source."""
     shape = (image.height, image.width)
     if seg is not None:
         labels = np.asarray(seg.label_ids)

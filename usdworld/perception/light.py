@@ -12,7 +12,8 @@ reads its own pixel). The sun's azimuth and elevation are the ones whose predict
 shadows (the union over all casters) overlap the shadowed samples best (intersection over
 union, a coarse grid and then one degree; each pair of a sample and a caster needs one
 test per azimuth: the shortest shadow of the caster that covers the sample). Samples
-hidden in the photo (under another object, or not ground) are left out, so a shadow hidden behind its own caster costs nothing.
+hidden in the photo (under another object, or not ground) are left out, so a shadow
+hidden behind its own caster costs nothing.
 An object whose top is out of view has a height known only between a least and a most
 (what the photo shows of it, its class's tallest): its shadow is sure up to the shorter of
 the two shadows, and the ground between the two counts neither way (unless another
@@ -230,7 +231,7 @@ def inner_ids_at(ground_ids: np.ndarray, v: np.ndarray, u: np.ndarray, edge_px: 
 
 
 def reference_stride(width: int, reference_width_px: int) -> int:
-    """Every how many rows and columns the lit references are read: ``width // reference_width_px``, at least 1."""
+    """Every how many rows and columns the lit references are read: ``width // reference_width_px`` (>= 1)."""
     return max(1, width // reference_width_px)
 
 
@@ -317,7 +318,7 @@ class ConvexEdges:
         return ConvexEdges(edges[keep], hull[keep], lengths[keep])
 
     def inside(self, points: np.ndarray, margin: float = 0.0) -> np.ndarray:
-        """(N,) bool: the (N, 2) points within ``margin`` metres inside the polygon (:func:`inside_convex`)."""
+        """(N,) bool: the (N, 2) points within ``margin`` metres inside (:func:`inside_convex`)."""
         rel = points[:, None, :] - self.starts[None, :, :]
         cross = self.edges[None, :, 0] * rel[:, :, 1] - self.edges[None, :, 1] * rel[:, :, 0]
         return np.all(cross >= -margin * self.lengths[None, :], axis=1)

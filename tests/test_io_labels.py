@@ -8,11 +8,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from conftest import SHARED_DATA
 
 from usdworld.errors import InputError
 from usdworld.io.images import read_image
-from usdworld.io.label_table import LabelClass, by_id, by_name, label_table
+from usdworld.io.label_table import LabelClass, by_id, by_name, label_mask, label_table, label_values
 from usdworld.io.labels import read_polygons, read_segmentation
 from usdworld.io.types import InputFile, SourceImage
 
@@ -252,3 +254,23 @@ def test_real_cityscapes_frame() -> None:
     assert things == [24000, 24001, 24002, 24003, 26000, 26001, 26002]
     with pytest.raises(InputError, match="labelTrainIds"):
         read_segmentation(f"{stem}_gtFine_labelTrainIds.png")
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(0, 2**31 - 1), st.lists(st.integers(0, 255), max_size=5), st.sampled_from(["uint8", "int32"])
+)
+def test_label_mask_is_np_isin(seed: int, ids: list[int], dtype: str) -> None:
+    labels = np.random.default_rng(seed).integers(0, 40, size=(7, 11)).astype(dtype)
+    got = label_mask(labels, ids)
+    assert got.dtype == bool and np.array_equal(got, np.isin(labels, ids))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_label_values_are_the_tables_value_per_label(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    labels = rng.integers(0, 256, size=(5, 13)).astype(np.uint8)
+    table = rng.integers(0, 256, size=256).astype(np.uint8)
+    got = label_values(labels, table)
+    assert got.dtype == np.uint8 and np.array_equal(got, table[labels])

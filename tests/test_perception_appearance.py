@@ -212,3 +212,45 @@ def test_the_colour_measure_does_not_import_scipy() -> None:
     code = "import sys, usdworld.perception.appearance; print('scipy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def _trimmed_colour_by_rows(px: np.ndarray, params=DEFAULT_PERCEPTION) -> tuple[np.ndarray, np.ndarray, int]:
+    """The trimmed median as the module docstring states it, on (N, 3) rows (numpy's own median and norm)."""
+    lum = px @ np.array([0.2126, 0.7152, 0.0722])
+    lo, hi = np.quantile(lum, [params.colour_trim_dark, 1.0 - params.colour_trim_bright])
+    kept = px[(lum >= lo) & (lum <= hi)]
+    if len(kept) == 0:
+        kept = px
+    lab = linear_to_lab(kept)
+    low = lab.min(axis=0)
+    idx = np.floor((lab - low) / params.colour_bin_lab).astype(np.int64)
+    shape = tuple(int(s) for s in idx.max(axis=0) + 1)
+    flat = np.ravel_multi_index(tuple(idx.T), shape)
+    counts = np.bincount(flat, minlength=int(np.prod(shape))).astype(np.float64)
+    peak = np.array(np.unravel_index(int(np.argmax(box_mean3(counts.reshape(shape)))), shape))
+    centre = lab[np.all(np.abs(idx - peak) <= 1, axis=1)].mean(axis=0)
+    for _ in range(2):
+        near = np.linalg.norm(lab - centre, axis=1) <= params.colour_radius_lab
+        if not near.any():
+            near = np.ones(len(lab), dtype=bool)
+        centre = np.median(lab[near], axis=0)
+    chosen = kept[near]
+    median = np.median(chosen, axis=0)
+    return np.clip(median, 0.0, 1.0), 1.4826 * np.median(np.abs(chosen - median), axis=0), len(chosen)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(1, 400), st.integers(1, 4))
+def test_trimmed_colour_channel_by_channel_is_the_row_wise_measure_bit_for_bit(
+    seed: int, n: int, clusters: int
+) -> None:
+    # a few colour clusters with noise, as an object's pixels are
+    rng = np.random.default_rng(seed)
+    centres = rng.integers(0, 256, size=(clusters, 3))
+    noisy = centres[rng.integers(0, clusters, n)] + rng.normal(0, 12, (n, 3))
+    codes = np.clip(noisy, 0, 255).astype(np.uint8)
+    px = uint8_to_linear(codes)
+    got = trimmed_colour(px, "mask")
+    median, spread, count = _trimmed_colour_by_rows(px)
+    assert np.array_equal(got.linear_rgb, median) and np.array_equal(got.spread, spread)
+    assert got.pixels == count

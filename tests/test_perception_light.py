@@ -11,15 +11,23 @@ from hypothesis import strategies as st
 
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.parameters.light import LightParams
-from usdworld.perception.colour_space import linear_to_srgb
+from usdworld.perception.colour_space import linear_to_srgb, uint8_to_linear
 from usdworld.perception.light import (
     ShadowCaster,
     _hull,
+    _pairs,
+    _Samples,
+    _strip,
+    _strip_in_shadow,
     estimate_light,
     half_planes,
     in_swept,
+    inner_ground,
+    inner_ids_at,
     inside_convex,
+    median_linear,
     present_ids,
+    reference_stride,
     sky_colours,
 )
 
@@ -230,3 +238,90 @@ def test_present_ids_are_np_uniques_values(values: list[int], small: int) -> Non
     ids = np.array(values, dtype=np.int64) if not small else np.abs(np.array(values, dtype=np.int64)) % 7
     got = present_ids(ids.reshape(1, -1))
     assert got.tolist() == np.unique(ids).tolist()
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.floats(0.0, 2 * math.pi),
+    st.lists(st.floats(0.2, 1.5), min_size=1, max_size=6),
+    st.integers(0, 2**31 - 1),
+)
+def test_one_entry_length_per_azimuth_is_the_swept_test_at_every_elevation(
+    azimuth: float, elevations: list[float], seed: int
+) -> None:
+    # the shadow of each caster at each elevation, tested pair by pair with its own sweep vector
+    rng = np.random.default_rng(seed)
+    casters = [c for c in CASTERS if rng.random() < 0.7] or CASTERS[:1]
+    points = rng.uniform([-5.0, -12.0], [35.0, 12.0], size=(400, 2))
+    samples = _Samples(points, np.ones(len(points)), tuple(np.arange(len(points)) for _ in casters))
+    pairs = _pairs(casters, samples)
+    strip = _strip(pairs, azimuth)
+    got = _strip_in_shadow(strip, elevations, PARAMS.reach_max_m, strip.height)
+    away = -np.array([math.cos(azimuth), math.sin(azimuth)])
+    rate = (pairs.normals @ away)[pairs.caster]
+    for elevation, hits in zip(elevations, got, strict=True):
+        length = np.minimum(pairs.height / math.tan(elevation), PARAMS.reach_max_m)
+        expected = in_swept(pairs.slack, rate * length[:, None])
+        # pairs within a micrometre of a swept outline may go either way
+        near = (np.abs(pairs.slack) < 1e-6).any(axis=1)
+        shadowed = np.zeros(len(pairs.sample), dtype=bool)
+        shadowed[strip.pair[hits]] = True
+        assert np.array_equal(shadowed[~near], expected[~near])
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(0, 3), st.integers(1, 4))
+def test_inner_ids_at_pixels_are_the_eroded_surfaces_there(seed: int, edge_px: int, surfaces: int) -> None:
+    rng = np.random.default_rng(seed)
+    ids = rng.integers(0, surfaces + 1, size=(6, 9))
+    ids = np.kron(ids, np.ones((3, 2), dtype=np.int64))  # blocks, so some pixels survive the erosion
+    v, u = np.nonzero(np.ones_like(ids, dtype=bool))
+    assert np.array_equal(inner_ids_at(ids, v, u, edge_px), inner_ground(ids, edge_px)[v, u])
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(1, 300), st.integers(0, 255), st.integers(1, 256))
+def test_median_linear_is_np_median_of_the_decoded_pixels(seed: int, n: int, lo: int, span: int) -> None:
+    pixels = np.random.default_rng(seed).integers(lo, min(lo + span, 256), size=(n, 3)).astype(np.uint8)
+    assert np.array_equal(median_linear(pixels), np.median(uint8_to_linear(pixels), axis=0))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.floats(0.01, 0.5), st.floats(0.05, 1.0))
+def test_sky_colours_are_the_medians_of_the_first_and_last_pixels_in_row_order(
+    seed: int, fraction: float, density: float
+) -> None:
+    rng = np.random.default_rng(seed)
+    rgb = rng.integers(0, 256, size=(23, 17, 3)).astype(np.uint8)
+    sky = rng.random((23, 17)) < density
+    sky[rng.integers(0, 23), rng.integers(0, 17)] = True
+    rows, cols = np.nonzero(sky)
+    k = max(1, int(round(len(rows) * fraction)))
+    zenith, horizon = sky_colours(rgb, sky, LightParams(sky_top_fraction=fraction))
+    assert np.array_equal(zenith, np.median(uint8_to_linear(rgb[rows[:k], cols[:k]]), axis=0))
+    assert np.array_equal(horizon, np.median(uint8_to_linear(rgb[rows[-k:], cols[-k:]]), axis=0))
+
+
+def test_reference_stride_keeps_photos_up_to_the_reference_width_whole() -> None:
+    widths = (640, 1024, 1242, 1600, 2047, 2048, 4000)
+    assert [reference_stride(w, 1024) for w in widths] == [1, 1, 1, 1, 1, 2, 3]
+
+
+def test_a_wide_photos_lit_references_are_measured_on_every_kth_row_and_column() -> None:
+    # the drawn street at 2560 wide, the lit ground of its odd rows brighter: measured on
+    # every 2nd row (reference_width_px 1024) the lit reference is the even rows' ground;
+    # on every row (4096) the brighter rows hold its 75th percentile. The shadows are the
+    # same in both, so the contrast tells the reference.
+    rgb, ground, ground_from_px = _street(130.0, 40.0)
+    wide, ids = (np.repeat(np.repeat(a, 4, axis=0), 4, axis=1) for a in (rgb, ground))
+    lit_code, dark_code = int(rgb[ground > 0].max()), int(rgb[ground > 0].min())
+    bright = int(np.round(linear_to_srgb(uint8_to_linear(np.uint8(lit_code)) * 1.3) * 255))
+    odd_lit = (wide == lit_code) & (ids[:, :, None] > 0) & (np.arange(len(wide)) % 2 == 1)[:, None, None]
+    wide[odd_lit] = bright
+    wide_from_px = ground_from_px @ np.diag([0.25, 0.25, 1.0])
+    lin = uint8_to_linear(np.array([lit_code, bright, dark_code], dtype=np.uint8))
+    for width_px, lit in ((1024, lin[0]), (4096, lin[1])):
+        params = LightParams(reference_width_px=width_px)
+        sky = np.zeros(ids.shape, bool)
+        est = estimate_light(wide, ids, sky, "labels", CASTERS, wide_from_px, 0.5, 0.6, params)
+        assert est.shadow_contrast == pytest.approx(lit / lin[2], rel=1e-9)

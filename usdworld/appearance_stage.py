@@ -18,6 +18,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
+from usdworld.io.label_table import label_mask
 from usdworld.io.types import Segmentation, SourceImage
 from usdworld.layout.model import Appearance
 from usdworld.layout.placement import Placement
@@ -96,7 +97,7 @@ def _surface_region(
     """(H, W) bool pixels of a ground surface, or None when nothing marks them."""
     if seg is not None:
         ids = label_ids.get(name)
-        return np.isin(np.asarray(seg.label_ids), ids) if ids else None
+        return label_mask(seg.label_ids, ids) if ids else None
     if name != "terrain":
         return None
     h, w = shape

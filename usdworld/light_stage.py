@@ -17,7 +17,7 @@ import numpy as np
 
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.class_table import ClassTable
-from usdworld.io.label_table import label_lookups
+from usdworld.io.label_table import label_lookups, label_values
 from usdworld.io.types import Segmentation, SourceImage
 from usdworld.layout.model import LightRig
 from usdworld.layout.placement import Placement
@@ -151,15 +151,15 @@ def _boxes_mask(placements: Sequence[Placement], shape: tuple[int, int]) -> np.n
 def ground_and_sky(
     seg: Segmentation | None, placements: Sequence[Placement], camera: PinholeCamera, image: SourceImage
 ) -> tuple[np.ndarray, np.ndarray, str]:
-    """(H, W) int32 ground surface ids, (H, W) bool sky and how the sky was found."""
+    """(H, W) int ground surface ids (uint8 from labels, else int32), (H, W) bool sky, the sky's source."""
     shape = (image.height, image.width)
     if seg is not None:
         labels = np.asarray(seg.label_ids)
         lookups = label_lookups()
-        ids = np.zeros(shape, dtype=np.int32)
+        surface_of = np.zeros(256, dtype=np.uint8)  # label id -> surface id, one table lookup
         for k, names in enumerate(GROUND_SURFACES, start=1):
-            ids[np.isin(labels, [lookups.id_of(n) for n in names])] = k
-        return ids, labels == lookups.id_of("sky"), "labels"
+            surface_of[[lookups.id_of(n) for n in names]] = k
+        return label_values(labels, surface_of), labels == lookups.id_of("sky"), "labels"
     blocked = _boxes_mask(placements, shape)
     top = int(np.clip(math.ceil(camera.horizon_v()), 0, shape[0]))
     ids = np.zeros(shape, dtype=np.int32)

@@ -20,6 +20,7 @@ import functools
 import io
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from usdworld.errors import InputError
@@ -194,3 +195,33 @@ def lookups_from_table(table: tuple[LabelClass, ...]) -> LabelLookups:
 def label_lookups() -> LabelLookups:
     """The lookup arrays of the shipped table (built once per process)."""
     return lookups_from_table(label_table())
+
+
+def label_values(label_ids: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """(H, W) uint8 ``table[label_ids]``: a value per label id, by one OpenCV table lookup.
+
+    Args:
+        label_ids: (H, W) uint8 label id per pixel (as read from ``*_labelIds.png``).
+        table: (256,) uint8 value of each label id.
+    """
+    return cv2.LUT(np.ascontiguousarray(label_ids, dtype=np.uint8), np.asarray(table, dtype=np.uint8))
+
+
+def label_mask(label_ids: np.ndarray, ids) -> np.ndarray:
+    """(H, W) bool: the pixels whose label is one of ``ids`` (``np.isin(label_ids, ids)``).
+
+    One 256-entry table lookup over the 8-bit label map (OpenCV's, several times faster
+    than ``np.isin``'s comparison per id on a 2048x1024 map); other dtypes use ``np.isin``.
+
+    Args:
+        label_ids: (H, W) label id per pixel (uint8 as read from ``*_labelIds.png``).
+        ids: the label ids wanted (0..255 for a uint8 map).
+    """
+    labels = np.asarray(label_ids)
+    wanted = [int(i) for i in ids]
+    small = all(0 <= i < 256 for i in wanted)
+    if labels.dtype != np.uint8 or labels.ndim != 2 or labels.size == 0 or not small:
+        return np.isin(labels, wanted)
+    table = np.zeros(256, dtype=np.uint8)
+    table[wanted] = 1
+    return label_values(labels, table).view(bool)

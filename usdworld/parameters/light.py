@@ -70,6 +70,16 @@ class LightParams:
         "left out (a kerb's face, an object's outline, anti-aliased edges).",
         "convention: the width of an anti-aliased edge plus one pixel",
     )
+    reference_width_px: int = param(
+        1024,
+        "px",
+        "The lit ground's luminance of each surface (its lit_percentile) is measured on every "
+        "k-th row and column of the photo, k = its width // this (at least 1); the samples "
+        "around the casters read their own pixels at full resolution.",
+        "convention: 1024 is the synthetic set's width, where the light was tuned (k = 1 "
+        "there: unchanged); a quarter of a 2048x1024 photo's ground pixels still holds "
+        "hundreds of thousands for the percentile",
+    )
     samples_per_side: int = param(
         24,
         "count",
@@ -137,6 +147,8 @@ class LightParams:
             raise ValueError(f"light.lit_percentile must be in (0, 100), got {self.lit_percentile}")
         if not (self.coarse_step_deg > 0 and self.reach_max_m > 0 and self.samples_per_side >= 4):
             raise ValueError("light: coarse_step_deg and reach_max_m must be > 0, samples_per_side >= 4")
+        if not self.reference_width_px >= 1:
+            raise ValueError(f"light.reference_width_px must be >= 1, got {self.reference_width_px}")
         if not self.unseen_top_spreads >= 0.0:
             raise ValueError(f"light.unseen_top_spreads must be >= 0, got {self.unseen_top_spreads}")
         if not (0.0 <= self.min_fit_iou < 1.0 and self.min_fit_casters >= 1):

@@ -6,10 +6,14 @@ flat ground: the shadow is the convex hull of the footprint and the footprint mo
 the shadow direction). Ground samples in a ring around each footprint are projected into
 the photo with the ground homography; a sample counts as shadowed when its pixel is
 darker than the lit ground of its own surface (road, sidewalk, terrain) by
-``sunny_min_contrast``. The sun's azimuth and elevation are the ones whose predicted
+``sunny_min_contrast``; a surface's lit luminance is a percentile of its pixels, read on
+every k-th row and column of a photo ``k`` times ``reference_width_px`` wide (each sample
+reads its own pixel). The sun's azimuth and elevation are the ones whose predicted
 shadows (the union over all casters) overlap the shadowed samples best (intersection over
-union, a coarse grid and then one degree). Samples hidden in the photo (under another
-object, or not ground) are left out, so a shadow hidden behind its own caster costs nothing.
+union, a coarse grid and then one degree; each pair of a sample and a caster needs one
+test per azimuth: the shortest shadow of the caster that covers the sample). Samples
+hidden in the photo (under another object, or not ground) are left out, so a shadow
+hidden behind its own caster costs nothing.
 An object whose top is out of view has a height known only between a least and a most
 (what the photo shows of it, its class's tallest): its shadow is sure up to the shorter of
 the two shadows, and the ground between the two counts neither way (unless another
@@ -201,6 +205,36 @@ def inner_ground(ground_ids: np.ndarray, edge_px: int) -> np.ndarray:
     return out
 
 
+def inner_ids_at(ground_ids: np.ndarray, v: np.ndarray, u: np.ndarray, edge_px: int) -> np.ndarray:
+    """(N,) int64 :func:`inner_ground`'s surface ids at some pixels, without eroding the whole image.
+
+    A pixel keeps its surface's id when every pixel within ``edge_px`` of it (the image's
+    border repeated outwards) has the same id: what eroding the surface's mask by the square
+    kernel gives there.
+
+    Args:
+        ground_ids: (H, W) int surface id per pixel, 0 where not ground.
+        v: (N,) int rows inside the image.
+        u: (N,) int columns inside the image.
+        edge_px: pixels taken off every surface's outline (0: none).
+    """
+    h, w = ground_ids.shape
+    sid = ground_ids[v, u].astype(np.int64)
+    keep = np.ones(len(sid), dtype=bool)
+    cols = [np.clip(u + du, 0, w - 1) for du in range(-edge_px, edge_px + 1)]
+    for dv in range(-edge_px, edge_px + 1):
+        rows = np.clip(v + dv, 0, h - 1)
+        for du, col in zip(range(-edge_px, edge_px + 1), cols):
+            if dv or du:
+                keep &= ground_ids[rows, col] == sid
+    return np.where(keep, sid, 0)
+
+
+def reference_stride(width: int, reference_width_px: int) -> int:
+    """Every how many rows and columns the lit references are read: ``width // reference_width_px`` (>= 1)."""
+    return max(1, width // reference_width_px)
+
+
 def lit_references(lum: np.ndarray, ground_ids: np.ndarray, percentile: float) -> dict[int, float]:
     """The lit luminance of each ground surface.
 
@@ -258,13 +292,36 @@ def inside_convex(points: np.ndarray, hull: np.ndarray, margin: float = 0.0) -> 
         ab = b - a
         t = np.clip(((points - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
         return np.linalg.norm(points - (a + t[:, None] * ab), axis=1) <= margin
-    edges = np.roll(hull, -1, axis=0) - hull
-    lengths = np.linalg.norm(edges, axis=1)
-    keep = lengths > 1e-12
-    edges, starts, lengths = edges[keep], hull[keep], lengths[keep]
-    rel = points[:, None, :] - starts[None, :, :]
-    cross = edges[None, :, 0] * rel[:, :, 1] - edges[None, :, 1] * rel[:, :, 0]
-    return np.all(cross >= -margin * lengths[None, :], axis=1)
+    return ConvexEdges.of(hull).inside(points, margin)
+
+
+@dataclass(frozen=True)
+class ConvexEdges:
+    """A counter-clockwise convex polygon's edges of non-zero length, for many :func:`inside_convex` tests.
+
+    Attributes:
+        edges: (K, 2) float64 edge vectors.
+        starts: (K, 2) float64 their start vertices.
+        lengths: (K,) float64 their lengths.
+    """
+
+    edges: np.ndarray
+    starts: np.ndarray
+    lengths: np.ndarray
+
+    @staticmethod
+    def of(hull: np.ndarray) -> ConvexEdges:
+        """The edges of a hull of M >= 3 vertices."""
+        edges = np.roll(hull, -1, axis=0) - hull
+        lengths = np.linalg.norm(edges, axis=1)
+        keep = lengths > 1e-12
+        return ConvexEdges(edges[keep], hull[keep], lengths[keep])
+
+    def inside(self, points: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        """(N,) bool: the (N, 2) points within ``margin`` metres inside (:func:`inside_convex`)."""
+        rel = points[:, None, :] - self.starts[None, :, :]
+        cross = self.edges[None, :, 0] * rel[:, :, 1] - self.edges[None, :, 1] * rel[:, :, 0]
+        return np.all(cross >= -margin * self.lengths[None, :], axis=1)
 
 
 def _grown_reach(hull: np.ndarray, margin: float) -> float:
@@ -303,14 +360,18 @@ def _reach(caster: ShadowCaster, params: LightParams) -> float:
 
 def _ring_samples(
     casters: Sequence[ShadowCaster],
-    lum: np.ndarray,
+    rgb: np.ndarray,
     ground_ids: np.ndarray,
     refs: dict[int, float],
     ground_from_px: np.ndarray,
     params: LightParams,
 ) -> tuple[_Samples, list[int]]:
-    """Visible ground samples around every caster, and the casters that have some."""
-    h, w = lum.shape
+    """Visible ground samples around every caster, and the casters that have some.
+
+    Each sample reads its own pixel: its surface (``edge_px`` inside the outline,
+    :func:`inner_ids_at`) and its luminance over that surface's lit reference.
+    """
+    h, w = ground_ids.shape
     px_from_ground = np.linalg.inv(ground_from_px)
     bottom = ground_from_px @ np.array([w / 2.0, h - 0.5, 1.0])  # seen ground: in front of the camera
     if (px_from_ground @ bottom)[2] * bottom[2] < 0:  # a homography is defined up to sign
@@ -320,6 +381,16 @@ def _ring_samples(
     lit = np.zeros(max(refs, default=0) + 1)  # surface id -> its lit luminance (0: no reference)
     lit[list(refs)] = list(refs.values())
     footprints = [_hull(c.footprint_ground) for c in casters]
+
+    def inside(points: np.ndarray, j: int, margin: float) -> np.ndarray:
+        """:func:`inside_convex` of footprint ``j``, its edges found once."""
+        if len(footprints[j]) < 3:
+            return inside_convex(points, footprints[j], margin)
+        if j not in edges:
+            edges[j] = ConvexEdges.of(footprints[j])
+        return edges[j].inside(points, margin)
+
+    edges: dict[int, ConvexEdges] = {}
     # Each footprint grown by the margin lies within its bounding box grown by ``grow``: only the
     # footprints whose grown box meets a caster's sampling square can hide any of its samples.
     grow = np.array([_grown_reach(f, params.footprint_margin_m) for f in footprints])
@@ -332,10 +403,10 @@ def _ring_samples(
         n = params.samples_per_side
         gx, gy = np.meshgrid(np.linspace(lo[0], hi[0], n), np.linspace(lo[1], hi[1], n))
         pts = np.column_stack([gx.ravel(), gy.ravel()])
-        near = inside_convex(pts, footprints[i], reach)
+        near = inside(pts, i, reach)
         meets = np.flatnonzero(np.all(boxes_lo <= hi, axis=1) & np.all(boxes_hi >= lo, axis=1))
         for j in meets:  # ground under any footprint is not seen lit or shadowed
-            near &= ~inside_convex(pts, footprints[j], params.footprint_margin_m)
+            near &= ~inside(pts, j, params.footprint_margin_m)
         pts = pts[near]
         if len(pts) == 0:
             continue
@@ -346,13 +417,13 @@ def _ring_samples(
         u, v = np.floor(uv[:, 0]).astype(np.int64), np.floor(uv[:, 1]).astype(np.int64)
         ok = front & (u >= 0) & (u < w) & (v >= 0) & (v < h)
         sid = np.zeros(len(pts), dtype=np.int64)
-        sid[ok] = ground_ids[v[ok], u[ok]]
+        sid[ok] = inner_ids_at(ground_ids, v[ok], u[ok], params.edge_px)
         ok &= np.isin(sid, list(refs))
         if not np.any(ok):
             continue
         ref = lit[sid[ok]]
         pts_all.append(pts[ok])
-        rel_all.append(lum[v[ok], u[ok]] / ref)
+        rel_all.append(luminance(rgb[v[ok], u[ok]]) / ref)
         used.append(i)
     if not pts_all:
         return _Samples(np.zeros((0, 2)), np.zeros(0), ()), []
@@ -360,7 +431,7 @@ def _ring_samples(
     neighbours = []
     for i in used:
         c, reach = casters[i], _reach(casters[i], params)
-        near = inside_convex(points, footprints[i], reach) if len(footprints[i]) >= 3 else np.ones(len(points), bool)
+        near = inside(points, i, reach) if len(footprints[i]) >= 3 else np.ones(len(points), bool)
         neighbours.append(np.flatnonzero(near))
     return _Samples(points, np.concatenate(rel_all), tuple(neighbours)), used
 
@@ -381,12 +452,12 @@ def half_planes(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return normals, np.einsum("ij,ij->i", normals, starts)
 
 
-def in_swept(slack: np.ndarray, rate: np.ndarray) -> np.ndarray:
-    """(P,) bool: each point lies in its convex footprint swept along a vector.
+def sweep_entry(slack: np.ndarray, rate: np.ndarray) -> np.ndarray:
+    """(P,) float64 how far each point's convex footprint must be swept to cover it (inf: never).
 
-    A point ``p`` is in the footprint ``{x: a . x <= b}`` moved by ``t * v`` for some ``t``
-    in [0, 1] when the bounds ``a . p - b <= t * (a . v)`` of all the half-planes leave an
-    interval of ``t`` inside [0, 1].
+    A point ``p`` is in the footprint ``{x: a . x <= b}`` moved by ``t * v`` when
+    ``a . p - b <= t * (a . v)`` for all the half-planes: the least ``t >= 0`` for which
+    the bounds leave an interval, in multiples of ``v``.
 
     Args:
         slack: (P, K) float64 ``a . p - b`` per point and half-plane (<= 0: inside it).
@@ -394,9 +465,9 @@ def in_swept(slack: np.ndarray, rate: np.ndarray) -> np.ndarray:
     """
     # Half-plane by half-plane (K is a footprint's few edges): the same bounds, without (P, K) temporaries.
     lower = np.zeros(len(slack))
-    upper = np.ones(len(slack))
+    upper = np.full(len(slack), np.inf)
     inside = np.ones(len(slack), dtype=bool)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         for k in range(slack.shape[1]):
             s, r = slack[:, k], rate[:, k]
             rising, falling = r > 1e-12, r < -1e-12
@@ -404,7 +475,17 @@ def in_swept(slack: np.ndarray, rate: np.ndarray) -> np.ndarray:
             np.maximum(lower, np.where(rising, bound, -np.inf), out=lower)
             np.minimum(upper, np.where(falling, bound, np.inf), out=upper)
             inside &= rising | falling | ~(s > 0)  # a half-plane the sweep runs along: the point must be inside it
-    return (lower <= upper) & inside
+    return np.where((lower <= upper) & inside, lower, np.inf)
+
+
+def in_swept(slack: np.ndarray, rate: np.ndarray) -> np.ndarray:
+    """(P,) bool: each point lies in its convex footprint swept along a vector (by 0 to 1 of it).
+
+    Args:
+        slack: (P, K) float64 ``a . p - b`` per point and half-plane (<= 0: inside it).
+        rate: (P, K) float64 ``a . v``, the sweep vector along each half-plane's normal.
+    """
+    return sweep_entry(slack, rate) <= 1.0
 
 
 @dataclass(frozen=True)
@@ -459,22 +540,21 @@ def _pairs(casters: Sequence[ShadowCaster], samples: _Samples) -> _Pairs:
 
 @dataclass(frozen=True)
 class _Strip:
-    """The pairs that a sun at one azimuth can shadow at all, and what their tests need.
+    """The pairs that a sun at one azimuth can shadow at all, and the shadow length each needs.
 
     A caster's swept footprint lies inside its bounding disc swept along the shadow, a
     stadium: only the pairs inside that stadium's bounding strip (of any length) need the
-    exact test, so these arrays, cut to the strip once per azimuth, serve every elevation.
+    exact test. The test's bounds do not depend on the shadow's length, only the sweep's
+    end does, so each pair's least shadow length that covers its sample is found once per
+    azimuth and serves every elevation.
     """
 
     pair: np.ndarray  # (S,) index into the pairs
     sample: np.ndarray  # (S,) sample index
-    along: np.ndarray  # (S,) the sample's distance along the shadow from the footprint's centre, m
-    margin: np.ndarray  # (S,) the footprint's radius (+1e-9), m
+    entry: np.ndarray  # (S,) the shortest shadow of the caster that covers the sample, m (inf: none)
     height: np.ndarray  # (S,) the caster's least height, m
     height_max: np.ndarray  # (S,) the caster's greatest height, m
     unknown_top: np.ndarray  # (S,) bool the caster's top is not seen (height_max > height)
-    slack: np.ndarray  # (S, K) a . p - b
-    rate: np.ndarray  # (S, K) a . away: the unit shadow direction along each half-plane's normal
 
 
 def _strip(pairs: _Pairs, azimuth: float) -> _Strip:
@@ -485,16 +565,15 @@ def _strip(pairs: _Pairs, azimuth: float) -> _Strip:
     across = pairs.offset @ np.array([-away[1], away[0]])
     band = np.flatnonzero((np.abs(across) <= margin) & (along >= -margin))
     height, height_max = pairs.height[band], pairs.height_max[band]
+    # each caster's (K, 2) @ (2,) once: the unit shadow direction along each half-plane's normal
+    rate = (pairs.normals @ away)[pairs.caster[band]]
     return _Strip(
         band,
         pairs.sample[band],
-        along[band],
-        margin[band],
+        sweep_entry(pairs.slack[band], rate),
         height,
         height_max,
         height_max > height,
-        pairs.slack[band],
-        (pairs.normals @ away)[pairs.caster[band]],  # each caster's (K, 2) @ (2,) once, as per pair before
     )
 
 
@@ -532,9 +611,6 @@ def _strip_in_shadow(
 ) -> list[np.ndarray]:
     """Per elevation, (T,) int indices into the strip of the pairs whose sample lies in its caster's shadow.
 
-    The pairs of every elevation are tested in one :func:`in_swept` (the same numbers as one
-    call per elevation: each row is tested on its own).
-
     Args:
         strip: the pairs of one azimuth.
         elevations: the sun's elevations, radians.
@@ -542,18 +618,13 @@ def _strip_in_shadow(
         height: (S,) float64 the casters' heights, metres.
         only: (S,) bool the pairs tested (default all).
     """
-    nears, lengths = [], []
+    out = []
     for elevation in elevations:
-        length = np.minimum(height / math.tan(elevation), reach_max_m)
-        near = np.flatnonzero(strip.along <= length + strip.margin)
+        covered = strip.entry <= np.minimum(height / math.tan(elevation), reach_max_m)
         if only is not None:
-            near = near[only[near]]
-        nears.append(near)
-        lengths.append(length[near])
-    every = np.concatenate(nears)
-    inside = in_swept(strip.slack[every], strip.rate[every] * np.concatenate(lengths)[:, None])
-    ends = np.cumsum([len(near) for near in nears])[:-1]
-    return [near[hit] for near, hit in zip(nears, np.split(inside, ends), strict=True)]
+            covered &= only
+        out.append(np.flatnonzero(covered))
+    return out
 
 
 def _overlap(
@@ -659,11 +730,43 @@ def sky_colours(
     Returns:
         (3,) zenith and (3,) horizon linear RGB (medians).
     """
-    rows, cols = np.nonzero(sky_mask)  # in row order: the top rows' pixels first
-    k = max(1, int(round(len(rows) * params.sky_top_fraction)))
-    top = uint8_to_linear(rgb[rows[:k], cols[:k]])  # only the pixels measured
-    bottom = uint8_to_linear(rgb[rows[-k:], cols[-k:]])
-    return np.median(top, axis=0), np.median(bottom, axis=0)
+    per_row = np.count_nonzero(sky_mask, axis=1)
+    total = int(per_row.sum())
+    k = max(1, int(round(total * params.sky_top_fraction)))
+    seen = np.cumsum(per_row)
+    # the pixels in row order: the first k lie in the rows up to the one where k are seen,
+    # the last k in the rows from the one after which total - k are seen
+    first = int(np.searchsorted(seen, k))
+    rows, cols = np.nonzero(sky_mask[: first + 1])
+    top = rgb[rows[:k], cols[:k]]  # only the pixels measured
+    last = int(np.searchsorted(seen, total - k, side="right"))
+    rows, cols = np.nonzero(sky_mask[last:])
+    bottom = rgb[rows[-k:] + last, cols[-k:]]
+    return median_linear(top), median_linear(bottom)
+
+
+def median_linear(pixels: np.ndarray) -> np.ndarray:
+    """(3,) float64 the median linear RGB of 8-bit sRGB pixels, channel by channel (as ``np.median``).
+
+    The decoding is monotonic, so the middle codes are found by counting the 256 codes
+    of each channel and only they are decoded; an even count takes the mean of the two
+    middle values, as ``np.median`` does.
+
+    Args:
+        pixels: (N, 3) uint8 sRGB, N >= 1.
+    """
+    table = uint8_to_linear(np.arange(256, dtype=np.uint8))
+    n = len(pixels)
+    out = np.empty(3)
+    for c in range(3):
+        seen = np.cumsum(np.bincount(pixels[:, c], minlength=256))
+        upper = table[np.searchsorted(seen, n // 2, side="right")]  # the value at sorted position n // 2
+        if n % 2:
+            out[c] = upper
+        else:
+            lower = table[np.searchsorted(seen, n // 2 - 1, side="right")]
+            out[c] = np.mean([lower, upper])
+    return out
 
 
 def sky_from_image(rgb: np.ndarray, horizon_v: float, blocked: np.ndarray) -> np.ndarray:
@@ -718,10 +821,12 @@ def estimate_light(
     Returns:
         The estimate.
     """
-    lum = luminance(rgb)
-    ids = inner_ground(np.asarray(ground_ids), params.edge_px)
-    refs = lit_references(lum, ids, params.lit_percentile)
-    samples, used = _ring_samples(casters, lum, ids, refs, ground_from_px, params)
+    ground_ids = np.asarray(ground_ids)
+    # the lit references on every k-th row and column (k = 1 up to reference_width_px wide)
+    k = reference_stride(ground_ids.shape[1], params.reference_width_px)
+    small_ids = inner_ground(ground_ids[::k, ::k], -(-params.edge_px // k))
+    refs = lit_references(luminance(rgb[::k, ::k]), small_ids, params.lit_percentile)
+    samples, used = _ring_samples(casters, rgb, ground_ids, refs, ground_from_px, params)
     if np.any(sky_mask):
         zenith, horizon = sky_colours(rgb, sky_mask, params)
         source = sky_source

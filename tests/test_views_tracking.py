@@ -14,18 +14,28 @@ from usdworld.layout.draft import DepthMethod
 from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
 from usdworld.perception.depth.fusion import DepthCue
-from usdworld.views.drive import DriveObject, frame_scatter, track_drive
+from usdworld.views.drive import DriveObject, frame_scatter, merge_overlapping, one_object_cut_in_two, track_drive
+from usdworld.views.fusion import combine, fuse
 from usdworld.views.fusion import Observation
 
 PARAMS = ViewsParams()
 
 
-def _obs(frame: int, xy: tuple[float, float], sigma_r: float, sigma_l: float, ref: int = 1) -> Observation:
-    """A pole seen in ``frame`` (one view per frame) from a camera at the origin."""
+def _obs(
+    frame: int,
+    xy: tuple[float, float],
+    sigma_r: float,
+    sigma_l: float,
+    ref: int = 1,
+    cls: str = "pole",
+    footprint: float = 0.3,
+) -> Observation:
+    """A pole (or ``cls`` with a square ``footprint`` metres wide) seen in ``frame`` (one view per
+    frame) from a camera at the origin."""
     x, y = xy
     placement = Placement(
-        name=f"pole_{ref:04d}",
-        obj=box_object("pole", (100, 40, 104, 160), ref),
+        name=f"{cls}_{ref:04d}",
+        obj=box_object(cls, (100, 40, 104, 160), ref),
         variant="default",
         position_world=np.array([x, y, 0.0]),
         yaw=0.0,
@@ -33,7 +43,7 @@ def _obs(frame: int, xy: tuple[float, float], sigma_r: float, sigma_l: float, re
         scale=1.0,
         stretch=np.ones(3),
         scale_measured=1.0,
-        size_m=np.array([0.3, 0.3, 6.0]),
+        size_m=np.array([footprint, footprint, 6.0]),
         depth_m=float(np.hypot(x, y)),
         method=DepthMethod.CONTACT,
         cues=(DepthCue("contact", float(np.hypot(x, y)), sigma_r),),
@@ -117,3 +127,62 @@ def test_frame_scatter_measures_a_spread_along_the_ray(spread: float, bearing: f
     assert float(u @ S @ u) == pytest.approx((1.4826 * spread) ** 2, rel=1e-9)
     n = np.array([-u[1], u[0]])
     assert float(n @ S @ n) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_tree_its_view_cuts_in_two_is_placed_once() -> None:
+    """Each of five frames places one tree (footprint 2.6 m) twice, 1.2 m apart across a 30 m ray
+    and 0.8 m apart along it: the two share every frame, so no fragment join can make them one;
+    their footprints overlap, so each frame's two are one tree, placed between them."""
+    obs = []
+    for f in range(5):
+        obs.append(_obs(f, (30.0, 0.0), 1.5, 0.3, ref=1, cls="tree", footprint=2.6))
+        obs.append(_obs(f, (30.8, 1.2), 1.5, 0.3, ref=2, cls="tree", footprint=2.6))
+    objects = track_drive(obs, [0.1 * f for f in range(5)], PARAMS)
+    assert len(objects) == 1
+    assert len(objects[0].fused.observations) == 10
+    # every frame repeats the pair, so the tree stands where one frame's two combine: between them
+    xy = combine(obs[:2])[0]
+    assert objects[0].fused.placement.position_world[:2] == pytest.approx(xy, abs=1e-9)
+    assert 30.0 < xy[0] < 30.8 and 0.0 < xy[1] < 1.2
+
+
+def test_trees_one_behind_the_other_or_beside_it_stay_two() -> None:
+    """Same bearing, 8 m apart along the ray with 1 m depth spreads: beyond the footprints by far
+    more than half a spread of the difference; or side by side 3 m apart across the ray."""
+    behind = fuse([_obs(0, (30.0, 0.0), 1.0, 0.3, 1, "tree", 2.6), _obs(0, (38.0, 0.0), 1.0, 0.3, 2, "tree", 2.6)], PARAMS)
+    beside = fuse([_obs(0, (30.0, 0.0), 1.0, 0.3, 1, "tree", 2.6), _obs(0, (30.0, 3.0), 1.0, 0.3, 2, "tree", 2.6)], PARAMS)
+    for pair in (behind, beside):
+        assert not one_object_cut_in_two(pair[0], pair[1], PARAMS)
+        assert len(merge_overlapping(pair, PARAMS)) == 2
+
+
+def test_cars_are_not_merged_within_a_frame() -> None:
+    """Only trunk classes are merged (vehicles and people are tracked): two cars (footprint 1.8 m)
+    1 m apart overlap, yet stay two."""
+    cars = fuse([_obs(0, (30.0, 0.0), 1.0, 0.3, 1, "car", 1.8), _obs(0, (30.0, 1.0), 1.0, 0.3, 2, "car", 1.8)], PARAMS)
+    assert one_object_cut_in_two(cars[0], cars[1], PARAMS)
+    assert len(merge_overlapping(cars, PARAMS)) == 2
+
+
+@given(
+    st.floats(0.0, 20.0),
+    st.floats(-40.0, 40.0),
+    st.floats(0.1, 3.0),
+    st.floats(0.3, 4.0),
+)
+def test_objects_apart_across_the_ray_beyond_their_footprints_are_never_one(
+    along: float, extra: float, sigma: float, footprint: float
+) -> None:
+    """Whatever the depths and their spreads, two placements whose contacts are farther apart across
+    their mean ray (here the x axis) than their footprints reach stay two; at one place they are one."""
+    across = footprint + abs(extra) + 1e-3
+    pair = fuse(
+        [
+            _obs(0, (40.0 - along / 2, -across / 2), sigma, 0.3, 1, "tree", footprint),
+            _obs(0, (40.0 + along / 2, across / 2), sigma, 0.3, 2, "tree", footprint),
+        ],
+        PARAMS,
+    )
+    assert not one_object_cut_in_two(pair[0], pair[1], PARAMS)
+    same = fuse([_obs(0, (40.0, 0.0), sigma, 0.3, 1, "tree", footprint), _obs(0, (40.0, 0.0), sigma, 0.3, 2, "tree", footprint)], PARAMS)
+    assert one_object_cut_in_two(same[0], same[1], PARAMS)

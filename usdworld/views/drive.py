@@ -8,7 +8,12 @@ every observation of a drive at once (:func:`usdworld.views.fusion.fuse`) would 
 each with all others, and would average a moving car's positions into one; instead the
 frames are tracked in time order, so the work grows with the number of frames:
 
-1. Within a frame the cameras' observations are fused as a rig's are (:func:`fuse`).
+1. Within a frame the cameras' observations are fused as a rig's are (:func:`fuse`), and
+   two objects of a trunk class (trees, poles, signs) whose footprints overlap are made one
+   (:func:`merge_overlapping`): two trunks cannot stand in one place, so they are one
+   object the single view cut in two (a tree's crown split by what stands in front of it).
+   Across the viewing ray, where a bearing is precise, the footprints must overlap; along
+   it, where a depth is not, within ``split_depth_sigmas`` of the depth difference's spread.
 2. Each track of one class predicts its ground position at the frame's time with a
    constant-velocity fit of its observations (information form, each weighted by its
    ground covariance). Classes that cannot move (everything but vehicles and people)
@@ -60,6 +65,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from usdworld.geometry.rotation import turned
+from usdworld.io.class_table import load_class_table
+from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
 from usdworld.views.fusion import (
     FusedObject,
@@ -229,6 +236,82 @@ def frame_times(timestamps: Sequence[float | None], params: ViewsParams) -> list
     return out if frames >= 2 else None
 
 
+def _footprint_radius(placement: Placement) -> float:
+    """Radius of the disc inscribed in a placement's footprint, metres."""
+    return 0.5 * float(min(placement.size_m[0], placement.size_m[1]))
+
+
+def one_object_cut_in_two(a: FusedObject, b: FusedObject, params: ViewsParams) -> bool:
+    """Whether two standing objects of one frame overlap: one object its single view cut in two.
+
+    Across the viewing ray (a bearing is precise) their contacts are nearer than the sum
+    ``f`` of the radii of the discs inscribed in their footprints; along it (a depth is not)
+    their distance exceeds ``f`` by at most ``split_depth_sigmas`` standard deviations of
+    their depth difference (their covariances summed, along the ray).
+
+    Args:
+        a: one object of the frame.
+        b: another object of the frame, of the same class.
+        params: ``split_depth_sigmas``.
+    """
+    za = a.placement.contact_world[:2]
+    zb = b.placement.contact_world[:2]
+    u = 0.5 * (za + zb) - a.observations[0].camera_ground
+    u = u / max(float(np.linalg.norm(u)), 1e-9)
+    d = za - zb
+    reach = _footprint_radius(a.placement) + _footprint_radius(b.placement)
+    sigma = math.sqrt(float(u @ (a.covariance + b.covariance) @ u))
+    across = abs(float(d @ np.array([-u[1], u[0]])))
+    return across < reach and abs(float(d @ u)) - reach <= params.split_depth_sigmas * sigma
+
+
+def merge_overlapping(items: list[FusedObject], params: ViewsParams) -> list[FusedObject]:
+    """One frame's objects, trunk objects of one class that overlap made one.
+
+    Two trunks cannot stand in one place: two placements of a class that stands on a trunk or
+    post (the class table's ``trunk`` role: trees, poles, signs) that overlap
+    (:func:`one_object_cut_in_two`) are one object its single view cut in two (a tree's crown
+    split by what stands in front of it). Vehicles and people are tracked instead, and
+    facades, which a single view cuts along a street on purpose, are left as they are.
+    Greedy, nearest pair first; a merged object is placed as :func:`fuse` places one (the
+    information-weighted mean of its observations, the most precise one primary).
+
+    Args:
+        items: the frame's objects (:func:`usdworld.views.fusion.fuse`).
+        params: ``split_depth_sigmas`` and the fusion's method threshold.
+
+    Returns:
+        The objects, a merged one in the place of the first of its two.
+    """
+    trunks = load_class_table().with_role("trunk")
+    items = list(items)
+    while True:
+        best: tuple[float, int, int] | None = None
+        for a in range(len(items)):
+            pa = items[a].placement
+            if pa.obj.class_name not in trunks:
+                continue
+            for b in range(a + 1, len(items)):
+                pb = items[b].placement
+                if pb.obj.class_name != pa.obj.class_name or not one_object_cut_in_two(items[a], items[b], params):
+                    continue
+                d = float(np.linalg.norm(pa.contact_world[:2] - pb.contact_world[:2]))
+                if best is None or d < best[0]:
+                    best = (d, a, b)
+        if best is None:
+            return items
+        _, a, b = best
+        members = sorted(
+            (*items[a].observations, *items[b].observations), key=lambda o: (o.sigma_range_m, o.view)
+        )
+        xy, cov = combine(members)
+        primary = sized_by_a_whole_view(members[0].placement, members)
+        contact = np.array([xy[0], xy[1], primary.position_world[2]])
+        placement = dataclasses.replace(primary, name=items[a].placement.name).with_contact_at(contact)
+        items[a] = FusedObject(placement, tuple(members), fusion_method(members, cov, params), cov)
+        del items[b]
+
+
 def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params: ViewsParams) -> list[int | None]:
     """The track index each item joins, or None: one global assignment per frame.
 
@@ -290,7 +373,7 @@ def track_drive(
         for tr in open_tracks:
             (still if t - tr.times[-1] <= params.track_gap_s else done).append(tr)
         open_tracks = still
-        items = fuse(by_frame[t], params)
+        items = merge_overlapping(fuse(by_frame[t], params), params)
         joins = _associate(open_tracks, t, items, params)
         for item, k in zip(items, joins):
             if k is None:

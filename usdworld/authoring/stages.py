@@ -4,6 +4,7 @@ the registration of usdworld's schema plugin, and reading a world's layers ahead
 from __future__ import annotations
 
 import os
+import re
 import threading
 from collections.abc import Sequence
 from pathlib import Path
@@ -13,6 +14,18 @@ from pxr import Plug, Sdf, Usd
 from usdworld.errors import InputError
 from usdworld.resources import schemas_dir
 from usdworld.world_files import ROOT_LAYER
+
+
+#: OpenUSD's error text: "Error in 'FUNCTION' at line N in file FILE : 'REASON'".
+_USD_ERROR = re.compile(r"^\s*Error in .* : '(?P<reason>.*)'\s*$", re.DOTALL)
+
+
+def usd_reason(exc: BaseException) -> str:
+    """The reason in an OpenUSD error's last line, without the C++ function and file it came from."""
+    lines = str(exc).strip().splitlines() or [type(exc).__name__]
+    last = lines[-1].strip()
+    match = _USD_ERROR.match(last)
+    return match.group("reason") if match else last
 
 
 def register_schemas() -> None:
@@ -42,10 +55,44 @@ def open_stage(path: str | Path, what: str = "USD stage", mask: Sequence[str] | 
         else:
             stage = Usd.Stage.OpenMasked(str(path), Usd.StagePopulationMask(list(mask)), Usd.Stage.LoadAll)
     except Exception as exc:  # pxr raises Tf.ErrorException
-        raise InputError(f"{path}: not a readable {what} ({str(exc).strip().splitlines()[-1]})") from exc
+        raise InputError(f"{path}: not a readable {what} ({usd_reason(exc)})") from exc
     if stage is None:
         raise InputError(f"{path}: not a readable {what}")
+    unread = unread_sublayer(stage)
+    if unread is not None:
+        raise InputError(f"{path}: {unread}; restore that file or rebuild the world")
     return stage
+
+
+def unread_sublayer(stage: Usd.Stage) -> str | None:
+    """What is wrong with the first sublayer of the stage's layer stack that did not open, or None.
+
+    OpenUSD opens a stage whose sublayer is missing or unreadable (a truncated crate file)
+    without it, with only a warning, so the world would silently lack its objects.
+
+    Args:
+        stage: an opened stage.
+
+    Returns:
+        ``"sublayer FILE is missing"`` or ``"sublayer FILE is not readable (USD's reason)"``;
+        None when every sublayer named in the stack opened.
+    """
+    stack = stage.GetLayerStack(includeSessionLayers=False)
+    opened = {os.path.realpath(layer.realPath) for layer in stack if layer.realPath}
+    for layer in stack:
+        for sub in layer.subLayerPaths:
+            file = layer.ComputeAbsolutePath(sub)
+            if not file or os.path.realpath(file) in opened:
+                continue
+            if not os.path.isfile(file):
+                return f"sublayer {file} is missing"
+            try:
+                reopened = Sdf.Layer.FindOrOpen(file)
+            except Exception as exc:  # pxr raises Tf.ErrorException
+                return f"sublayer {file} is not readable ({usd_reason(exc)})"
+            if reopened is None:
+                return f"sublayer {file} is not readable"
+    return None
 
 
 def world_root(world: str | Path) -> Path:
@@ -83,7 +130,7 @@ def world_layer_files(world: str | Path) -> tuple[Path, ...]:
     try:
         layer = Sdf.Layer.OpenAsAnonymous(str(root), metadataOnly=True)
     except Exception as exc:  # pxr raises Tf.ErrorException
-        raise InputError(f"{root}: not a readable USD world ({str(exc).strip().splitlines()[-1]})") from exc
+        raise InputError(f"{root}: not a readable USD world ({usd_reason(exc)})") from exc
     if layer is None or not layer.subLayerPaths:
         raise InputError(f"{root}: names no sublayers; not a usdworld world (rebuild it)")
     return tuple(Path(os.path.normpath(root.parent / sub)) for sub in layer.subLayerPaths)

@@ -31,15 +31,16 @@ class RenderingParams:
     )
 
     occlusion_min_triangles_per_px: float = param(
-        0.25,
+        0.2,
         "triangles / px",
         "`Renderer.render` looks for hidden instances (above) only in a scene of at least this many "
         "triangles per image pixel: below it the occluders' depth, its read-back and the test cost "
         "more than the hidden instances would. Any value gives the same pixels.",
-        "tuned: (for time only) in-process Renderer.render, occlusion test on and off, session 11: the "
-        "single-photo worlds (demo, synthetic seeds 0-6; 0.02-0.14 triangles per pixel) hide 0-9 "
-        "of 212-273 instances and take 8-25 % more CPU with it; the 1,000-object tiled world "
-        "(0.22) takes the same time (594 / 590 ms); the 10,000-object one (1.07) 1348 -> 763 ms",
+        "tuned: (for time only) in-process Renderer.render with the test on every scene and off, "
+        "session 11: the single-photo worlds (demo at 1024x512 and 2048x1024, synthetic seeds 0-6; "
+        "0.02-0.14 triangles per pixel) hide 2-11 of 212-273 instances and take 20-60 ms (16-34 %) "
+        "more CPU with it; the 1,000-object tiled world (0.22) hides 1,191 of 2,101 instances, "
+        "600 -> 557 ms; the 10,000-object one (1.07) 8,758 of 9,793, 1,414 -> 680 ms",
     )
 
     def __post_init__(self) -> None:

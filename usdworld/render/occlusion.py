@@ -28,6 +28,10 @@ from usdworld.render.batches import MeshBatch
 DEPTH_MARGIN = 64.0 / (1 << 24)
 #: Relative widening of an instance's box: 8 float32 ulps (2^-23 each) of its coordinates.
 BOX_MARGIN_REL = 8.0 / (1 << 23)
+#: Cells per axis :meth:`DepthPyramid.max_over` reads (at the level whose cells are at least a
+#: quarter of the rectangle, a rectangle spans at most 5): finer than 2 cells at the level of
+#: the rectangle's own size, which takes in up to twice its size of the sky beside it.
+WINDOW_CELLS = 5
 #: Pixels an instance's projected box is widened by on each side (rasterisation rounding).
 RECT_MARGIN_PX = 1.0
 
@@ -125,12 +129,15 @@ class DepthPyramid:
     def max_over(self, rect: np.ndarray) -> np.ndarray:
         """(M,) float32 an upper bound of the depth over each ``[x0, y0, x1, y1]`` rectangle (non-empty).
 
-        The level is the one whose cells are at least the rectangle's size: it spans at most
-        two cells along each axis there, and the largest of those (up to four) cells bounds it.
+        The level is the finest whose cells are at least a quarter of the rectangle's size: it
+        spans at most :data:`WINDOW_CELLS` cells along each axis there, and the largest of
+        those cells bounds it (a pixel's own depth for a one-pixel rectangle).
         """
         x0, y0, x1, y1 = (rect[:, k] for k in range(4))
         span = np.maximum(x1 - x0, y1 - y0) + 1
-        lv = np.minimum(np.ceil(np.log2(np.maximum(span, 1))).astype(np.int64), len(self.levels) - 1)
+        # cells of 2^(ceil(log2 span) - 2) >= span / 4 pixels: a rectangle spans at most 5 of them
+        lv = np.ceil(np.log2(np.maximum(span, 1))).astype(np.int64) - 2
+        lv = np.clip(lv, 0, len(self.levels) - 1)
         out = np.ones(len(rect), dtype=np.float32)
         for k in np.unique(lv):
             sel = np.nonzero(lv == k)[0]
@@ -138,9 +145,12 @@ class DepthPyramid:
             h, w = level.shape
             cx0, cx1 = x0[sel] >> k, np.minimum(x1[sel] >> k, w - 1)
             cy0, cy1 = y0[sel] >> k, np.minimum(y1[sel] >> k, h - 1)
-            out[sel] = np.maximum(
-                np.maximum(level[cy0, cx0], level[cy0, cx1]), np.maximum(level[cy1, cx0], level[cy1, cx1])
-            )
+            best = np.zeros(len(sel), dtype=np.float32)
+            for dy in range(WINDOW_CELLS):
+                cy = np.minimum(cy0 + dy, cy1)
+                for dx in range(WINDOW_CELLS):
+                    best = np.maximum(best, level[cy, np.minimum(cx0 + dx, cx1)])
+            out[sel] = best
         return out
 
 
@@ -164,15 +174,20 @@ def hidden(
     return out
 
 
-def occluders(rect: np.ndarray, in_front: np.ndarray, triangles: int, px_per_triangle: float) -> np.ndarray:
-    """(M,) bool: the boxes wholly in front of the near plane whose rectangle holds at least
-    ``px_per_triangle`` pixels per triangle of the instance's mesh.
+def occluders(
+    rect: np.ndarray, in_front: np.ndarray, triangles: int, px_per_triangle: float, image_px: int
+) -> np.ndarray:
+    """(M,) bool: the instances whose box covers at least ``px_per_triangle`` pixels per triangle of
+    the mesh: its rectangle's pixels, or the whole image for a box reaching past the near plane
+    (the ground under the camera).
 
     Args:
         rect: (M, 4) int64 from :func:`project_boxes`.
         in_front: (M,) bool from :func:`project_boxes`.
         triangles: triangles of the mesh (each instance has them all).
         px_per_triangle: ``RenderingParams.occluder_px_per_triangle``.
+        image_px: pixels of the image.
     """
     area = np.maximum(rect[:, 2] - rect[:, 0] + 1, 0) * np.maximum(rect[:, 3] - rect[:, 1] + 1, 0)
-    return in_front & (area > 0) & (area >= px_per_triangle * triangles)
+    area = np.where(in_front, area, image_px)
+    return (area > 0) & (area >= px_per_triangle * triangles)

@@ -348,7 +348,9 @@ class Renderer:
         boxes = []
         for b in buffers.batches:
             rect, depth, front = project_boxes(b.corners_world(), view_proj, self.width, self.height, self.near_m)
-            occ = occluders(rect, front, b.batch.n_corners // 3, self.rendering.occluder_px_per_triangle)
+            occ = occluders(
+                rect, front, b.batch.n_corners // 3, self.rendering.occluder_px_per_triangle, self.width * self.height
+            )
             boxes.append((rect, depth, front, occ))
         if not any(o.any() for *_, o in boxes):
             return None

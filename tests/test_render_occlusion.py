@@ -32,7 +32,8 @@ def _walled_street(behind: bool = True) -> RenderScene:
         box(stage, "/World/Objects/touch", (10.5, -0.5, 0), (11, 0.5, 1), color=(0.8, 0.2, 0.2), cls="car")
         for k in range(BEHIND - 1):
             x, y = 14.0 + 3.0 * (k // 2), (-1.2, 0.4)[k % 2]
-            box(stage, f"/World/Objects/car{k}", (x, y, 0), (x + 2, y + 0.8, 1), color=(0.2, 0.3, 0.8), cls="car")
+            lo, hi = (x, y, 0), (x + 2, y + 0.8, 1)
+            box(stage, f"/World/Objects/car{k}", lo, hi, color=(0.2, 0.3, 0.8), cls="car")
     return RenderScene.from_stage(stage)
 
 
@@ -45,7 +46,9 @@ def test_hidden_instances_are_left_out_of_the_camera_passes_with_the_same_pixels
     drawn: list[str] = []
     draw = renderer_module._SceneBuffers.draw
     monkeypatch.setattr(
-        renderer_module._SceneBuffers, "draw", lambda self, ctx, name: (drawn.append(name), draw(self, ctx, name))
+        renderer_module._SceneBuffers,
+        "draw",
+        lambda self, ctx, name: (drawn.append(name), draw(self, ctx, name)),
     )
     every = RenderingParams(occlusion_min_triangles_per_px=0.0)
     with Renderer(W, H, lighting=low_sun, occlusion_cull=False) as r:
@@ -60,7 +63,8 @@ def test_hidden_instances_are_left_out_of_the_camera_passes_with_the_same_pixels
     assert total - shown == BEHIND  # the touching box and the six behind; the pole and the flush box stay
     for name in ("rgb", "class_ids", "instance_ids", "object_ids", "depth_m"):
         assert getattr(culled, name).tobytes() == getattr(full, name).tobytes(), name
-    for mine, alone in zip((full.class_ids, full.instance_ids, full.object_ids, full.depth_m), again, strict=True):
+    ids = (full.class_ids, full.instance_ids, full.object_ids, full.depth_m)
+    for mine, alone in zip(ids, again, strict=True):
         assert mine.tobytes() == alone.tobytes()
     # the hidden boxes' shadows show beside the wall: the shadow map still holds them
     assert not np.array_equal(without_behind.rgb, full.rgb)
@@ -82,7 +86,7 @@ def test_a_scene_of_few_triangles_per_pixel_is_not_tested() -> None:
     st.integers(1, 40),
     st.integers(1, 40),
     st.integers(0, 2**31 - 1),
-    st.lists(st.tuples(st.floats(0, 1), st.floats(0, 1), st.floats(0, 1), st.floats(0, 1)), min_size=1, max_size=20),
+    st.lists(st.tuples(*[st.floats(0, 1)] * 4), min_size=1, max_size=20),
 )
 def test_the_pyramid_bounds_the_depth_over_every_rectangle(h: int, w: int, seed: int, rects: list) -> None:
     depth = np.random.default_rng(seed).random((h, w), dtype=np.float32)
@@ -93,8 +97,7 @@ def test_the_pyramid_bounds_the_depth_over_every_rectangle(h: int, w: int, seed:
             for a, b, c, d in rects
         ]
     )
-    r = np.stack([np.minimum(r[:, 0], r[:, 2]), np.minimum(r[:, 1], r[:, 3]), np.maximum(r[:, 0], r[:, 2]),
-                  np.maximum(r[:, 1], r[:, 3])], axis=1)
+    r = np.concatenate([np.minimum(r[:, :2], r[:, 2:]), np.maximum(r[:, :2], r[:, 2:])], axis=1)
     bound = pyramid.max_over(r)
     exact = np.array([depth[y0 : y1 + 1, x0 : x1 + 1].max() for x0, y0, x1, y1 in r])
     assert np.all(bound >= exact)
@@ -115,7 +118,8 @@ def test_a_box_is_hidden_only_behind_the_depth_by_the_margin_and_in_front_of_the
     lo, hi = tuple(ahead - 0.5), tuple(ahead + 0.5)
     rect, d, front = project_boxes(_corners(lo, hi), view_proj, W, H, near)
     assert front[0] and rect[0, 0] <= W // 2 <= rect[0, 2]
-    for wall, is_hidden in ((d[0] - 1e-3, True), (d[0] - 0.5 * DEPTH_MARGIN, False), (d[0], False), (1.0, False)):
+    walls = ((d[0] - 1e-3, True), (d[0] - 0.5 * DEPTH_MARGIN, False), (d[0], False), (1.0, False))
+    for wall, is_hidden in walls:
         pyramid = DepthPyramid(np.full((H, W), wall, dtype=np.float32))
         assert hidden(rect, d, front, pyramid)[0] == is_hidden
     # a box reaching behind the camera is never hidden; one wholly off the image always is

@@ -330,7 +330,8 @@ def render_against(model, n: int, folder: Path, reference: Path, runs: int) -> l
     from usdworld.authoring.world import write_world
 
     libraries = asset_library.library_dirs(None)
-    assets = {c: asset_library.asset_path(c, libraries) for c in sorted({p.obj.class_name for p in model.placements})}
+    classes = sorted({p.obj.class_name for p in model.placements})
+    assets = {c: asset_library.asset_path(c, libraries) for c in classes}
     world = folder / f"render_{n}"
     write_world(model, world, assets, None)
     rows = []
@@ -402,7 +403,9 @@ def main(argv: list[str] | None = None) -> int:
                 else "-"
             )
             tris = f"{r['render_triangles']:,.0f}" if "render_triangles" in r else "-"
-            shown = f"{r['render_instances_shown']:,.0f} / {r['render_instances']:,.0f}" if "render_render" in r else "-"
+            shown = "-"
+            if "render_render" in r:
+                shown = f"{r['render_instances_shown']:,.0f} / {r['render_instances']:,.0f}"
             print(
                 f"| {n:,d} | {r['author']:.2f} / {r['author_cpu']:.2f} | {r['open']:.3f} / {r['open_cpu']:.3f} ({r['parse_base']:.3f} / "
                 f"{r['parse_base_cpu']:.3f}) | {render} | {draw} | {tris} | {shown} | {r['edit']:.2f} / {r['edit_cpu']:.2f} "
@@ -444,12 +447,15 @@ def main(argv: list[str] | None = None) -> int:
                 )
                 print("|---|---|---|---|---|---|---|---|---|")
                 for n in render_sizes:
-                    for tag, r in render_against(tiled_model(model, n), n, folder, args.reference, args.render_runs):
+                    rows = render_against(tiled_model(model, n), n, folder, args.reference, args.render_runs)
+                    for tag, r in rows:
 
                         def g(key: str, r: dict = r) -> str:
-                            return f"{r[key]:.3f} / {r[key + '_cpu']:.3f}" if key + "_cpu" in r else f"{r[key]:.3f} / -"
+                            cpu = f"{r[key + '_cpu']:.3f}" if key + "_cpu" in r else "-"
+                            return f"{r[key]:.3f} / {cpu}"
 
-                        shown = f"{r.get('instances_shown', r.get('instances', 0)):,} / {r.get('instances', 0):,}"
+                        every = r.get("instances", 0)
+                        shown = f"{r.get('instances_shown', every):,} / {every:,}"
                         print(
                             f"| {n:,d} | {'before' if tag == 'ref' else 'after'} | {g('open')} | {g('scene')} "
                             f"| {g('draw')} | {g('render')} | {r['triangles']:,} | {shown} "

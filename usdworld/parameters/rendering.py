@@ -24,9 +24,9 @@ class RenderingParams:
         "colour passes the instances whose box lies behind that depth wherever it could cover a "
         "pixel (`usdworld.render.occlusion`). Any value gives the same pixels; lower draws more "
         "occluders, higher hides fewer instances.",
-        "tuned: (for time only) tools/bench_scale.py's tiled worlds (synthetic seed-3 frame, 1,000 and 10,000 "
-        "objects, session 11): at 10,000 objects 16 / 64 / 256 / 1024 px per triangle give occluders of "
-        "166k / 58k / 19k / 1.4k triangles and leave 594k / 614k / 656k / 812k of the 2.23 M triangles "
+        "tuned: (for time only) tools/bench_scale.py's tiled worlds (synthetic seed-3 frame, 1,000 and "
+        "10,000 objects, session 11): at 10,000 objects 16 / 64 / 256 / 1024 px per triangle give "
+        "occluders of 166k / 58k / 19k / 1.4k triangles and leave 594k / 614k / 656k / 812k of the 2.23 M triangles "
         "to draw; the test itself cost 0.15 / 0.12 / 0.08 / 0.04 s of CPU",
     )
 

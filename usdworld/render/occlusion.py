@@ -53,6 +53,8 @@ def instance_corners(batch: MeshBatch) -> np.ndarray:
         batch: the mesh and its N instances.
     """
     pts = batch.used_points_local()
+    if not len(pts):  # a mesh of no triangle draws nothing: any box will do
+        pts = np.zeros((1, 3))
     local = _corners(pts.min(axis=0), pts.max(axis=0))
     m = batch.world_from_local
     placed = np.einsum("kj,nij->nki", local, m[:, :3, :3]) + m[:, None, :3, 3]

@@ -133,7 +133,9 @@ class _BatchBuffers:
         place = f"{_ROWS} {_INSTANCE.itemsize - 96}x/i"
         placed = [(pos, "3f8", "in_pos"), (inst, place, *_ROW_NAMES)]
         self.vaos: dict[str, Any] = {
-            "shadow": ctx.vertex_array(programs["shadow"], [(pos, "3f8", "in_pos"), (inst_all, place, *_ROW_NAMES)]),
+            "shadow": ctx.vertex_array(
+                programs["shadow"], [(pos, "3f8", "in_pos"), (inst_all, place, *_ROW_NAMES)]
+            ),
             "depth": ctx.vertex_array(programs["depth"], placed),
             "label": ctx.vertex_array(
                 programs["label"],
@@ -152,7 +154,7 @@ class _BatchBuffers:
             self.vaos[name] = ctx.vertex_array(programs[name], lit, index_buffer=ibo, index_element_size=4)
 
     def corners_world(self) -> np.ndarray:
-        """(N, 8, 3) float64 each instance's box corners (:func:`~usdworld.render.occlusion.instance_corners`)."""
+        """(N, 8, 3) float64 each instance's box corners (:func:`.occlusion.instance_corners`), kept."""
         if self._corners_world is None:
             self._corners_world = instance_corners(self.batch)
         return self._corners_world
@@ -320,7 +322,8 @@ class Renderer:
         shown = self._unhidden(scene, buffers, K, world_from_cam) if self.occlusion_cull and dense else None
         for b, mask in zip(buffers.batches, shown or [None] * len(buffers.batches)):
             b.show(mask)
-        self.last_shown = (sum(b.n_shown for b in buffers.batches), sum(b.n_instances for b in buffers.batches))
+        batches = buffers.batches
+        self.last_shown = (sum(b.n_shown for b in batches), sum(b.n_instances for b in batches))
         class_ids, instance_ids, object_ids, depth = self._labels(scene, K, world_from_cam)
         # The labels' depth buffer is the colour pass's depth pre-pass (the same "<" test on the
         # same positions, gl_Position being invariant in both programs): it is not drawn again.
@@ -347,10 +350,10 @@ class Renderer:
         view_proj = self._view_proj(scene, K, world_from_cam)
         boxes = []
         for b in buffers.batches:
-            rect, depth, front = project_boxes(b.corners_world(), view_proj, self.width, self.height, self.near_m)
-            occ = occluders(
-                rect, front, b.batch.n_corners // 3, self.rendering.occluder_px_per_triangle, self.width * self.height
-            )
+            size = (self.width, self.height)
+            rect, depth, front = project_boxes(b.corners_world(), view_proj, *size, self.near_m)
+            per_triangle = self.rendering.occluder_px_per_triangle
+            occ = occluders(rect, front, b.batch.n_corners // 3, per_triangle, size[0] * size[1])
             boxes.append((rect, depth, front, occ))
         if not any(o.any() for *_, o in boxes):
             return None

@@ -17,7 +17,10 @@ Measured per size (medians over ``--runs`` interleaved runs; the floors in the s
 * **render**: in a fresh process, opening the stage, reading the render scene (culled to
   the view and its shadows, :class:`~usdworld.render.instancing.ViewCull`) and drawing all
   passes (colour, ids, depth) from ``/World/SourceCamera`` at the photo's size, and each
-  part of it (the GL context's creation is left out);
+  part of it (the GL context's creation is left out). A world with its object index is
+  opened as ``usdworld render`` does (:mod:`usdworld.render.view_stage`): "open" is the
+  stage without the objects, "scene" composes the objects that may reach the view and reads
+  them (older checkouts: the whole stage);
 * **edit**: the whole ``usdworld edit W move NAME --by 0.5,0 --force`` command (wall and
   the child's CPU), and in a fresh process the editor's parts: opening the world
   (``WorldEditor``: parsing the layers, composing the ground) and the move (reading the
@@ -71,12 +74,22 @@ from usdworld.render import Lighting, Renderer, RenderScene
 from usdworld.render.instancing import ViewCull
 from usdworld.render.outputs import view_camera, world_image_size
 t1, c1 = time.perf_counter(), time.process_time()
-stage = Usd.Stage.Open(sys.argv[1])
+try:  # a large world composed for the view (as `usdworld render`); older code: the whole stage
+    from pathlib import Path
+    from usdworld.parameters.authoring import AuthoringParams
+    from usdworld.render.view_stage import open_outside, scene_for_view
+    stage = open_outside(Path(sys.argv[1]), AuthoringParams().large_world_min_objects)
+except ImportError:
+    stage = None
+outside = stage is not None
+stage = stage or Usd.Stage.Open(sys.argv[1])
 t2, c2 = time.perf_counter(), time.process_time()
 w, h = world_image_size(stage)
 pose = view_camera(stage, w, h)
 cull = ViewCull(pose.K, pose.world_from_cam, w, h, Lighting().sun_direction_world)
-scene = RenderScene.from_stage(stage, cull=cull)
+scene = scene_for_view(Path(sys.argv[1]), stage, cull) if outside else None
+view = scene is not None
+scene = scene or RenderScene.from_stage(stage if not outside else Usd.Stage.Open(sys.argv[1]), cull=cull)
 t3, c3 = time.perf_counter(), time.process_time()
 with Renderer(w, h) as r:
     t4, c4 = time.perf_counter(), time.process_time()
@@ -88,7 +101,7 @@ print(json.dumps({"import": t1 - t0, "open": t2 - t1, "scene": t3 - t2, "context
                   "draw_cpu": c5 - c4, "render_cpu": (c3 - c1) + (c5 - c4), "triangles": scene.n_triangles,
                   "instances": sum(b.n_instances for b in scene.batches),
                   "instances_shown": shown[0] if shown else sum(b.n_instances for b in scene.batches),
-                  "objects": len(scene.objects)}))
+                  "objects": len(scene.objects), "view_stage": view}))
 """
 
 _OPEN_SNIPPET = r"""

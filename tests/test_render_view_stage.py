@@ -118,6 +118,9 @@ def _names(world: Path) -> dict[str, list[str]]:
     d = np.hypot(*(centre[:, :2] - pose.world_from_cam[:2, 3]).T)
     near = [facts.names[i] for i in np.argsort(d)]
     return {
+        "far_car": [
+            facts.names[i] for i in np.argsort(d) if facts.names[i].startswith("car_") and not facts.composed[i]
+        ],
         "car": [n for n in near if n.startswith("car_")],
         "tree": [n for n in near if n.startswith("tree_")],
         "end": [facts.names[int(np.argmax(facts.hi[:, 0]))], facts.names[int(np.argmin(facts.lo[:, 0]))]],
@@ -163,19 +166,39 @@ def test_worlds_the_index_does_not_describe_take_the_whole_stage(world):
     assert open_outside(file, N_OBJECTS + 1) is None  # a small world
     # a base object hidden by hand: the index (re-keyed by the editor) does not say so
     base = Sdf.Layer.FindOrOpen(str(world / BASE_CRATE_LAYER))
-    name = _names(world)["car"][-1]  # far from the camera: culled, not composed
+    name = _names(world)["far_car"][0]  # culled, not composed
     spec = base.GetPrimAtPath(f"/World/Objects/{name}")
     Sdf.AttributeSpec(spec, "visibility", Sdf.ValueTypeNames.Token).default = "invisible"
     base.Save()
     full, masked, _ = _scenes(world)
     assert masked is None  # no kept index for the changed base layer
-    from usdworld.authoring.editing.index_file import lower_opinions
-
-    layers = [Sdf.Layer.FindOrOpen(str(world / "layers" / "edits.usda")), base]
-    lower_opinions(layers, 0)  # the editor re-keys the index: it does not read visibility
+    _rekey(world, base)  # the editor re-keys the index: it does not read visibility
     full, masked, _ = _scenes(world)
     assert masked is None
     assert f"/World/Objects/{name}" not in {o.path for o in full.objects}
+
+
+def _rekey(world: Path, base: Sdf.Layer) -> None:
+    """Save a hand-edited base layer and key the index to it (what the editor does)."""
+    from usdworld.authoring.editing.index_file import lower_opinions
+
+    base.Save()
+    lower_opinions([Sdf.Layer.FindOrOpen(str(world / "layers" / "edits.usda")), base], 0)
+
+
+def test_a_culled_object_that_widens_the_bounds_is_composed(world):
+    """An object beyond the ground's end, out of view: the far plane and the shadow box reach it."""
+    name = _names(world)["far_car"][-1]
+    base = Sdf.Layer.FindOrOpen(str(world / BASE_CRATE_LAYER))
+    attr = base.GetAttributeAtPath(f"/World/Objects/{name}.xformOp:translate")
+    x, y, z = attr.default
+    attr.default = type(attr.default)(x - 400.0, y, z + 30.0)  # under the camera's back, up high
+    _rekey(world, base)
+    full, masked, _ = _scenes(world)
+    assert masked is not None
+    assert full.culled_bounds_world is not None
+    assert full.bounds_world()[0, 0] == np.float32(full.culled_bounds_world[0, 0])  # it sets the bounds
+    _assert_same(full, masked)
 
 
 def test_a_third_sublayer_takes_the_whole_stage(world):

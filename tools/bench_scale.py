@@ -39,7 +39,9 @@ both write the same bytes; figures are wall / CPU seconds. A third table renders
 to ``--no-render-above``) with the other checkout and with this one, ``--render-runs``
 alternating rounds in fresh processes on one world: open, culled scene, draw and their sum,
 wall / CPU seconds, the triangles and the instances the camera's passes drew (``Renderer.last_shown``;
-all of them for a checkout without the occlusion test).
+all of them for a checkout without the occlusion test) and whether the objects were composed
+for the view only (:mod:`usdworld.render.view_stage`); ``--no-against`` leaves out the second
+table (with ``--no-measure``: the render table alone).
 """
 
 from __future__ import annotations
@@ -367,6 +369,9 @@ def main(argv: list[str] | None = None) -> int:
         "--no-measure", action="store_true", help="only the before/after table (with --reference)"
     )
     parser.add_argument(
+        "--no-against", action="store_true", help="with --reference: only the before/after render table"
+    )
+    parser.add_argument(
         "--render-runs", type=int, default=2, help="rounds of the before/after render (with --reference)"
     )
     parser.add_argument(
@@ -434,7 +439,7 @@ def main(argv: list[str] | None = None) -> int:
                 "| edit move, whole | again | read render scene (wall) | same bytes | load |"
             )
             print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-            for n in sizes:
+            for n in sizes if not args.no_against else ():
                 r = against(tiled_model(model, n), n, folder, args.reference, n <= 1000)
                 for tag, what in (("ref", "before"), ("new", "after")):
 
@@ -456,9 +461,9 @@ def main(argv: list[str] | None = None) -> int:
                 )
                 print(
                     "| objects | | open | scene | draw | render (open + scene + draw) | triangles "
-                    "| instances drawn (camera / shadow) | load |"
+                    "| instances drawn (camera / shadow) | objects composed for the view only | load |"
                 )
-                print("|---|---|---|---|---|---|---|---|---|")
+                print("|---|---|---|---|---|---|---|---|---|---|")
                 for n in render_sizes:
                     rows = render_against(tiled_model(model, n), n, folder, args.reference, args.render_runs)
                     for tag, r in rows:
@@ -472,7 +477,7 @@ def main(argv: list[str] | None = None) -> int:
                         print(
                             f"| {n:,d} | {'before' if tag == 'ref' else 'after'} | {g('open')} | {g('scene')} "
                             f"| {g('draw')} | {g('render')} | {r['triangles']:,} | {shown} "
-                            f"| {os.getloadavg()[0]:.2f} |",
+                            f"| {'yes' if r.get('view_stage') else 'no'} | {os.getloadavg()[0]:.2f} |",
                             flush=True,
                         )
     finally:

@@ -65,10 +65,16 @@ class WorldObjects:
 
 
 def _root_sublayers(world_file: Path) -> list[Sdf.Layer] | None:
+    """The edits and the base layer of a world with a kept index file, or None."""
+    from usdworld.authoring.editing.index_file import INDEX_FILE
+
     root = Sdf.Layer.FindOrOpen(str(world_file))
     if root is None or root.rootPrims or len(root.subLayerPaths) != 2:
         return None  # a drive's layer or opinions in the root: not what the index knows
-    layers = [Sdf.Layer.FindOrOpen(root.ComputeAbsolutePath(p)) for p in root.subLayerPaths]
+    paths = [root.ComputeAbsolutePath(p) for p in root.subLayerPaths]
+    if not (Path(paths[-1]).parent / INDEX_FILE).is_file():
+        return None  # no index kept (a small world): its layers are not parsed twice
+    layers = [Sdf.Layer.FindOrOpen(p) for p in paths]
     if any(layer is None for layer in layers):
         return None
     meta = root.pseudoRoot

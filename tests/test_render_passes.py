@@ -34,7 +34,7 @@ def test_render_shades_against_the_label_depth_and_matches_the_separate_passes(
         renderer_module._SceneBuffers, "draw", lambda self, ctx, name: (drawn.append(name), draw(self, ctx, name))
     )
     lighting = Lighting(sun_direction_world=sun_direction(20.0, 30.0))
-    with Renderer(W, H, lighting=lighting) as r:
+    with Renderer(W, H, lighting=lighting, occlusion_cull=False) as r:
         together = r.render(scene, cam.K, cam.world_from_cam())
         assert drawn == ["label", "shadow", "lit"]  # no depth pre-pass of its own
         rgb = r.render_rgb(scene, cam.K, cam.world_from_cam())
@@ -58,13 +58,13 @@ def test_a_sun_of_no_light_draws_no_shadow_map_and_changes_no_pixel(monkeypatch:
     monkeypatch.setattr(
         renderer_module._SceneBuffers, "draw", lambda self, ctx, name: (drawn.append(name), draw(self, ctx, name))
     )
-    with Renderer(W, H, lighting=overcast) as r:
+    with Renderer(W, H, lighting=overcast, occlusion_cull=False) as r:
         ambient = r.render(scene, cam.K, cam.world_from_cam())
     assert drawn == ["label", "lit_ambient"]
     # The full lit shader with its sun terms times a zero sun colour (and a drawn shadow map).
     monkeypatch.setattr(renderer_module.shaders, "LIT_AMBIENT_FS", renderer_module.shaders.LIT_FS)
     monkeypatch.setattr(renderer_module, "_sunlit", lambda lighting: True)
-    with Renderer(W, H, lighting=overcast) as r:
+    with Renderer(W, H, lighting=overcast, occlusion_cull=False) as r:
         full = r.render(scene, cam.K, cam.world_from_cam())
     assert "shadow" in drawn[2:]
     assert np.array_equal(ambient.rgb, full.rgb)

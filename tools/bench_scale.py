@@ -17,7 +17,10 @@ Measured per size (medians over ``--runs`` interleaved runs; the floors in the s
 * **render**: in a fresh process, opening the stage, reading the render scene (culled to
   the view and its shadows, :class:`~usdworld.render.instancing.ViewCull`) and drawing all
   passes (colour, ids, depth) from ``/World/SourceCamera`` at the photo's size, and each
-  part of it (the GL context's creation is left out);
+  part of it (the GL context's creation is left out). A world with its object index is
+  opened as ``usdworld render`` does (:mod:`usdworld.render.view_stage`): "open" is the
+  stage without the objects, "scene" composes the objects that may reach the view and reads
+  them (older checkouts: the whole stage);
 * **edit**: the whole ``usdworld edit W move NAME --by 0.5,0 --force`` command (wall and
   the child's CPU), and in a fresh process the editor's parts: opening the world
   (``WorldEditor``: parsing the layers, composing the ground) and the move (reading the
@@ -43,7 +46,13 @@ With ``--reference``, a second table compares, one run each, in fresh processes,
 opening the world, the editor's parts, the whole edit command (twice: the second finds what
 the first left, e.g. the object index) and reading the (unculled) render scene at 1,000
 objects with another checkout (e.g. the code before this benchmark's changes), and whether
-both write the same bytes; figures are wall / CPU seconds.
+both write the same bytes; figures are wall / CPU seconds. A third table renders each size (up
+to ``--no-render-above``) with the other checkout and with this one, ``--render-runs``
+alternating rounds in fresh processes on one world: open, culled scene, draw and their sum,
+wall / CPU seconds, the triangles and the instances the camera's passes drew (``Renderer.last_shown``;
+all of them for a checkout without the occlusion test) and whether the objects were composed
+for the view only (:mod:`usdworld.render.view_stage`); ``--no-against`` leaves out the second
+table (with ``--no-measure``: the render table alone).
 """
 
 from __future__ import annotations
@@ -77,20 +86,35 @@ from pxr import Usd
 from usdworld.render import Lighting, Renderer, RenderScene
 from usdworld.render.instancing import ViewCull
 from usdworld.render.outputs import view_camera, world_image_size
-t1 = time.perf_counter()
-stage = Usd.Stage.Open(sys.argv[1])
-t2 = time.perf_counter()
+t1, c1 = time.perf_counter(), time.process_time()
+try:  # a large world composed for the view (as `usdworld render`); older code: the whole stage
+    from pathlib import Path
+    from usdworld.parameters.authoring import AuthoringParams
+    from usdworld.render.view_stage import open_outside, scene_for_view
+    stage = open_outside(Path(sys.argv[1]), AuthoringParams().large_world_min_objects)
+except ImportError:
+    stage = None
+outside = stage is not None
+stage = stage or Usd.Stage.Open(sys.argv[1])
+t2, c2 = time.perf_counter(), time.process_time()
 w, h = world_image_size(stage)
 pose = view_camera(stage, w, h)
 cull = ViewCull(pose.K, pose.world_from_cam, w, h, Lighting().sun_direction_world)
-scene = RenderScene.from_stage(stage, cull=cull)
-t3 = time.perf_counter()
+scene = scene_for_view(Path(sys.argv[1]), stage, cull) if outside else None
+view = scene is not None
+scene = scene or RenderScene.from_stage(stage if not outside else Usd.Stage.Open(sys.argv[1]), cull=cull)
+t3, c3 = time.perf_counter(), time.process_time()
 with Renderer(w, h) as r:
-    t4 = time.perf_counter()
+    t4, c4 = time.perf_counter(), time.process_time()
     r.render(scene, pose.K, pose.world_from_cam)
-    t5 = time.perf_counter()
+    t5, c5 = time.perf_counter(), time.process_time()
+    shown = getattr(r, "last_shown", None)  # (instances drawn by the camera's passes, all); older code: None
 print(json.dumps({"import": t1 - t0, "open": t2 - t1, "scene": t3 - t2, "context": t4 - t3, "draw": t5 - t4,
-                  "render": (t3 - t1) + (t5 - t4), "triangles": scene.n_triangles, "objects": len(scene.objects)}))
+                  "render": (t3 - t1) + (t5 - t4), "open_cpu": c2 - c1, "scene_cpu": c3 - c2,
+                  "draw_cpu": c5 - c4, "render_cpu": (c3 - c1) + (c5 - c4), "triangles": scene.n_triangles,
+                  "instances": sum(b.n_instances for b in scene.batches),
+                  "instances_shown": shown[0] if shown else sum(b.n_instances for b in scene.batches),
+                  "objects": len(scene.objects), "view_stage": view}))
 """
 
 _OPEN_SNIPPET = r"""
@@ -378,6 +402,26 @@ def against(model, n: int, folder: Path, reference: Path, scene: bool) -> dict:
     return out
 
 
+def render_against(model, n: int, folder: Path, reference: Path, runs: int) -> list[tuple[str, dict]]:
+    """The render snippet (open, culled scene, all passes from the source camera) with ``reference``
+    and with this checkout, alternating, ``runs`` rounds, in fresh processes on one world."""
+    from usdworld.authoring import asset_library
+    from usdworld.authoring.world import write_world
+
+    libraries = asset_library.library_dirs(None)
+    classes = sorted({p.obj.class_name for p in model.placements})
+    assets = {c: asset_library.asset_path(c, libraries) for c in classes}
+    world = folder / f"render_{n}"
+    write_world(model, world, assets, None)
+    rows = []
+    for run in range(runs):
+        order = (("ref", reference), ("new", _HERE)) if run % 2 == 0 else (("new", _HERE), ("ref", reference))
+        for tag, repo in order:
+            rows.append((tag, _snippet(_RENDER_SNIPPET, world / "world.usda", repo=repo)))
+    shutil.rmtree(world)
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="1000,10000,100000")
@@ -393,6 +437,12 @@ def main(argv: list[str] | None = None) -> int:
         type=int,
         default=0,
         help="also time the whole edit command this many rounds per size (with --reference: both checkouts)",
+    )
+    parser.add_argument(
+        "--no-against", action="store_true", help="with --reference: only the before/after render table"
+    )
+    parser.add_argument(
+        "--render-runs", type=int, default=2, help="rounds of the before/after render (with --reference)"
     )
     parser.add_argument(
         "--reference",
@@ -423,11 +473,12 @@ def main(argv: list[str] | None = None) -> int:
         if not args.no_measure:
             print(
                 "| objects | author s wall / CPU | open s wall / CPU (parse base layer) | render s (open + scene + draw) "
-                "| draw s | triangles drawn | edit move s wall / CPU (whole) | edit parts s wall / CPU "
+                "| render CPU s (open + scene + draw) | triangles drawn | instances drawn (camera / shadow) "
+                "| edit move s wall / CPU (whole) | edit parts s wall / CPU "
                 "(open + move) | floor: import pxr s | floor: usdworld --help s | edit own cost s "
                 "| base layer MB | load |"
             )
-            print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+            print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         for n in sizes if not args.no_measure else ():
             r = measure(
                 tiled_model(model, n), n, folder, args.runs if n < 100_000 else 1, n <= args.no_render_above
@@ -438,11 +489,19 @@ def main(argv: list[str] | None = None) -> int:
                 if "render_render" in r
                 else "not measured"
             )
-            draw = f"{r['render_draw']:.3f}" if "render_draw" in r else "-"
+            draw = (
+                f"{r['render_render_cpu']:.3f} ({r['render_open_cpu']:.3f} + {r['render_scene_cpu']:.3f} + "
+                f"{r['render_draw_cpu']:.3f})"
+                if "render_render" in r
+                else "-"
+            )
             tris = f"{r['render_triangles']:,.0f}" if "render_triangles" in r else "-"
+            shown = "-"
+            if "render_render" in r:
+                shown = f"{r['render_instances_shown']:,.0f} / {r['render_instances']:,.0f}"
             print(
                 f"| {n:,d} | {r['author']:.2f} / {r['author_cpu']:.2f} | {r['open']:.3f} / {r['open_cpu']:.3f} ({r['parse_base']:.3f} / "
-                f"{r['parse_base_cpu']:.3f}) | {render} | {draw} | {tris} | {r['edit']:.2f} / {r['edit_cpu']:.2f} "
+                f"{r['parse_base_cpu']:.3f}) | {render} | {draw} | {tris} | {shown} | {r['edit']:.2f} / {r['edit_cpu']:.2f} "
                 f"| {r['edit_open']:.2f} / {r['edit_open_cpu']:.2f} + {r['edit_move']:.2f} / {r['edit_move_cpu']:.2f} "
                 f"| {r['floor_import']:.2f} | {r['floor_help']:.2f} | {r['edit'] - r['floor_help']:.2f} "
                 f"| {r['bytes_base'] / 1e6:.1f} | {os.getloadavg()[0]:.2f} |",
@@ -455,7 +514,7 @@ def main(argv: list[str] | None = None) -> int:
                 "| edit move, whole | again | read render scene (wall) | same bytes | load |"
             )
             print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-            for n in sizes:
+            for n in sizes if not args.no_against else ():
                 r = against(tiled_model(model, n), n, folder, args.reference, n <= 1000)
                 for tag, what in (("ref", "before"), ("new", "after")):
 
@@ -469,6 +528,33 @@ def main(argv: list[str] | None = None) -> int:
                         f"| {f('edit2')} | {scene} | {r['same_bytes']} | {os.getloadavg()[0]:.2f} |",
                         flush=True,
                     )
+            render_sizes = [n for n in sizes if n <= args.no_render_above]
+            if render_sizes and args.render_runs > 0:
+                print(
+                    f"\nrender from the source camera, before/after ({args.reference} / this checkout), "
+                    f"{args.render_runs} alternating rounds, fresh processes; wall / CPU s"
+                )
+                print(
+                    "| objects | | open | scene | draw | render (open + scene + draw) | triangles "
+                    "| instances drawn (camera / shadow) | objects composed for the view only | load |"
+                )
+                print("|---|---|---|---|---|---|---|---|---|---|")
+                for n in render_sizes:
+                    rows = render_against(tiled_model(model, n), n, folder, args.reference, args.render_runs)
+                    for tag, r in rows:
+
+                        def g(key: str, r: dict = r) -> str:
+                            cpu = f"{r[key + '_cpu']:.3f}" if key + "_cpu" in r else "-"
+                            return f"{r[key]:.3f} / {cpu}"
+
+                        every = r.get("instances", 0)
+                        shown = f"{r.get('instances_shown', every):,} / {every:,}"
+                        print(
+                            f"| {n:,d} | {'before' if tag == 'ref' else 'after'} | {g('open')} | {g('scene')} "
+                            f"| {g('draw')} | {g('render')} | {r['triangles']:,} | {shown} "
+                            f"| {'yes' if r.get('view_stage') else 'no'} | {os.getloadavg()[0]:.2f} |",
+                            flush=True,
+                        )
         if args.edit_rounds:
             repos = {"this checkout": _HERE}
             if args.reference is not None:

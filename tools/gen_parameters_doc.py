@@ -22,6 +22,7 @@ sys.path.insert(0, str(REPO))
 from usdworld.parameters import Parameters  # noqa: E402
 from usdworld.parameters.authoring import AuthoringParams  # noqa: E402
 from usdworld.parameters.base import plain, section_rows  # noqa: E402
+from usdworld.parameters.rendering import RenderingParams  # noqa: E402
 from usdworld.parameters.views import ViewsParams  # noqa: E402
 
 #: The generated page.
@@ -81,6 +82,13 @@ def render(params: Parameters) -> str:
         "layer's sublayers show what it chose).",
         "",
         *_table(section_rows(AuthoringParams())),
+        "",
+        "## rendering",
+        "",
+        "How the renderer saves work (a section of its own, not recorded in `report.json`: it changes "
+        "the time a render takes, never its pixels).",
+        "",
+        *_table(section_rows(RenderingParams())),
     ]
     return "\n".join(lines) + "\n"
 

@@ -76,9 +76,21 @@ def render(
 
     from usdworld.render.timing import parse_time, scene_at
 
-    stage = open_world(world)
+    from usdworld.parameters.authoring import AuthoringParams
+    from usdworld.render.view_stage import open_outside, scene_for_view
+
+    world_file = world / "world.usda" if world.is_dir() else world
+    # A large world with a kept object index is first composed without its objects; the
+    # objects that may reach the view are composed once the camera is known (same pixels).
+    outside = None
+    if at_time is None and world_file.is_file():
+        outside = open_outside(world_file, AuthoringParams().large_world_min_objects)
+    stage = outside if outside is not None else open_world(world)
     code = parse_time(stage, at_time) if at_time is not None else None
     camera, view_photo = rig_view(stage, camera)
+    if outside is not None and not stage.GetPrimAtPath(camera or "/World/SourceCamera"):
+        outside = None  # a camera below the objects: the whole world
+        stage = open_world(world)
     width, height = parse_size(size) if size else world_image_size(stage)
     pose = view_camera(stage, width, height, camera, code)
     comparisons = [name for name in outputs if name in COMPARISONS]
@@ -112,7 +124,13 @@ def render(
 
     lighting = lighting_from_stage(stage)  # the world's own sun and sky (the default for an old world)
     cull = ViewCull(pose.K, pose.world_from_cam, width, height, lighting.sun_direction_world)
-    scene = scene_at(stage, code, cull=cull)
+    scene = scene_for_view(world_file, outside, cull) if outside is not None else None
+    if outside is not None:
+        log.debug("objects composed for the view only: %s", "yes" if scene else "no, the whole world")
+    if scene is None:
+        if outside is not None:
+            stage = open_world(world)
+        scene = scene_at(stage, code, cull=cull)
     with Renderer(width, height, lighting=lighting) as renderer:
         result = renderer.render(scene, pose.K, pose.world_from_cam)
     seconds = time.perf_counter() - t0

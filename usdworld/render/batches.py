@@ -102,6 +102,10 @@ class MeshBatch:
         """Corners of one instance (3 per triangle)."""
         return int(self.topology.corners.size)
 
+    def used_points_local(self) -> np.ndarray:
+        """(U, 3) float64 the points the triangles use, in the mesh's frame (read-only)."""
+        return self._used_points
+
     def corners_local(self) -> np.ndarray:
         """(T*3, 3) float64 the triangles' corners in the mesh's frame."""
         return self.topology.points[self.topology.triangles.reshape(-1)]

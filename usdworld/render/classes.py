@@ -63,8 +63,12 @@ def thing_label_ids() -> frozenset[int]:
     return frozenset(row.id for row in label_table() if row.has_instances)
 
 
+@functools.lru_cache(maxsize=4096)
 def label_id_for_class(label: str | None) -> int:
-    """Cityscapes label id of a class label; :data:`VOID_ID` for None or unknown labels."""
+    """Cityscapes label id of a class label; :data:`VOID_ID` for None or unknown labels.
+
+    Remembered per label: a scene asks once per mesh (54,000 times for 10,000 objects).
+    """
     if not label:
         return VOID_ID
     return class_label_ids().get(normalise_label(label), VOID_ID)

@@ -15,6 +15,7 @@ shadow on the ground lie wholly outside one plane of the camera's frustum.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import repeat
 
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom
@@ -108,8 +109,9 @@ def prototype_key(prim: Usd.Prim, local_ids: frozenset[str], local_layers: list[
             continue
         if len(spec.nameChildren):
             return None
-        # the "properties" field lists the names without making a spec of each (4x faster)
-        if any(name.startswith(_INHERITED_PREFIXES) for name in spec.GetInfo("properties")):
+        # the "properties" field lists the names without making a spec of each (4x faster);
+        # map runs the test in C (a generator's frame per name cost 0.15 s for 10,000 objects)
+        if any(map(str.startswith, spec.GetInfo("properties"), repeat(_INHERITED_PREFIXES))):
             return None
     return tuple(
         (s.layer.identifier, s.path)

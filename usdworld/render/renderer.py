@@ -30,11 +30,13 @@ from typing import Any, Self
 import numpy as np
 
 from usdworld.errors import UsdWorldError
+from usdworld.parameters.rendering import RenderingParams
 from usdworld.render import shaders
 from usdworld.render.camera import check_intrinsics, gl_projection, gl_view
 from usdworld.render.context import RenderError, create_context
 from usdworld.render.lighting import Lighting, PathShadow, path_shadow, sun_view_projection
 from usdworld.render.batches import MeshBatch
+from usdworld.render.occlusion import DepthPyramid, hidden, instance_corners, occluders, project_boxes
 from usdworld.render.scene import RenderScene
 
 log = logging.getLogger(__name__)
@@ -86,7 +88,7 @@ _ROWS = "4f8 4f8 4f8"
 _ROW_NAMES = ("in_r0", "in_r1", "in_r2")
 
 
-def _instance_records(batch: MeshBatch, reverse: bool) -> bytes:
+def _instance_records(batch: MeshBatch) -> np.ndarray:
     n = batch.n_instances
     rec = np.zeros(n, dtype=_INSTANCE)
     m = batch.world_from_local
@@ -99,31 +101,41 @@ def _instance_records(batch: MeshBatch, reverse: bool) -> bytes:
     rec["ids"] = np.stack([batch.class_ids, batch.instance_ids, batch.object_ids], axis=1)
     if batch.instance_colors is not None:
         rec["color"] = batch.instance_colors
-    return (rec[::-1] if reverse else rec).tobytes()
+    return rec
 
 
 class _BatchBuffers:
     """One batch on the GPU: its corners once, its instances, a vertex array per pass."""
 
     def __init__(self, ctx: Any, batch: MeshBatch, programs: dict[str, Any]) -> None:
+        self.batch = batch
         self.n_instances = batch.n_instances
         corners = batch.corners_local()
         normals = batch.normals_local if batch.normals_local is not None else batch.flat_normals_local()
         pos = ctx.buffer(np.ascontiguousarray(corners, dtype="f8").tobytes())
         nrm = ctx.buffer(np.ascontiguousarray(normals, dtype="f4").tobytes())
-        inst = ctx.buffer(_instance_records(batch, reverse=False))
-        inst_rev = ctx.buffer(_instance_records(batch, reverse=True))
+        self._records = _instance_records(batch)
+        # the shadow map draws every instance; the camera's passes those shown (all until told)
+        inst_all = ctx.buffer(self._records.tobytes())
+        inst = ctx.buffer(self._records.tobytes())
+        inst_rev = ctx.buffer(self._records[::-1].tobytes())
+        self._camera = (inst, inst_rev)
+        self.n_shown = self.n_instances
+        self._shown: np.ndarray | None = None
         # The colour pass draws the triangles last to first after a depth pre-pass: with the "<="
         # test the last of the fragments at the nearest depth wins, which in reverse order is the
         # first, as in one "<" pass (so where two surfaces tie in depth the same one shows).
         n_tri = len(corners) // 3
         last_first = np.arange(n_tri - 1, -1, -1, dtype=np.int32)[:, None] * 3
         ibo = ctx.buffer((last_first + np.arange(3, dtype=np.int32)).ravel().tobytes())
-        self.buffers = [pos, nrm, inst, inst_rev, ibo]
+        self._corners_world: np.ndarray | None = None
+        self.buffers = [pos, nrm, inst_all, inst, inst_rev, ibo]
         place = f"{_ROWS} {_INSTANCE.itemsize - 96}x/i"
         placed = [(pos, "3f8", "in_pos"), (inst, place, *_ROW_NAMES)]
         self.vaos: dict[str, Any] = {
-            "shadow": ctx.vertex_array(programs["shadow"], placed),
+            "shadow": ctx.vertex_array(
+                programs["shadow"], [(pos, "3f8", "in_pos"), (inst_all, place, *_ROW_NAMES)]
+            ),
             "depth": ctx.vertex_array(programs["depth"], placed),
             "label": ctx.vertex_array(
                 programs["label"],
@@ -141,8 +153,33 @@ class _BatchBuffers:
         for name in ("lit", "lit_ambient"):
             self.vaos[name] = ctx.vertex_array(programs[name], lit, index_buffer=ibo, index_element_size=4)
 
+    def corners_world(self) -> np.ndarray:
+        """(N, 8, 3) float64 each instance's box corners (:func:`.occlusion.instance_corners`), kept."""
+        if self._corners_world is None:
+            self._corners_world = instance_corners(self.batch)
+        return self._corners_world
+
+    def show(self, shown: np.ndarray | None) -> None:
+        """Let the camera's passes draw only the instances where ``shown`` ((N,) bool) is True; None: all.
+
+        The shown instances keep their order (and the lit pass its reverse order).
+        """
+        if shown is None and self._shown is None:
+            return
+        if shown is not None and self._shown is not None and np.array_equal(shown, self._shown):
+            return
+        records = self._records if shown is None else self._records[shown]
+        inst, inst_rev = self._camera
+        if len(records):
+            inst.write(records.tobytes())
+            inst_rev.write(records[::-1].tobytes())
+        self.n_shown = len(records)
+        self._shown = None if shown is None else shown.copy()
+
     def render(self, ctx: Any, name: str) -> None:
-        self.vaos[name].render(mode=ctx.TRIANGLES, instances=self.n_instances)
+        n = self.n_instances if name == "shadow" else self.n_shown
+        if n:
+            self.vaos[name].render(mode=ctx.TRIANGLES, instances=n)
 
     def release(self) -> None:
         for vao in self.vaos.values():
@@ -179,19 +216,34 @@ class Renderer:
         height: image height in pixels.
         lighting: sun, ambient, sky and shadow settings (default :class:`Lighting`).
         near_m: near clipping distance in metres (surfaces closer than this are cut).
+        occlusion_cull: :meth:`render` leaves out of the label and colour passes the instances
+            hidden behind the big ones (:mod:`usdworld.render.occlusion`; the same pixels) in a
+            scene of many triangles (``rendering.occlusion_min_triangles_per_px``); False draws
+            every instance in every pass.
+        rendering: the renderer's speed settings (default :class:`RenderingParams`).
 
     Raises:
         RenderError: no usable headless OpenGL (the message names the packages to install).
     """
 
     def __init__(
-        self, width: int, height: int, lighting: Lighting | None = None, near_m: float = 0.1
+        self,
+        width: int,
+        height: int,
+        lighting: Lighting | None = None,
+        near_m: float = 0.1,
+        occlusion_cull: bool = True,
+        rendering: RenderingParams | None = None,
     ) -> None:
         if not (0 < int(width) <= MAX_SIZE and 0 < int(height) <= MAX_SIZE):
             raise UsdWorldError(f"render size must be 1..{MAX_SIZE} pixels per side, got {width}x{height}")
         if not near_m > 0:
             raise UsdWorldError(f"near_m must be > 0, got {near_m}")
         self.width, self.height = int(width), int(height)
+        self.occlusion_cull = bool(occlusion_cull)
+        self.rendering = rendering or RenderingParams()
+        #: instances the last :meth:`render` drew in its label and colour passes, of all (for benchmarks)
+        self.last_shown: tuple[int, int] | None = None
         self.lighting = lighting or Lighting()
         self.near_m = float(near_m)
         self._ctx = create_context()
@@ -264,7 +316,15 @@ class Renderer:
             K: (3, 3) float64 camera matrix for this renderer's width x height.
             world_from_cam: (4, 4) float64 pose, OpenCV camera -> world (Z up, metres).
         """
-        class_ids, instance_ids, object_ids, depth = self.render_labels(scene, K, world_from_cam)
+        K, world_from_cam = self._check_camera(K, world_from_cam)
+        buffers = self._upload(scene)
+        dense = scene.n_triangles >= self.rendering.occlusion_min_triangles_per_px * self.width * self.height
+        shown = self._unhidden(scene, buffers, K, world_from_cam) if self.occlusion_cull and dense else None
+        for b, mask in zip(buffers.batches, shown or [None] * len(buffers.batches)):
+            b.show(mask)
+        batches = buffers.batches
+        self.last_shown = (sum(b.n_shown for b in batches), sum(b.n_instances for b in batches))
+        class_ids, instance_ids, object_ids, depth = self._labels(scene, K, world_from_cam)
         # The labels' depth buffer is the colour pass's depth pre-pass (the same "<" test on the
         # same positions, gl_Position being invariant in both programs): it is not drawn again.
         rgb = self._color_pass(scene, K, world_from_cam, depth_drawn=True)
@@ -272,7 +332,46 @@ class Renderer:
 
     def render_rgb(self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray) -> np.ndarray:
         """(H, W, 3) uint8 lit colour with shadows and sky (same arguments as :meth:`render`)."""
+        self._show_all(scene)
         return self._color_pass(scene, K, world_from_cam, depth_drawn=False)
+
+    def _show_all(self, scene: RenderScene) -> None:
+        for b in self._upload(scene).batches:
+            b.show(None)
+
+    def _unhidden(
+        self, scene: RenderScene, buffers: _SceneBuffers, K: np.ndarray, world_from_cam: np.ndarray
+    ) -> list[np.ndarray] | None:
+        """Per batch, (N,) bool the instances not hidden behind the occluders; None: no occluder.
+
+        Draws the occluders' depth (the depth program, into the shared depth buffer) and tests
+        every instance's box against it (:mod:`usdworld.render.occlusion`).
+        """
+        view_proj = self._view_proj(scene, K, world_from_cam)
+        boxes = []
+        for b in buffers.batches:
+            size = (self.width, self.height)
+            rect, depth, front = project_boxes(b.corners_world(), view_proj, *size, self.near_m)
+            per_triangle = self.rendering.occluder_px_per_triangle
+            occ = occluders(rect, front, b.batch.n_corners // 3, per_triangle, size[0] * size[1])
+            boxes.append((rect, depth, front, occ))
+        if not any(o.any() for *_, o in boxes):
+            return None
+        ctx = self._context()
+        for b, (*_, occ) in zip(buffers.batches, boxes):
+            b.show(occ)
+        self._color_fbo.use()
+        self._color_fbo.color_mask = (False, False, False, False)
+        self._color_fbo.clear(depth=1.0)
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.depth_func = "<"
+        _write(self._programs["depth"], "u_view_proj", view_proj)
+        buffers.draw(ctx, "depth")
+        self._color_fbo.color_mask = (True, True, True, True)
+        raw = self._color_fbo.read(components=1, attachment=-1, dtype="f4", alignment=1)
+        ctx.finish()
+        pyramid = DepthPyramid(np.frombuffer(raw, dtype=np.float32).reshape(self.height, self.width)[::-1])
+        return [~hidden(rect, depth, front, pyramid) for rect, depth, front, _ in boxes]
 
     def _color_pass(
         self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray, depth_drawn: bool
@@ -340,8 +439,15 @@ class Renderer:
 
         Same arguments as :meth:`render`.
         """
-        ctx = self._context()
         K, world_from_cam = self._check_camera(K, world_from_cam)
+        self._show_all(scene)
+        return self._labels(scene, K, world_from_cam)
+
+    def _labels(
+        self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`render_labels` of the instances shown (checked camera)."""
+        ctx = self._context()
         buffers = self._upload(scene)
         self._label_fbo.use()
         self._label_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)

@@ -1,0 +1,131 @@
+"""Renderer.render leaves hidden instances out of the camera's passes, and the pixels stay the same."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_render import box, camera, new_stage
+
+import usdworld.authoring  # noqa: F401  (registers the schema plugin first)
+from usdworld.parameters.rendering import RenderingParams
+from usdworld.render import Lighting, Renderer, RenderScene, renderer as renderer_module, sun_direction
+from usdworld.render.camera import gl_projection, gl_view
+from usdworld.render.occlusion import DEPTH_MARGIN, DepthPyramid, hidden, project_boxes
+
+W, H = 320, 200
+K = np.array([[260.0, 0.0, 161.3], [0.0, 250.0, 83.6], [0.0, 0.0, 1.0]])
+#: The boxes behind the wall, none of whose points the camera sees.
+BEHIND = 7
+
+
+def _walled_street(behind: bool = True) -> RenderScene:
+    """A wall across the street with small boxes behind it (casting shadows beside it), a pole
+    that shows above it, a box touching its back and one whose front is flush with its front."""
+    stage = new_stage()
+    box(stage, "/World/Road", (-5, -15, -0.1), (80, 15, 0), color=(0.3, 0.3, 0.3), cls="road")
+    box(stage, "/World/Objects/wall", (10, -3, 0), (10.5, 3, 4), color=(0.6, 0.5, 0.5), cls="building")
+    box(stage, "/World/Objects/pole", (20, -0.2, 0), (20.4, 0.2, 12), color=(0.7, 0.7, 0.7), cls="pole")
+    box(stage, "/World/Objects/flush", (10, 2.5, 0), (10.4, 3.5, 1), color=(0.2, 0.7, 0.2), cls="car")
+    if behind:
+        box(stage, "/World/Objects/touch", (10.5, -0.5, 0), (11, 0.5, 1), color=(0.8, 0.2, 0.2), cls="car")
+        for k in range(BEHIND - 1):
+            x, y = 14.0 + 3.0 * (k // 2), (-1.2, 0.4)[k % 2]
+            lo, hi = (x, y, 0), (x + 2, y + 0.8, 1)
+            box(stage, f"/World/Objects/car{k}", lo, hi, color=(0.2, 0.3, 0.8), cls="car")
+    return RenderScene.from_stage(stage)
+
+
+def test_hidden_instances_are_left_out_of_the_camera_passes_with_the_same_pixels(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    cam = camera(K=K, pitch=0.05, roll=0.0, yaw=0.0)
+    low_sun = Lighting(sun_direction_world=sun_direction(60.0, 12.0))
+    scene = _walled_street()
+    drawn: list[str] = []
+    draw = renderer_module._SceneBuffers.draw
+    monkeypatch.setattr(
+        renderer_module._SceneBuffers,
+        "draw",
+        lambda self, ctx, name: (drawn.append(name), draw(self, ctx, name)),
+    )
+    every = RenderingParams(occlusion_min_triangles_per_px=0.0)
+    with Renderer(W, H, lighting=low_sun, occlusion_cull=False) as r:
+        full = r.render(scene, cam.K, cam.world_from_cam())
+        without_behind = r.render(_walled_street(behind=False), cam.K, cam.world_from_cam())
+    with Renderer(W, H, lighting=low_sun, rendering=every) as r:
+        drawn.clear()
+        culled = r.render(scene, cam.K, cam.world_from_cam())
+        shown, total = r.last_shown
+        assert drawn == ["depth", "label", "shadow", "lit"]  # the occluders' depth first
+        again = r.render_labels(scene, cam.K, cam.world_from_cam())  # every instance again
+    assert total - shown == BEHIND  # the touching box and the six behind; the pole and the flush box stay
+    for name in ("rgb", "class_ids", "instance_ids", "object_ids", "depth_m"):
+        assert getattr(culled, name).tobytes() == getattr(full, name).tobytes(), name
+    ids = (full.class_ids, full.instance_ids, full.object_ids, full.depth_m)
+    for mine, alone in zip(ids, again, strict=True):
+        assert mine.tobytes() == alone.tobytes()
+    # the hidden boxes' shadows show beside the wall: the shadow map still holds them
+    assert not np.array_equal(without_behind.rgb, full.rgb)
+    assert np.array_equal(without_behind.object_ids, full.object_ids)
+    assert set(np.unique(full.class_ids)) >= {7, 11, 17, 26}
+
+
+def test_a_scene_of_few_triangles_per_pixel_is_not_tested() -> None:
+    cam = camera(K=K, pitch=0.05, roll=0.0, yaw=0.0)
+    scene = _walled_street()
+    assert scene.n_triangles < RenderingParams().occlusion_min_triangles_per_px * W * H
+    with Renderer(W, H) as r:
+        r.render(scene, cam.K, cam.world_from_cam())
+        assert r.last_shown == (r.last_shown[1], len(scene.part_order))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(1, 40),
+    st.integers(1, 40),
+    st.integers(0, 2**31 - 1),
+    st.lists(st.tuples(*[st.floats(0, 1)] * 4), min_size=1, max_size=20),
+)
+def test_the_pyramid_bounds_the_depth_over_every_rectangle(h: int, w: int, seed: int, rects: list) -> None:
+    depth = np.random.default_rng(seed).random((h, w), dtype=np.float32)
+    pyramid = DepthPyramid(depth)
+    r = np.array(
+        [
+            [min(int(a * w), w - 1), min(int(b * h), h - 1), min(int(c * w), w - 1), min(int(d * h), h - 1)]
+            for a, b, c, d in rects
+        ]
+    )
+    r = np.concatenate([np.minimum(r[:, :2], r[:, 2:]), np.maximum(r[:, :2], r[:, 2:])], axis=1)
+    bound = pyramid.max_over(r)
+    exact = np.array([depth[y0 : y1 + 1, x0 : x1 + 1].max() for x0, y0, x1, y1 in r])
+    assert np.all(bound >= exact)
+    one = r[:, [0, 1, 0, 1]]
+    assert np.array_equal(pyramid.max_over(one), depth[one[:, 1], one[:, 0]])  # a pixel is exact
+
+
+def _corners(lo: tuple[float, ...], hi: tuple[float, ...]) -> np.ndarray:
+    return np.array([[[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]])
+
+
+def test_a_box_is_hidden_only_behind_the_depth_by_the_margin_and_in_front_of_the_near_plane() -> None:
+    cam = camera(K=K, pitch=0.0, roll=0.0, yaw=0.0)
+    T = cam.world_from_cam()
+    near, far = 0.1, 100.0
+    view_proj = gl_projection(K, W, H, near, far) @ gl_view(T)
+    ahead = T[:3, 3] + T[:3, 2] * 20.0  # 20 m along the optical axis
+    lo, hi = tuple(ahead - 0.5), tuple(ahead + 0.5)
+    rect, d, front = project_boxes(_corners(lo, hi), view_proj, W, H, near)
+    assert front[0] and rect[0, 0] <= W // 2 <= rect[0, 2]
+    walls = ((d[0] - 1e-3, True), (d[0] - 0.5 * DEPTH_MARGIN, False), (d[0], False), (1.0, False))
+    for wall, is_hidden in walls:
+        pyramid = DepthPyramid(np.full((H, W), wall, dtype=np.float32))
+        assert hidden(rect, d, front, pyramid)[0] == is_hidden
+    # a box reaching behind the camera is never hidden; one wholly off the image always is
+    wall = DepthPyramid(np.zeros((H, W), dtype=np.float32))
+    rect, d, front = project_boxes(_corners(tuple(T[:3, 3] - 1.0), hi), view_proj, W, H, near)
+    assert not front[0] and not hidden(rect, d, front, wall)[0]
+    side = ahead + T[:3, 0] * 30.0  # 30 m to the right at 20 m: outside the image
+    rect, d, front = project_boxes(_corners(tuple(side - 0.5), tuple(side + 0.5)), view_proj, W, H, near)
+    assert front[0] and hidden(rect, d, front, DepthPyramid(np.ones((H, W), dtype=np.float32)))[0]

@@ -1,0 +1,384 @@
+"""A large world composed for one view: only the objects whose box or shadow can reach it.
+
+Composing every object of a 10,000-object world (a reference and a variant each) costs more
+than drawing the few hundred the camera sees. A world whose object index is kept
+(:mod:`usdworld.authoring.editing.index_file`: the base layer's object opinions, keyed by
+its SHA-256) gives each object's class, ``model`` variant and ``active`` without composing
+it; its place and scale are read from its spec. :func:`open_outside` composes everything
+outside the objects scope (camera, lights, ground); :func:`scene_for_view` composes beside
+it the objects the edits layer touches and the objects whose box (an upright cylinder
+around the asset's box, any yaw) or its shadow may meet the view (:class:`~.instancing.ViewCull`,
+the test the scene reader uses), reads the scene, and gives its objects the ids they have
+in the whole world (class counts in stage order). The far plane and the shadow map's box
+take in the culled objects' boxes: the objects that may hold the culled boxes' extreme
+coordinates are composed too, and a scene whose bounds another object's box could widen is
+refused. Whatever the index and the specs cannot describe (no kept index, another sublayer,
+an object with a child, another transform, a visibility or purpose, primvars, a payload,
+an asset with parts of another thing class) gives None, and the caller composes the whole
+world; the pixels are the same bits either way.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from itertools import repeat
+from pathlib import Path
+
+import numpy as np
+from pxr import Sdf, Tf, Usd, UsdGeom
+
+from usdworld.render.classes import label_id_for_class, thing_label_ids
+from usdworld.render.instancing import ViewCull, read_prototype
+from usdworld.render.scene import RenderObject, RenderScene
+
+OBJECTS = "/World/Objects"
+#: Property names a base-layer object may carry and still be described by the index: its
+#: transform ops (translate, rotateZ, scale, read below), its label and its provenance.
+_KNOWN = ("xformOp:translate", "xformOp:rotateZ", "xformOp:scale", "xformOpOrder", "semantics:", "usdworld:")
+_OP_ORDER = ("xformOp:translate", "xformOp:rotateZ", "xformOp:scale")
+#: Which corner of a box takes the upper side, per axis (the order of :func:`~.instancing.box_corners`).
+_CORNER_BITS = tuple(np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=bool).T)
+#: Metres a conservative box is widened by (float rounding of the composed transforms).
+_SLACK_M = 1e-3
+
+
+@dataclass(frozen=True)
+class WorldObjects:
+    """Every object of the world as the index and the base layer give them, in stage order.
+
+    Attributes:
+        order: every name under the objects scope in any layer, in the composed stage's order.
+        names: the base layer's objects the edits layer does not touch (defined, active), in that order.
+        labels: their ``class`` labels.
+        lo: (N, 3) float64 lower corner of a box holding each object's meshes, metres.
+        hi: (N, 3) float64 upper corner.
+        composed: (N,) bool, the object is in the masked stage.
+    """
+
+    order: tuple[str, ...]
+    names: tuple[str, ...]
+    labels: tuple[str, ...]
+    lo: np.ndarray
+    hi: np.ndarray
+    composed: np.ndarray
+
+
+def _root_sublayers(world_file: Path) -> list[Sdf.Layer] | None:
+    """The edits and the base layer of a world with a kept index file, or None."""
+    from usdworld.authoring.editing.index_file import INDEX_FILE
+
+    root = Sdf.Layer.FindOrOpen(str(world_file))
+    if root is None or root.rootPrims or len(root.subLayerPaths) != 2:
+        return None  # a drive's layer or opinions in the root: not what the index knows
+    paths = [root.ComputeAbsolutePath(p) for p in root.subLayerPaths]
+    if not (Path(paths[-1]).parent / INDEX_FILE).is_file():
+        return None  # no index kept (a small world): its layers are not parsed twice
+    layers = [Sdf.Layer.FindOrOpen(p) for p in paths]
+    if any(layer is None for layer in layers):
+        return None
+    meta = root.pseudoRoot
+    units = meta.GetInfo("metersPerUnit") if meta.HasInfo("metersPerUnit") else None
+    up = meta.GetInfo("upAxis") if meta.HasInfo("upAxis") else None
+    if root.defaultPrim != "World" or units != 1.0 or up != "Z":
+        return None
+    return layers
+
+
+def _outside_paths(layers: list[Sdf.Layer]) -> list[str]:
+    """Every prim outside the objects scope (root prims, the children of /World but Objects)."""
+    out: set[str] = set()
+    for layer in layers:
+        for prim in layer.rootPrims:
+            if prim.name != "World":
+                out.add(str(prim.path))
+                continue
+            out.update(str(c.path) for c in prim.nameChildren if c.name != "Objects")
+    return sorted(out)
+
+
+def _stage_order(layers: list[Sdf.Layer]) -> list[str] | None:
+    """The objects scope's children as composition orders them (weakest layer's first), or
+    None when a layer reorders them."""
+    names: list[str] = []
+    seen: set[str] = set()
+    for layer in reversed(layers):
+        scope = layer.GetPrimAtPath(OBJECTS)
+        if not scope:
+            continue
+        if scope.HasInfo("primOrder") or scope.HasInfo("references") or scope.HasInfo("inheritPaths"):
+            return None
+        for name in scope.nameChildren.keys():
+            if name not in seen:
+                seen.add(name)
+                names.append(name)
+    return names
+
+
+def _asset_boxes(kinds: set[tuple[str, str | None]]) -> tuple[dict, dict] | None:
+    """(2, 3) box of each (asset file, variant)'s meshes in the object's frame (as the scene
+    reads it), and the class labels its parts carry of their own."""
+    layer = Sdf.Layer.CreateAnonymous(".usda")
+    Sdf.CreatePrimInLayer(layer, "/K").specifier = Sdf.SpecifierDef
+    paths = {}
+    for k, (asset, variant) in enumerate(sorted(kinds, key=str)):
+        spec = Sdf.CreatePrimInLayer(layer, f"/K/k{k}")
+        spec.specifier = Sdf.SpecifierDef
+        spec.referenceList.Prepend(Sdf.Reference(asset))
+        if variant:
+            spec.variantSelections["model"] = variant
+        paths[(asset, variant)] = f"/K/k{k}"
+    stage = Usd.Stage.Open(layer)
+    predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+    boxes, labels = {}, {}
+    for key, path in paths.items():
+        proto = read_prototype(stage.GetPrimAtPath(path), predicate)
+        if proto is None or not proto.parts:
+            return None
+        boxes[key] = proto.box_local
+        labels[key] = {part.label for part in proto.parts if part.label is not None}
+    return boxes, labels
+
+
+@dataclass(frozen=True)
+class _Base:
+    """The base layer's objects that the edits layer does not touch (defined, active), in stage order."""
+
+    names: list[str]
+    labels: list[str]
+    kinds: list[tuple[str, str | None]]  # (asset file, variant) per object
+    translate: np.ndarray  # (N, 3) float64
+    scale: np.ndarray  # (N, 3) float64
+
+
+#: Metadata a base-layer object's spec may carry (anything else: a payload, instancing, children ...).
+_INFO = frozenset(
+    {"specifier", "typeName", "references", "variantSelection", "variantSetNames", "apiSchemas"}
+)
+
+
+def _base_objects(layers: list[Sdf.Layer], names: list[str], edited: set[str]) -> _Base | None:
+    """Class and variant (the index), asset, translate and scale (the base layer's specs) of the
+    objects the edits layer does not touch; None when the index is not kept for the base layer
+    or an object carries what the index does not describe (a child, another transform, a
+    visibility, a purpose, primvars, a material binding, a payload, instancing ...)."""
+    from usdworld.authoring.editing.index_file import INDEX_FILE, layers_key, load_opinions
+
+    base = layers[1]
+    if not base.realPath:
+        return None
+    kept = load_opinions(Path(base.realPath).parent / INDEX_FILE, layers_key([Path(base.realPath)]))
+    if kept is None:
+        return None
+    at = {n: i for i, n in enumerate(kept.names)}
+    assets: dict[str, str] = {}
+    out = _Base([], [], [], np.zeros((0, 3)), np.zeros((0, 3)))
+    t_rows, s_rows = [], []
+    for name in names:
+        if name in edited:
+            continue
+        i = at.get(name)
+        if i is None:
+            return None
+        if not kept.defined[i] or kept.active[i] is False:
+            continue
+        path = f"{OBJECTS}/{name}"
+        spec = base.GetPrimAtPath(path)
+        if spec is None or not _INFO.issuperset(spec.ListInfoKeys()) or spec.typeName != "Xform":
+            return None
+        if spec.specifier != Sdf.SpecifierDef:
+            return None
+        if not all(map(str.startswith, spec.GetInfo("properties"), repeat(_KNOWN))):
+            return None
+        order = base.GetAttributeAtPath(path + ".xformOpOrder")
+        t = base.GetAttributeAtPath(path + ".xformOp:translate")
+        sc = base.GetAttributeAtPath(path + ".xformOp:scale")
+        refs = spec.GetInfo("references").prependedItems
+        if not (order and t and sc) or tuple(order.default or ()) != _OP_ORDER or len(refs) != 1:
+            return None
+        ref = refs[0]
+        label = kept.label[i]
+        if not label or t.default is None or sc.default is None or not ref.assetPath or ref.primPath:
+            return None
+        if ref.layerOffset != Sdf.LayerOffset():
+            return None
+        asset = assets.get(ref.assetPath)
+        if asset is None:
+            asset = assets[ref.assetPath] = base.ComputeAbsolutePath(ref.assetPath)
+        out.names.append(name)
+        out.labels.append(label)
+        out.kinds.append((asset, kept.variant[i]))
+        t_rows.append(t.default)
+        s_rows.append(sc.default)
+    return dataclasses.replace(
+        out,
+        translate=np.array(t_rows, dtype=np.float64).reshape(-1, 3),
+        scale=np.array(s_rows, dtype=np.float64).reshape(-1, 3),
+    )
+
+
+def open_outside(world_file: Path, min_objects: int) -> Usd.Stage | None:
+    """The world composed without its objects (the camera, the lights, the ground, the image
+    size), or None when it has fewer than ``min_objects`` objects or layers the index does not
+    describe. Keep it open while :func:`scene_for_view` runs: its layers are not read again."""
+    try:
+        layers = _root_sublayers(world_file)
+        if layers is None:
+            return None
+        order = _stage_order(layers)
+        if order is None or len(order) < min_objects:
+            return None
+        stage = Usd.Stage.OpenMasked(str(world_file), Usd.StagePopulationMask(_outside_paths(layers)))
+    except Tf.ErrorException:
+        return None  # not a world's layers: the whole stage's open says why
+    return stage if stage.GetPrimAtPath("/World") else None
+
+
+def scene_for_view(world_file: Path, outside: Usd.Stage, cull: ViewCull) -> RenderScene | None:
+    """The scene :meth:`RenderScene.from_stage` reads from the whole world with ``cull``, read
+    from a stage of the objects that may reach the view; None when it cannot be told apart
+    (compose the whole world then).
+
+    Args:
+        world_file: the world's root layer.
+        outside: :func:`open_outside`'s stage.
+        cull: the view's culling test.
+    """
+    opened = view_stage(world_file, outside, cull)
+    if opened is None:
+        return None
+    stage, facts = opened
+    return whole_world_scene(facts, RenderScene.from_stage(stage, cull=cull))
+
+
+def view_stage(
+    world_file: Path, outside_stage: Usd.Stage, cull: ViewCull
+) -> tuple[Usd.Stage, WorldObjects] | None:
+    """The world composed with the objects that may reach the view (see the module docstring).
+
+    Args:
+        world_file: the world's root layer.
+        outside_stage: :func:`open_for_view`'s stage (its layers stay loaded).
+        cull: the view's culling test, the one the scene is read with.
+
+    Returns:
+        The masked stage and every object's facts, or None (compose the whole world).
+    """
+    layers = _root_sublayers(world_file)
+    if layers is None:
+        return None
+    order = _stage_order(layers)
+    if order is None:
+        return None
+    edits = layers[0]
+    scope = edits.GetPrimAtPath(OBJECTS)
+    edited = set(scope.nameChildren.keys()) if scope else set()
+    base = _base_objects(layers, order, edited)
+    if base is None:
+        return None
+    read = _asset_boxes(set(base.kinds)) if base.kinds else ({}, {})
+    if read is None:
+        return None
+    boxes, part_labels = read
+    things = thing_label_ids()
+    for kind, label in set(zip(base.kinds, base.labels)):
+        own = label_id_for_class(label)
+        if any(label_id_for_class(c) in things and label_id_for_class(c) != own for c in part_labels[kind]):
+            return None  # a part of another thing class (a rider) counts instance ids of its own
+    keys = {k: n for n, k in enumerate(boxes)}
+    table = np.array(list(boxes.values())).reshape(-1, 2, 3)
+    box = table[np.array([keys[k] for k in base.kinds], dtype=np.int64)] * base.scale[:, None, :]
+    box = np.stack([box.min(axis=1), box.max(axis=1)], axis=1)  # a negative scale flips the box
+    r = np.hypot(np.abs(box[:, :, 0]).max(axis=1), np.abs(box[:, :, 1]).max(axis=1))  # any yaw about Z
+    t = base.translate
+    lo = np.column_stack([t[:, 0] - r, t[:, 1] - r, t[:, 2] + box[:, 0, 2]]) - _SLACK_M
+    hi = np.column_stack([t[:, 0] + r, t[:, 1] + r, t[:, 2] + box[:, 1, 2]]) + _SLACK_M
+    names = base.names
+    corners = np.stack(
+        [np.where(bits, hi[:, a, None], lo[:, a, None]) for a, bits in enumerate(_CORNER_BITS)], axis=-1
+    )
+    out = cull.outside_all(corners)
+    pick = ~out
+    culled = np.flatnonzero(out)
+    if len(culled):  # the objects that may hold the culled boxes' extreme coordinates
+        c = culled
+        for a in range(2):  # x, y: the box's true side lies between its conservative sides
+            pick[c[lo[c, a] <= hi[c, a].min()]] = True
+            pick[c[hi[c, a] >= lo[c, a].max()]] = True
+        # z is exact up to the slack (a yaw keeps it); not the lowest: the ground lies below
+        # the objects, and whole_world_scene checks the bounds
+        pick[c[hi[c, 2] >= hi[c, 2].max() - 2.0 * _SLACK_M]] = True
+    paths = [str(p) for p in outside_stage.GetPopulationMask().GetPaths()]
+    paths += [f"{OBJECTS}/{n}" for n in sorted(edited)]
+    paths += [f"{OBJECTS}/{names[k]}" for k in np.flatnonzero(pick)]
+    stage = Usd.Stage.OpenMasked(str(world_file), Usd.StagePopulationMask(paths))
+    for path in ("/World", OBJECTS):
+        prim = stage.GetPrimAtPath(path)
+        if not prim or (UsdGeom.Xformable(prim) and UsdGeom.Xformable(prim).GetOrderedXformOps()):
+            return None
+    facts = WorldObjects(tuple(order), tuple(names), tuple(base.labels), lo, hi, pick)
+    return stage, facts
+
+
+def whole_world_scene(facts: WorldObjects, scene: RenderScene) -> RenderScene | None:
+    """The scene read from :func:`view_stage`'s stage with the whole world's objects and ids.
+
+    Returns:
+        The scene the whole world gives for this view, or None when it cannot be told from
+        the masked one (an object with parts of another thing class, an edited object hidden,
+        a box not inside its conservative one's reach of the bounds).
+    """
+    things = thing_label_ids()
+    read = {o.path: o for o in scene.objects}
+    base = {f"{OBJECTS}/{n}": (k, label) for k, (n, label) in enumerate(zip(facts.names, facts.labels))}
+    counts: dict[int, int] = {}
+    objects: list[RenderObject] = []
+    for path in (f"{OBJECTS}/{n}" for n in facts.order):
+        mine = read.get(path)
+        if path in base:
+            k, label = base[path]
+            if facts.composed[k] and (mine is None or mine.class_name != label):
+                return None  # hidden or labelled otherwise than the base layer says
+        elif mine is None:
+            continue  # an edited object inactive, undefined or hidden: not an object of the scene
+        else:
+            label = mine.class_name
+        label_id = label_id_for_class(label)
+        instance_id = label_id
+        if label_id in things:
+            instance_id = label_id * 1000 + counts.get(label_id, 0)
+            counts[label_id] = counts.get(label_id, 0) + 1
+        objects.append(RenderObject(path, label, label_id, instance_id, len(objects) + 1))
+    whole = {o.path: o for o in objects}
+    if any(o.path not in whole for o in scene.objects):
+        return None
+    n = len(scene.objects) + 1
+    index_map, old_id, new_id, label_of = (np.zeros(n, dtype=np.int64) for _ in range(4))
+    for o in scene.objects:
+        w = whole[o.path]
+        index_map[o.index], old_id[o.index], new_id[o.index], label_of[o.index] = (
+            w.index, o.instance_id, w.instance_id, o.label_id
+        )
+    thing_ids = np.array(sorted(things), dtype=np.int64)
+    batches = []
+    for b in scene.batches:
+        obj = np.asarray(b.object_ids, dtype=np.int64)
+        inst = np.asarray(b.instance_ids, dtype=np.int64)
+        cls = np.asarray(b.class_ids, dtype=np.int64)
+        if np.any((obj > 0) & (cls != label_of[obj]) & np.isin(cls, thing_ids)):
+            return None  # a thing part unlike its object counts ids of its own
+        own = (obj > 0) & (inst == old_id[obj])
+        inst = np.where(own, new_id[obj], inst)
+        ids = {
+            "instance_ids": inst.astype(b.instance_ids.dtype),
+            "object_ids": index_map[obj].astype(b.object_ids.dtype),
+        }
+        batches.append(dataclasses.replace(b, **ids))
+    out = RenderScene(tuple(batches), scene.part_order, tuple(objects), scene.culled_bounds_world)
+    lo, hi = out.bounds_world()
+    rest = ~facts.composed
+    # bounds are float32 values and rounding is monotone: a box inside them leaves them as they are
+    if np.any(facts.lo[rest] < lo) or np.any(facts.hi[rest] > hi):
+        return None  # an object not composed might widen the bounds
+    return out
+

@@ -37,7 +37,12 @@ def register_schemas() -> None:
     Plug.Registry().RegisterPlugins(str(schemas_dir()))
 
 
-def open_stage(path: str | Path, what: str = "USD stage", mask: Sequence[str] | None = None) -> Usd.Stage:
+def open_stage(
+    path: str | Path,
+    what: str = "USD stage",
+    mask: Sequence[str] | None = None,
+    whole: bool = True,
+) -> Usd.Stage:
     """Open a USD file, or raise an InputError that names it.
 
     Args:
@@ -45,9 +50,12 @@ def open_stage(path: str | Path, what: str = "USD stage", mask: Sequence[str] | 
         what: how the message names the file (``USD stage``, ``USD asset``, ``USD world`` ...).
         mask: prim paths to compose (with their ancestors and descendants); None composes
             every prim. ``stage.SetPopulationMask`` widens it later.
+        whole: every sublayer must open (:func:`unread_sublayer`); False opens the stage
+            without the ones that do not (a validator reports them as its findings).
 
     Raises:
-        InputError: the file does not open (the USD error's last line is quoted).
+        InputError: the file does not open, or one of its sublayers does not when ``whole``
+            (the USD error's reason is quoted).
     """
     try:
         if mask is None:
@@ -58,7 +66,7 @@ def open_stage(path: str | Path, what: str = "USD stage", mask: Sequence[str] | 
         raise InputError(f"{path}: not a readable {what} ({usd_reason(exc)})") from exc
     if stage is None:
         raise InputError(f"{path}: not a readable {what}")
-    unread = unread_sublayer(stage)
+    unread = unread_sublayer(stage) if whole else None
     if unread is not None:
         raise InputError(f"{path}: {unread}; restore that file or rebuild the world")
     return stage

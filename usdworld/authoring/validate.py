@@ -212,7 +212,7 @@ def validate_file(path: str | Path, *, omni: bool = True) -> list[ValidationIssu
     # USD also prints what the validators report (a sublayer it could not load, say) straight
     # to the process's stderr; the issues carry it, so the duplicate goes to the debug log
     with native_stderr_captured(str(path)):
-        stage = open_stage(path)
+        stage = open_stage(path, whole=False)  # missing sublayers are findings
         issues = _usd_issues(stage)
         if omni and omni_validator_available():
             issues.extend(_omni_issues(path))
@@ -240,7 +240,7 @@ def validate_asset(usda: str | Path, *, omni: bool = True) -> list[ValidationIss
         raise InputError(f"{path}: no such asset file")
     issues: list[ValidationIssue] = []
     with native_stderr_captured(str(path)):
-        stage = open_stage(path)
+        stage = open_stage(path, whole=False)  # missing sublayers are findings
         context = UsdValidation.ValidationContext(usd_validators())
         root = stage.GetDefaultPrim() or stage.GetPseudoRoot()
         sets = root.GetVariantSets()

@@ -15,9 +15,11 @@ from usdworld.authoring import asset_library
 REPO = Path(__file__).resolve().parents[1]
 
 
-def _loaded_after(code: str) -> set[str]:
-    """Top-level module names loaded by a fresh interpreter that runs ``code``."""
-    probe = f"{code}\nimport json, sys\nprint(json.dumps(sorted({{m.split('.')[0] for m in sys.modules}})))"
+def _loaded_after(code: str, whole_names: bool = False) -> set[str]:
+    """Module names loaded by a fresh interpreter that runs ``code``: top-level names, or
+    dotted ones with ``whole_names``."""
+    name = "m" if whole_names else "m.split('.')[0]"
+    probe = f"{code}\nimport json, sys\nprint(json.dumps(sorted({{{name} for m in sys.modules}})))"
     out = subprocess.run(
         [sys.executable, "-c", probe], cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True, text=True, check=True
     )
@@ -68,8 +70,7 @@ def test_a_named_sub_command_builds_only_its_own_command() -> None:
 
 def test_reading_a_render_scene_loads_neither_the_world_writer_nor_numpy_ma() -> None:
     """``usdworld render`` opens a world and reads its meshes: no authoring of worlds, no masked arrays."""
-    probe = (
-        "import json, sys\n"
+    loaded = _loaded_after(
         "import usdworld.authoring.inspect\n"
         "from pxr import Usd, UsdGeom\n"
         "from usdworld.render.scene import RenderScene\n"
@@ -78,13 +79,9 @@ def test_reading_a_render_scene_loads_neither_the_world_writer_nor_numpy_ma() ->
         "mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)])\n"
         "mesh.CreateFaceVertexCountsAttr([4])\n"
         "mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])\n"
-        "assert RenderScene.from_stage(stage).n_triangles == 2\n"
-        "print(json.dumps(sorted(sys.modules)))"
+        "assert RenderScene.from_stage(stage).n_triangles == 2",
+        whole_names=True,
     )
-    out = subprocess.run(
-        [sys.executable, "-c", probe], cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True, text=True, check=True
-    )
-    loaded = set(json.loads(out.stdout.splitlines()[-1]))
     assert not loaded & {"usdworld.authoring.world", "usdworld.authoring.appearance", "numpy.ma"}
 
 
@@ -111,14 +108,6 @@ def test_a_build_loads_no_renderer() -> None:
 def test_an_edit_loads_no_shading_schemas_and_no_build_layout() -> None:
     """``usdworld edit`` moves and rotates without UsdShade/Sdr (only a restyle needs them) and
     without the build's placement draft (the editor turns footprints with usdworld.geometry.rotation)."""
-    probe = (
-        "import json, sys\n"
-        "import usdworld.cli.edit_cmd, usdworld.authoring.edits\n"
-        "print(json.dumps(sorted(sys.modules)))"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", probe], cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True, text=True, check=True
-    )
-    loaded = set(json.loads(out.stdout.splitlines()[-1]))
+    loaded = _loaded_after("import usdworld.cli.edit_cmd, usdworld.authoring.edits", whole_names=True)
     assert "usdworld.geometry.rotation" in loaded
     assert not loaded & {"pxr.UsdShade", "pxr.Sdr", "usdworld.layout.draft"}

@@ -402,3 +402,26 @@ def test_a_dying_worker_fails_its_frames_and_the_batch_goes_on(
     assert status[IDS[0]] == "built" and status[IDS[4]] == "built"  # a fresh pool carried on
     assert IDS[1] in crashed and crashed <= {IDS[1], IDS[2], IDS[3]}  # only frames in flight with it
     assert status[CORRUPT] == "failed"
+
+
+def test_a_dead_builds_temporary_folder_is_removed_once_its_frame_has_a_record(
+    dataset: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A worker killed mid-build (a Dask worker crash) leaves ``.<frame>.tmp-XXXX``; the batch removes
+    it once every frame has its record, and only the leftovers of its own frames."""
+    out = tmp_path / "worlds"
+    dead = out / f".{IDS[1]}.tmp-deadbeef"
+    (dead / "layers").mkdir(parents=True)
+    (dead / "layers" / "base.usda").write_text("#usda 1.0\n")
+    other = out / ".not_a_frame_of_this_batch.tmp-1234abcd"
+    other.mkdir()
+    lookalike = out / f".{IDS[2]}.tmp-file"  # a file, not a build's folder
+    lookalike.write_text("kept")
+    with caplog.at_level("WARNING", logger="usdworld.batch.runner"), InlineExecutor() as executor:
+        run_batch(discover(dataset, "cityscapes"), out, executor, source="cs", layout="cityscapes")
+    assert not dead.exists()
+    assert other.is_dir() and lookalike.read_text() == "kept"
+    assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == sorted([other.name, lookalike.name])
+    assert [r.getMessage() for r in caplog.records if "left by a build" in r.getMessage()] == [
+        f"{IDS[1]}: removed {dead.name}, left by a build whose process died"
+    ]

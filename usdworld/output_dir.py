@@ -30,6 +30,32 @@ from usdworld.world_files import EDITS_LAYER, ROOT_LAYER
 TEMP_NAME_EXTRA = 14
 
 
+def temporary_prefix(out: Path) -> str:
+    """The name prefix of the temporary folder a build of ``out`` writes its world into."""
+    return f".{out.name}.tmp-"
+
+
+def remove_dead_builds(out: Path) -> list[Path]:
+    """Remove the temporary folders that builds of ``out`` left behind when their process died.
+
+    A build removes its temporary folder itself when it fails; only a killed process (a
+    Dask worker that crashed, a ``kill -9``) leaves one. Call this only when no build of
+    ``out`` can still be running (a batch, once every frame has its record).
+
+    Args:
+        out: the world folder whose builds' leftovers to remove.
+
+    Returns:
+        The folders removed.
+    """
+    removed = []
+    for leftover in sorted(out.parent.glob(temporary_prefix(out) + "*")):
+        if leftover.is_dir() and not leftover.is_symlink():
+            shutil.rmtree(leftover, ignore_errors=True)
+            removed.append(leftover)
+    return removed
+
+
 def current_umask() -> int:
     """The process's umask, read from /proc where possible (``os.umask`` must set it to read it)."""
     with contextlib.suppress(OSError, ValueError):

@@ -74,6 +74,7 @@ from usdworld.layout.yaw import RoadAxis, road_axis
 from usdworld.light_stage import estimate_scene_light, light_rig, world_lighting
 from usdworld.output_dir import prepare_output as _prepare_output
 from usdworld.output_dir import swap_in as _swap_in
+from usdworld.output_dir import temporary_prefix
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.dedupe import merge_duplicates
@@ -693,7 +694,7 @@ def build(request: BuildRequest) -> BuildResult:
     asset_files = {c: asset_library.asset_path(c, libraries) for c in sorted({p.obj.class_name for p in model.placements})}
     report = make_report(model, request.parameters)
     try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+        tmp = Path(tempfile.mkdtemp(prefix=temporary_prefix(out), dir=out.parent))
     except OSError as exc:
         raise OutputError(f"{out.parent}: cannot write there ({exc.strerror}); choose another -o") from exc
     try:

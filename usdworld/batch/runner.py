@@ -7,6 +7,7 @@ decides what a failure means (the CLI exits 1, see :class:`FramesFailed`).
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Iterable
 from pathlib import Path
@@ -27,7 +28,10 @@ from usdworld.batch.records import (
 )
 from usdworld.batch.worker import FrameTask
 from usdworld.errors import FramesFailed
+from usdworld.output_dir import remove_dead_builds
 from usdworld.parameters import DEFAULT_PARAMETERS
+
+log = logging.getLogger(__name__)
 
 MAX_RANGE_M = DEFAULT_PARAMETERS.scene.max_range_m  # the default range (scene.max_range_m)
 
@@ -128,6 +132,11 @@ def run_batch(
         if progress is not None:
             progress.close()
     seconds = time.perf_counter() - start
+    # every frame has its record, so no build of this run is still writing: a temporary
+    # folder left beside a frame's world is a dead worker's (Dask re-ran its frames elsewhere)
+    for record in records:
+        for leftover in remove_dead_builds(out / record.frame_id):
+            log.warning("%s: removed %s, left by a build whose process died", record.frame_id, leftover.name)
     all_records = merge(previous, records) if resume else merge({}, records)
     entries = [
         IndexEntry(r.frame_id, r.source, ranges.get(r.frame_id, MAX_RANGE_M))

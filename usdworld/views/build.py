@@ -38,7 +38,7 @@ from usdworld.io.camera_files import read_camera
 from usdworld.io.images import read_image
 from usdworld.io.types import CameraSpec, InputFile
 from usdworld.layout.model import WorldModel
-from usdworld.output_dir import prepare_output, swap_in
+from usdworld.output_dir import prepare_output, swap_in, temporary_prefix
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.parameters.base import plain, section_rows
 from usdworld.parameters.placement import PlacementParams
@@ -398,7 +398,7 @@ def build_views(request: ViewsRequest) -> BuildResult:
     asset_files = {c: asset_library.asset_path(c, libraries) for c in classes}
     report = rig_report(rig, request)
     try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+        tmp = Path(tempfile.mkdtemp(prefix=temporary_prefix(out), dir=out.parent))
     except OSError as exc:
         raise OutputError(f"{out.parent}: cannot write there ({exc.strerror}); choose another -o") from exc
     try:

@@ -258,7 +258,7 @@ def view_stage(
 
     Args:
         world_file: the world's root layer.
-        outside_stage: :func:`open_for_view`'s stage (its layers stay loaded).
+        outside_stage: :func:`open_outside`'s stage (its layers stay loaded).
         cull: the view's culling test, the one the scene is read with.
 
     Returns:

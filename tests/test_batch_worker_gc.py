@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import gc
+import sys
 import threading
 from pathlib import Path
 
@@ -50,3 +51,28 @@ def test_collection_resumes_only_when_the_last_concurrent_frame_ends(tmp_path: P
         t.join(10)
     assert gc.isenabled()
     assert states == [False, False]  # the first to end did not turn collection back on for the other
+
+
+def test_frames_are_built_where_the_calling_thread_cannot_show_them(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A Dask worker's profiler holds sys._current_frames() of its task thread; no frame of a
+    # build may be among them, or the build's USD stages can die in the profiler's thread.
+    caller = threading.get_ident()
+    seen: list[tuple[int, list[str]]] = []
+
+    def recorded(task: FrameTask) -> object:
+        names, frame = [], sys._current_frames()[caller]
+        while frame is not None:
+            names.append(frame.f_code.co_name)
+            frame = frame.f_back
+        seen.append((threading.get_ident(), names))
+        return real(task)
+
+    real = worker._run_frame
+    monkeypatch.setattr(worker, "_prepare_isolated_process", lambda: None)
+    monkeypatch.setattr(worker, "_run_frame", recorded)
+    records = worker.run_frames((_task(tmp_path, True), _task(tmp_path, True)))
+    assert [r.status for r in records] == ["failed", "failed"]
+    assert len({ident for ident, _ in seen}) == 1 and seen[0][0] != caller  # one builder thread
+    assert all("run_frame" not in names and "_run_frame" not in names for _, names in seen)

@@ -21,6 +21,7 @@ import threading
 import time
 import traceback
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -191,8 +192,35 @@ def _run_frame(task: FrameTask) -> FrameRecord:
     )
 
 
+_builders = threading.local()
+
+
+def _builder() -> ThreadPoolExecutor:
+    """This thread's own frame-building thread (one per calling thread, made on first use)."""
+    pool: ThreadPoolExecutor | None = getattr(_builders, "pool", None)
+    if pool is None:
+        pool = _builders.pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="usdworld-frames")
+    return pool
+
+
+def _run_frames_here(tasks: tuple[FrameTask, ...]) -> tuple[FrameRecord, ...]:
+    return tuple(run_frame(task) for task in tasks)
+
+
 def run_frames(tasks: tuple[FrameTask, ...]) -> tuple[FrameRecord, ...]:
     """Build several frames one after another: one Dask task (see :mod:`usdworld.batch.dask_executor`).
+
+    The frames are built on a thread of usdworld's own (:func:`_builder`), not on the calling
+    Dask thread. A Dask worker's profiler (``distributed.worker.profile``, on by default)
+    takes ``sys._current_frames()`` of its task threads every 10 ms in the event-loop thread;
+    a Python frame it holds keeps that frame's locals alive after the function returns, and
+    when the event loop lets go, a ``Usd.Stage`` among them is destroyed in the event-loop
+    thread while the task thread edits a layer that stage still listens to. The task thread
+    then recomposes the half-destroyed stage and the worker dies with "FATAL ERROR:
+    attempted member lookup on NULL TfRefPtr<Pcp_LayerStackRegistry>" (signal 6; core dump:
+    ``frame_dealloc`` -> ``~UsdStage`` in the event loop, ``UsdStage::_HandleLayersDidChange``
+    -> ``PcpCache::ComputeLayerStack`` in the task thread). The profiler never samples this
+    thread, so every USD object of a frame dies in the thread that made it.
 
     Args:
         tasks: the frames, in order.
@@ -200,7 +228,7 @@ def run_frames(tasks: tuple[FrameTask, ...]) -> tuple[FrameRecord, ...]:
     Returns:
         One record per task, in the same order (:func:`run_frame` never raises for a frame).
     """
-    return tuple(run_frame(task) for task in tasks)
+    return _builder().submit(_run_frames_here, tasks).result()
 
 
 def worker_info() -> dict[str, str]:

@@ -111,15 +111,15 @@ def _collected_here() -> Iterator[None]:
     """Within: no automatic garbage collection in this process; at the end, a collection in
     this thread.
 
-    A worker of a Dask cluster builds in a task thread while its event loop runs in another.
-    The cyclic garbage collector runs in whichever thread happens to allocate, so a USD stage
-    left in a reference cycle by one frame could be destroyed by the event loop's thread while
-    the task thread composes the next stage. USD does not survive that: a worker died with
-    "FATAL ERROR: attempted member lookup on NULL TfRefPtr<Pcp_LayerStackRegistry>" (signal
-    6) in 8 of 24 runs of tests/test_batch_dask.py (none in 12 after this), leaving its half-written world's
-    temporary folder behind. Collecting only here, in the thread that built the frame, keeps
-    USD's objects in the thread that made them. A counter keeps collection off until the last
-    of several concurrent frames (threads_per_worker > 1) ends.
+    A worker of a Dask cluster builds while its event loop runs in another thread. The cyclic
+    garbage collector runs in whichever thread happens to allocate, so a USD stage left in a
+    reference cycle by one frame could be destroyed by another thread while the building
+    thread composes the next stage, which USD does not survive ("FATAL ERROR: attempted member
+    lookup on NULL TfRefPtr<Pcp_LayerStackRegistry>", signal 6). Collecting only here, in the
+    thread that built the frame, keeps USD's objects in the thread that made them. (The crash
+    that was seen came from Dask's profiler, not from the collector: :func:`run_frames`.) A
+    counter keeps collection off until the last of several concurrent frames
+    (threads_per_worker > 1) ends.
     """
     global _gc_holders
     with _gc_lock:

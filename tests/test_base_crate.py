@@ -40,8 +40,7 @@ def worlds(tmp_path_factory) -> dict[str, Path]:
     tmp = tmp_path_factory.mktemp("crate")
     libraries = asset_library.library_dirs(None)
     model = build_model(BuildRequest(output=tmp / "unused", **write_frame(tmp / "frame")), libraries)
-    classes = sorted({p.obj.class_name for p in model.placements})
-    assets = {c: asset_library.asset_path(c, libraries) for c in classes}
+    assets = asset_library.asset_files((p.obj.class_name for p in model.placements), libraries)
     write_world(model, tmp / "text", assets, None)
     write_world(model, tmp / "crate", assets, None, CRATE)
     return {"text": tmp / "text", "crate": tmp / "crate"}

@@ -36,8 +36,7 @@ def template(tmp_path_factory) -> dict[str, Path]:
     tmp = tmp_path_factory.mktemp("index_file")
     libraries = asset_library.library_dirs(None)
     model = build_model(BuildRequest(output=tmp / "unused", **write_frame(tmp / "frame")), libraries)
-    classes = sorted({p.obj.class_name for p in model.placements})
-    assets = {c: asset_library.asset_path(c, libraries) for c in classes}
+    assets = asset_library.asset_files((p.obj.class_name for p in model.placements), libraries)
     write_world(model, tmp / "large", assets, None, AuthoringParams(large_world_min_objects=1))
     write_world(model, tmp / "small", assets, None)
     return {"large": tmp / "large", "small": tmp / "small"}

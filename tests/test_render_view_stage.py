@@ -41,8 +41,7 @@ def template(tmp_path_factory) -> Path:
     tmp = tmp_path_factory.mktemp("view_stage")
     model = bench_scale.tiled_model(bench_scale.base_model(tmp, 3, 1024, 512), N_OBJECTS)
     libraries = asset_library.library_dirs(None)
-    classes = sorted({p.obj.class_name for p in model.placements})
-    assets = {c: asset_library.asset_path(c, libraries) for c in classes}
+    assets = asset_library.asset_files((p.obj.class_name for p in model.placements), libraries)
     write_world(model, tmp / "w", assets, None, AuthoringParams(large_world_min_objects=1))
     return tmp / "w"
 

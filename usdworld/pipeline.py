@@ -691,7 +691,7 @@ def build(request: BuildRequest) -> BuildResult:
     keep_edits = _prepare_output(out)
     libraries = asset_library.library_dirs(request.library)
     model = build_model(request, libraries)
-    asset_files = {c: asset_library.asset_path(c, libraries) for c in sorted({p.obj.class_name for p in model.placements})}
+    asset_files = asset_library.asset_files((p.obj.class_name for p in model.placements), libraries)
     report = make_report(model, request.parameters)
     try:
         tmp = Path(tempfile.mkdtemp(prefix=temporary_prefix(out), dir=out.parent))

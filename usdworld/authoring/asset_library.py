@@ -20,6 +20,7 @@ Example::
 from __future__ import annotations
 
 import functools
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -133,6 +134,15 @@ def asset_path(class_name: str, libraries: tuple[Path, ...] | None = None) -> Pa
     where = ", ".join(str(p) for p in libs)
     available = ", ".join(available_classes(libs)) or "none"
     raise InputError(f"no asset for class '{class_name}' in {where}; available classes: {available}")
+
+
+def asset_files(class_names: Iterable[str], libraries: tuple[Path, ...] | None = None) -> dict[str, Path]:
+    """Class name -> its ``<class>.usda`` (:func:`asset_path`), for each distinct class, in name order.
+
+    Raises:
+        InputError: no library has an asset for one of the classes.
+    """
+    return {c: asset_path(c, libraries) for c in sorted(set(class_names))}
 
 
 def _open(path: Path) -> tuple[Usd.Stage, Usd.Prim]:

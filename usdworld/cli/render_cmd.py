@@ -78,8 +78,9 @@ def render(
 
     from usdworld.parameters.authoring import AuthoringParams
     from usdworld.render.view_stage import open_outside, scene_for_view
+    from usdworld.world_files import ROOT_LAYER
 
-    world_file = world / "world.usda" if world.is_dir() else world
+    world_file = world / ROOT_LAYER if world.is_dir() else world
     # A large world with a kept object index is first composed without its objects; the
     # objects that may reach the view are composed once the camera is known (same pixels).
     outside = None

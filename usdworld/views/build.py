@@ -394,8 +394,7 @@ def build_views(request: ViewsRequest) -> BuildResult:
     keep_edits = prepare_output(out)
     rig = build_rig_model(request)
     libraries = asset_library.library_dirs(request.library)
-    classes = sorted({p.obj.class_name for p in rig.model.placements})
-    asset_files = {c: asset_library.asset_path(c, libraries) for c in classes}
+    asset_files = asset_library.asset_files((p.obj.class_name for p in rig.model.placements), libraries)
     report = rig_report(rig, request)
     try:
         tmp = Path(tempfile.mkdtemp(prefix=temporary_prefix(out), dir=out.parent))

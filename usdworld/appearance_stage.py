@@ -14,6 +14,7 @@ image below the horizon outside every object's box.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -31,6 +32,90 @@ from usdworld.render.lighting import Lighting, albedo_for_photo
 UP_WORLD = np.array([0.0, 0.0, 1.0])
 
 
+@dataclass(frozen=True)
+class PhotoColours:
+    """The colours measured in the photo, before any lighting: what the albedos are chosen from.
+
+    Attributes:
+        objects: (placement index, colour) of each placed object that has one, in placement order.
+        surfaces: (surface name, colour) of each ground surface that has one, in the surfaces' order.
+    """
+
+    objects: tuple[tuple[int, MeasuredColour], ...]
+    surfaces: tuple[tuple[str, MeasuredColour], ...]
+
+
+def photo_colours(
+    image: SourceImage,
+    seg: Segmentation | None,
+    placements: Sequence[Placement],
+    surfaces: Sequence[SurfaceMesh],
+    surface_label_ids: dict[str, list[int]],
+    camera: PinholeCamera,
+    params: PerceptionParams,
+    labels_inferred: bool = False,
+) -> PhotoColours:
+    """The measured colour of every placed object and ground surface that has one.
+
+    Needs no light, so a build measures them while it estimates the light
+    (:mod:`usdworld.stage_threads`); :func:`appearances_for` then chooses their albedos.
+
+    Args:
+        image: the photo.
+        seg: its labels, or None.
+        placements: the placed objects.
+        surfaces: the ground surfaces.
+        surface_label_ids: surface name -> Cityscapes label ids of its pixels.
+        camera: the source camera.
+        params: ``colour_*`` fields.
+        labels_inferred: ``seg`` was inferred from the photo (:mod:`usdworld.perception.streets`),
+            not given: the surfaces' colour regions are recorded as ``inferred``.
+    """
+    boxes = np.array([p.obj.box_px for p in placements], dtype=np.int64).reshape(-1, 4)
+    masks = [None if p.obj.box_only else p.obj.mask for p in placements]
+    depths = np.array([p.depth_m for p in placements], dtype=np.float64)
+    rows = [params.colour_rows(p.obj.class_name) for p in placements]
+    objects = tuple(sorted(object_colours(image.rgb, boxes, masks, depths, params, rows).items()))
+    measured = []
+    for surface in surfaces:
+        region = _surface_region(surface.name, seg, surface_label_ids, boxes, camera, image.rgb.shape[:2])
+        kind = ("inferred" if labels_inferred else "labels") if seg is not None else "ground"
+        colour = region_colour(image.rgb, region, kind, params) if region is not None else None
+        if colour is not None:
+            measured.append((surface.name, colour))
+    return PhotoColours(objects, tuple(measured))
+
+
+def appearances_for(
+    colours: PhotoColours,
+    placements: Sequence[Placement],
+    camera: PinholeCamera,
+    lighting: Lighting | None = None,
+) -> tuple[Appearance, ...]:
+    """The albedo of each measured colour that reproduces it under ``lighting``.
+
+    Args:
+        colours: the colours measured in the photo (:func:`photo_colours` of ``placements``).
+        placements: the placed objects.
+        camera: the source camera.
+        lighting: the lighting the albedo is chosen for (default: the renderer's).
+
+    Returns:
+        Objects first (in placement order), then surfaces.
+    """
+    light = Lighting() if lighting is None else lighting
+    out = []
+    for i, colour in colours.objects:
+        towards_camera = camera.center_world - placements[i].position_world
+        towards_camera[2] = 0.0
+        if np.linalg.norm(towards_camera) < 1e-6:
+            towards_camera = -camera.rotation_world_from_cam[:, 2]
+        out.append(_appearance(placements[i].name, "object", colour, towards_camera, light))
+    for name, colour in colours.surfaces:
+        out.append(_appearance(name, "surface", colour, UP_WORLD, light))
+    return tuple(out)
+
+
 def photo_appearances(
     image: SourceImage,
     seg: Segmentation | None,
@@ -42,42 +127,16 @@ def photo_appearances(
     lighting: Lighting | None = None,
     labels_inferred: bool = False,
 ) -> tuple[Appearance, ...]:
-    """The measured colour and its albedo for every placed object and ground surface that has one.
-
-    Args:
-        image: the photo.
-        seg: its labels, or None.
-        placements: the placed objects.
-        surfaces: the ground surfaces.
-        surface_label_ids: surface name -> Cityscapes label ids of its pixels.
-        camera: the source camera.
-        params: ``colour_*`` fields.
-        lighting: the lighting the albedo is chosen for (default: the renderer's).
-        labels_inferred: ``seg`` was inferred from the photo (:mod:`usdworld.perception.streets`),
-            not given: the surfaces' colour regions are recorded as ``inferred``.
+    """The measured colour and its albedo for every placed object and ground surface that has one:
+    :func:`appearances_for` of :func:`photo_colours` (the arguments are theirs).
 
     Returns:
         Objects first (in placement order), then surfaces.
     """
-    light = Lighting() if lighting is None else lighting
-    boxes = np.array([p.obj.box_px for p in placements], dtype=np.int64).reshape(-1, 4)
-    masks = [None if p.obj.box_only else p.obj.mask for p in placements]
-    depths = np.array([p.depth_m for p in placements], dtype=np.float64)
-    out = []
-    rows = [params.colour_rows(p.obj.class_name) for p in placements]
-    for i, colour in sorted(object_colours(image.rgb, boxes, masks, depths, params, rows).items()):
-        towards_camera = camera.center_world - placements[i].position_world
-        towards_camera[2] = 0.0
-        if np.linalg.norm(towards_camera) < 1e-6:
-            towards_camera = -camera.rotation_world_from_cam[:, 2]
-        out.append(_appearance(placements[i].name, "object", colour, towards_camera, light))
-    for surface in surfaces:
-        region = _surface_region(surface.name, seg, surface_label_ids, boxes, camera, image.rgb.shape[:2])
-        kind = ("inferred" if labels_inferred else "labels") if seg is not None else "ground"
-        colour = region_colour(image.rgb, region, kind, params) if region is not None else None
-        if colour is not None:
-            out.append(_appearance(surface.name, "surface", colour, UP_WORLD, light))
-    return tuple(out)
+    colours = photo_colours(
+        image, seg, placements, surfaces, surface_label_ids, camera, params, labels_inferred
+    )
+    return appearances_for(colours, placements, camera, lighting)
 
 
 def _appearance(

@@ -13,6 +13,11 @@ sun and sky (light, from the shadows the placed objects cast and the sky's pixel
 colours of objects and surfaces measured in the photo (appearance, for that light); the
 world's layers and ``report.json``.
 
+Stages that need nothing from each other run side by side on ``BuildRequest.threads`` threads
+(:mod:`usdworld.stage_threads`): the street's lines while the labels and the camera are read; the
+light while the ground surfaces are built and the colours measured. Each result is taken where
+the sequential build used it, so the world is the same for any thread count.
+
 :func:`build_model` runs them in three typed steps, so a photo can be placed again with other
 placement numbers without being perceived again (a camera rig, :mod:`usdworld.views.build`):
 :func:`perceive` (everything up to the placement: :class:`PerceivedView`), :func:`place_view`
@@ -28,13 +33,14 @@ import logging
 import math
 import shutil
 import tempfile
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from usdworld.appearance_stage import photo_appearances
+from usdworld.appearance_stage import PhotoColours, appearances_for, photo_colours
 from usdworld.authoring import asset_library
 from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.authoring.world import ROOT_LAYER, write_world
@@ -69,13 +75,20 @@ from usdworld.layout.focal_cues import estimate_focal
 from usdworld.layout.heading import check_traffic
 from usdworld.layout.model import WorldModel
 from usdworld.layout.placement import Placement, Skipped, place_objects, skip_warnings
-from usdworld.layout.surfaces import SURFACE_CLASSES, build_surfaces, fill_hidden_ground, surface_points
+from usdworld.layout.surfaces import (
+    SURFACE_CLASSES,
+    SurfaceMesh,
+    build_surfaces,
+    fill_hidden_ground,
+    surface_points,
+)
 from usdworld.layout.yaw import RoadAxis, road_axis
 from usdworld.light_stage import estimate_scene_light, light_rig, world_lighting
 from usdworld.output_dir import prepare_output as _prepare_output
 from usdworld.output_dir import swap_in as _swap_in
 from usdworld.output_dir import temporary_prefix
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
+from usdworld.parameters.camera import CameraParams
 from usdworld.parameters.placement import PlacementParams
 from usdworld.perception.dedupe import merge_duplicates
 from usdworld.perception.facades import StreetView
@@ -90,6 +103,7 @@ from usdworld.perception.refs import join_things_and_stuff
 from usdworld.perception.segment import BACKEND_NAMES as SEGMENT_BACKENDS
 from usdworld.report import make_report
 from usdworld.segment_stage import segment_photo
+from usdworld.stage_threads import DEFAULT_THREADS, StageThreads, earlier_errors_first
 from usdworld.streets_stage import inferred_stuff, infer_streets
 
 log = logging.getLogger(__name__)
@@ -131,6 +145,11 @@ class BuildRequest:
         infer_streets: with detections but no labels, infer the road, sidewalks, buildings,
             vegetation and sky from the photo (:mod:`usdworld.perception.streets`; ``--no-infer-streets``
             turns it off).
+        threads: threads the build runs its independent stages on, the calling one included
+            (:mod:`usdworld.stage_threads`): the street's lines beside the labels' decoding, the
+            light beside the ground surfaces and the colours. 1 runs them one after the other (batch
+            workers and a rig's views do: their processes are the parallelism). The world is the
+            same for any count.
     """
 
     image: Path
@@ -154,9 +173,12 @@ class BuildRequest:
     camera_spec: CameraSpec | None = None
     detection_items: Detections | None = None
     infer_streets: bool = True
+    threads: int = DEFAULT_THREADS
 
     def __post_init__(self) -> None:
         check_traffic(self.traffic)
+        if isinstance(self.threads, bool) or not isinstance(self.threads, int) or self.threads < 1:
+            raise InputError(f"threads must be an integer >= 1, got {self.threads!r}")
         if self.instances is not None and self.labels is None:
             raise InputError("--instances needs --labels (the labelIds PNG of the same frame)")
         if self.polygons is not None and self.labels is not None:
@@ -392,15 +414,17 @@ def read_scene_head(
         params: the parameters used.
     """
     image = read_image(request.image)
-    seg = _read_segmentation(request, image)
-    spec = request.camera_spec
-    if spec is None and request.camera is not None:
-        spec = read_camera(request.camera, image, request.ground_plane)
-    dets = _read_detections(request, image)
-    if request.segment != "none":  # the model runs once every input file has been read and checked
-        seg = segment_photo(request.segment, request.segment_model, image, dets, params.perception)
-    segments = detect_segments(image.rgb, params.camera)
-    vanishing = find_vanishing_point(segments, image.width, image.height, params.camera)
+    with StageThreads(request.threads) as stages:
+        # The street's lines need the photo only: found while the other inputs are read.
+        lines = stages.submit(_street_lines, image, params.camera)
+        seg = _read_segmentation(request, image)
+        spec = request.camera_spec
+        if spec is None and request.camera is not None:
+            spec = read_camera(request.camera, image, request.ground_plane)
+        dets = _read_detections(request, image)
+        if request.segment != "none":  # the model runs once every input file has been read and checked
+            seg = segment_photo(request.segment, request.segment_model, image, dets, params.perception)
+        segments, vanishing = lines.result()
     view = street_view(spec, image.width, image.height, vanishing, params.placement.curb_height_m, params.camera)
     objects = _objects(dets, image, seg, view, table, params)
     catalogue = asset_catalogue((o.class_name for o in objects), libraries)
@@ -443,6 +467,14 @@ def read_scene_head(
     return SceneHead(image, seg, spec, vanishing, objects, catalogue, camera, inferred, why)
 
 
+def _street_lines(
+    image: SourceImage, params: CameraParams
+) -> tuple[np.ndarray, VanishingPoint | None]:
+    """The photo's line segments (``detect_segments``) and the street's vanishing point from them."""
+    segments = detect_segments(image.rgb, params)
+    return segments, find_vanishing_point(segments, image.width, image.height, params)
+
+
 def depth_for_image(request: BuildRequest) -> tuple[DepthOutcome, PinholeCamera]:
     """Only the depth stage of a build: the metric depth and the camera it used."""
     head = read_scene_head(
@@ -479,6 +511,8 @@ class PerceivedView:
         dlt_source: where its correspondences came from, ``manual`` or ``camera_model``.
         inputs: every input file with its digest, for the provenance.
         traffic: the side traffic keeps to.
+        threads: the threads :func:`finish_view` runs its independent stages on
+            (``BuildRequest.threads``).
     """
 
     params: Parameters
@@ -488,6 +522,7 @@ class PerceivedView:
     dlt_source: str
     inputs: tuple[InputFile, ...]
     traffic: str
+    threads: int = 1
 
 
 def perceive(request: BuildRequest, libraries: tuple[Path, ...]) -> PerceivedView:
@@ -514,7 +549,9 @@ def perceive(request: BuildRequest, libraries: tuple[Path, ...]) -> PerceivedVie
         params.perception,
     )
     fit, dlt_source = _ground_fit(request, camera, params)
-    return PerceivedView(params, head, dense, fit, dlt_source, _inputs(request, head), request.traffic)
+    return PerceivedView(
+        params, head, dense, fit, dlt_source, _inputs(request, head), request.traffic, request.threads
+    )
 
 
 @dataclass(frozen=True)
@@ -609,28 +646,19 @@ def finish_view(placed: PlacedView) -> WorldModel:
     max_range_m = params.scene.max_range_m
     table = load_class_table()
     camera = head.camera.camera
-    filled = None
-    if head.seg is not None:
-        filled = fill_hidden_ground(
-            np.asarray(head.seg.label_ids), placements, camera, placed.axis.angle, table, params.scene
-        )
     surface_ids = {name: [label_lookups().id_of(c) for c in classes] for name, classes in SURFACE_CLASSES.items()}
-    surfaces = build_surfaces(
-        filled, surface_ids, camera, fit.dst_from_src, params.placement.curb_height_m, max_range_m
-    )
-    light = estimate_scene_light(head.image, head.seg, placements, camera, fit.dst_from_src, table, params.light)
+    with StageThreads(perceived.threads) as stages:
+        # The ground surfaces and the colours need no light: measured while the light is estimated.
+        surfaces_done = stages.submit(_surfaces, placed, surface_ids)
+        colours_done = stages.submit(_colours, placed, surfaces_done, surface_ids)
+        with earlier_errors_first(surfaces_done):
+            light = estimate_scene_light(
+                head.image, head.seg, placements, camera, fit.dst_from_src, table, params.light
+            )
+        surfaces = surfaces_done.result()
+        colours = colours_done.result()
     lighting = world_lighting(light)
-    appearances = photo_appearances(
-        head.image,
-        head.seg,
-        placements,
-        surfaces,
-        {**surface_ids, "terrain": [label_lookups().id_of("terrain")]},
-        camera,
-        params.perception,
-        lighting,
-        labels_inferred=head.inferred is not None,
-    )
+    appearances = appearances_for(colours, placements, camera, lighting)
     dense = perceived.dense
     return WorldModel(
         image_name=head.image.file.name,
@@ -649,6 +677,47 @@ def finish_view(placed: PlacedView) -> WorldModel:
         appearances=appearances,
         light=light,
         lights=light_rig(lighting),
+    )
+
+
+def _surfaces(placed: PlacedView, surface_ids: dict[str, list[int]]) -> list[SurfaceMesh]:
+    """The ground surfaces of a placed view (the labels' ground, filled where objects hide it)."""
+    head, params = placed.perceived.head, placed.params
+    camera = head.camera.camera
+    filled = None
+    if head.seg is not None:
+        filled = fill_hidden_ground(
+            np.asarray(head.seg.label_ids),
+            list(placed.placements),
+            camera,
+            placed.axis.angle,
+            load_class_table(),
+            params.scene,
+        )
+    return build_surfaces(
+        filled,
+        surface_ids,
+        camera,
+        placed.perceived.fit.dst_from_src,
+        params.placement.curb_height_m,
+        params.scene.max_range_m,
+    )
+
+
+def _colours(
+    placed: PlacedView, surfaces: Future[list[SurfaceMesh]], surface_ids: dict[str, list[int]]
+) -> PhotoColours:
+    """The colours measured in the photo for a placed view's objects and its ``surfaces``, once made."""
+    head = placed.perceived.head
+    return photo_colours(
+        head.image,
+        head.seg,
+        placed.placements,
+        surfaces.result(),
+        {**surface_ids, "terrain": [label_lookups().id_of("terrain")]},
+        head.camera.camera,
+        placed.params.perception,
+        labels_inferred=head.inferred is not None,
     )
 
 

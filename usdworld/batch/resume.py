@@ -4,7 +4,7 @@ A frame is skipped on resume when its previous record holds the same key and its
 folder is complete. The key hashes the *content* of every input file (so moving the
 dataset does not force a rebuild, while changing one byte does), the options that change
 the output (``max_range_m``, the user asset library's files) and the usdworld version.
-The output path is not part of the key.
+The output path and the build's thread count (which changes no output) are not part of the key.
 """
 
 from __future__ import annotations
@@ -24,6 +24,8 @@ if TYPE_CHECKING:
 
 #: Bumped when the key's recipe changes, so old keys never match.
 KEY_FORMAT = "usdworld-batch-key/1"
+#: Request fields that change no output, left out of the key: the output path and the threads.
+KEY_IGNORED = frozenset({"output", "threads"})
 #: Files every complete world folder holds (see usdworld.authoring.world), besides the
 #: layers its root names as sublayers (the edits layer and ``layers/base.usda`` or ``.usdc``).
 WORLD_FILES = ("world.usda", "report.json")
@@ -73,7 +75,7 @@ def frame_key(request: BuildRequest | ViewsBuild) -> str:
     doc: dict[str, object] = {"format": KEY_FORMAT, "usdworld": usdworld.__version__}
     for f in fields(request):
         value = getattr(request, f.name)
-        if f.name == "output" or value is None:
+        if f.name in KEY_IGNORED or value is None:
             continue
         if f.name == "library":
             doc[f.name] = folder_digest(Path(value))

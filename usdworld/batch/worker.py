@@ -12,6 +12,7 @@ data and output paths (a shared filesystem on a cluster).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import gc
 import json
 import logging
@@ -149,6 +150,9 @@ def run_frame(task: FrameTask) -> FrameRecord:
     if not task.isolated:
         return _run_frame(task)
     _prepare_isolated_process()
+    if isinstance(task.request, BuildRequest):
+        # One of several worker processes: the processes are the parallelism, its build uses one thread.
+        task = dataclasses.replace(task, request=dataclasses.replace(task.request, threads=1))
     with _collected_here():
         return _run_frame(task)
 

@@ -220,4 +220,5 @@ def read_image(path: PathLike) -> SourceImage:
         rgb = _to_rgb8(bgr, file.name)
     else:
         rgb = _to_rgb8(_decode(data, file.name, fmt, cv2.IMREAD_UNCHANGED), file.name)
+    rgb.setflags(write=False)  # this reader's own array: SourceImage keeps it without a copy
     return SourceImage(rgb=rgb, file=file)

@@ -144,13 +144,15 @@ def read_segmentation(
             :data:`MAX_MISMATCH_FRACTION` of the instance pixels disagree with the labels.
     """
     data, labels_file = read_input(labels_path, "labels")
-    label_ids = _read_label_ids(data, labels_file.name)
+    label_ids = np.ascontiguousarray(_read_label_ids(data, labels_file.name))
+    label_ids.setflags(write=False)  # this reader's own arrays: Segmentation keeps them without a copy
     _check_image_size(labels_file.name, label_ids.shape, image, "labels")
     if instances_path is None:
         return Segmentation(label_ids=label_ids, instance_ids=None, files=(labels_file,))
 
     data, inst_file = read_input(instances_path, "instances")
     instance_ids = _read_instance_ids(data, inst_file.name)
+    instance_ids.setflags(write=False)
     if instance_ids.shape != label_ids.shape:
         raise InputError(
             f"{inst_file.name}: {_size_text(instance_ids.shape)} but the labels {labels_file.name} are "

@@ -150,6 +150,8 @@ class ViewsRequest:
             # Each view would infer its own facades from boxes, and the fusion associates things only:
             # the street inference is for single photos.
             infer_streets=False,
+            # The views run side by side in processes (``jobs``): each view's stages one after another.
+            threads=1,
         )
 
 

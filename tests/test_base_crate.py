@@ -162,7 +162,7 @@ def test_a_root_without_sublayers_is_refused(tmp_path):
 def test_a_failed_crate_write_leaves_neither_the_file_nor_a_temporary(worlds, tmp_path, monkeypatch):
     from usdworld.authoring import world as world_module
 
-    def half_written(model, path, refs):
+    def half_written(model, path, refs, sources=None):
         Sdf.Layer.CreateNew(str(path)).Save()  # the temporary file exists when the write fails
         raise RuntimeError("disk full")
 

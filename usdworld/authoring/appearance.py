@@ -26,7 +26,9 @@ For a ground surface, it is the ``diffuseColor`` of the surface's own material a
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
@@ -41,7 +43,11 @@ if TYPE_CHECKING:
     from usdworld.layout.model import Appearance
 
 
-def define_appearances(layer: Sdf.Layer, appearances: Sequence[Appearance]) -> None:
+def define_appearances(
+    layer: Sdf.Layer,
+    appearances: Sequence[Appearance],
+    asset_files: Mapping[str, Sequence[Path]] | None = None,
+) -> None:
     """Author each appearance on its object or ground surface (in the base layer).
 
     No stage composes the world for this: an object's targets are found in its class
@@ -53,11 +59,15 @@ def define_appearances(layer: Sdf.Layer, appearances: Sequence[Appearance]) -> N
         layer: the world's base layer, objects (their reference and ``model`` variant
             selection) and the ground reference already authored.
         appearances: the colours; targets are object names or surface names.
+        asset_files: asset path as the layer references it -> the files of the library asset
+            it is a copy of, root layer first (:func:`usdworld.authoring.world.asset_dependencies`):
+            such an asset's targets are remembered in this process while none of those files
+            changes (a process that builds many worlds opens each asset once).
 
     Raises:
         AuthoringError: a target that is not in the world.
     """
-    finder = _TargetFinder(layer)
+    finder = _TargetFinder(layer, asset_files or {})
     plans = []
     for look in appearances:
         if look.kind == "object":
@@ -109,6 +119,20 @@ def define_appearances(layer: Sdf.Layer, appearances: Sequence[Appearance]) -> N
 #: Paths relative to an object (or absolute, for surfaces) of the shaders and meshes to colour.
 _Targets = tuple[list[Sdf.Path], list[Sdf.Path]]
 
+#: (library asset's root layer, chosen variant) -> (its files' modification stamps, the targets
+#: of :meth:`_TargetFinder.object_targets`), remembered across worlds; at most
+#: ``_MAX_REMEMBERED`` pairs.
+_REMEMBERED: dict[tuple[Path, str], tuple[tuple[tuple[int, int], ...], dict[str, _Targets]]] = {}
+_MAX_REMEMBERED = 512
+
+
+def _stamps(files: Sequence[Path]) -> tuple[tuple[int, int], ...] | None:
+    """Modification time and size of each file; None when one cannot be read."""
+    try:
+        return tuple((st.st_mtime_ns, st.st_size) for st in (os.stat(f) for f in files))
+    except OSError:
+        return None
+
 
 def _set(
     layer: Sdf.Layer, prim_path: Sdf.Path, name: str, type_name: Sdf.ValueTypeName, value: object
@@ -131,8 +155,9 @@ class _TargetFinder:
     """The restyle targets of the base layer's objects and surfaces, each class asset (and
     the ground layer) opened on its own, once, and each asset variant's paint found once."""
 
-    def __init__(self, layer: Sdf.Layer) -> None:
+    def __init__(self, layer: Sdf.Layer, asset_files: Mapping[str, Sequence[Path]]) -> None:
         self.layer = layer
+        self.asset_files = asset_files
         self.stages: dict[str, Usd.Stage] = {}
         self.found: dict[tuple[str, str], dict[str, _Targets]] = {}
 
@@ -154,24 +179,43 @@ class _TargetFinder:
         chosen = spec.variantSelections.get(VARIANT_SET, "")
         key = (asset, chosen)
         if key not in self.found:
-            stage = self._stage(asset)
-            root = stage.GetDefaultPrim()
-            vsets = root.GetVariantSets()
-            if not vsets.HasVariantSet(VARIANT_SET):
-                self.found[key] = {"": _relative(root, restyle_targets(root)[0], [])}
-            else:
-                vset = vsets.GetVariantSet(VARIANT_SET)
-                variant = chosen or vset.GetVariantSelection()
-                session = stage.GetSessionLayer()
-                try:
-                    with Usd.EditContext(stage, session):
-                        vset.SetVariantSelection(variant)
-                    self.found[key] = {variant: _relative(root, restyle_targets(root)[0], [])}
-                finally:
-                    over = session.GetPrimAtPath(root.GetPath())
-                    if over:
-                        del over.variantSelections[VARIANT_SET]
+            self.found[key] = self._remembered(asset, chosen)
         return self.found[key]
+
+    def _remembered(self, asset: str, chosen: str) -> dict[str, _Targets]:
+        """:meth:`_variant_targets`, remembered per library asset while its files are unchanged."""
+        files = self.asset_files.get(asset)
+        stamps = _stamps(files) if files else None
+        if files is None or stamps is None:
+            return self._variant_targets(asset, chosen)
+        key = (Path(files[0]), chosen)
+        remembered = _REMEMBERED.get(key)
+        if remembered is not None and remembered[0] == stamps:
+            return remembered[1]
+        targets = self._variant_targets(asset, chosen)
+        if len(_REMEMBERED) >= _MAX_REMEMBERED:
+            _REMEMBERED.pop(next(iter(_REMEMBERED)))
+        _REMEMBERED[key] = (stamps, targets)
+        return targets
+
+    def _variant_targets(self, asset: str, chosen: str) -> dict[str, _Targets]:
+        """The restyle targets of the asset's ``chosen`` variant ('' for its default), found in its stage."""
+        stage = self._stage(asset)
+        root = stage.GetDefaultPrim()
+        vsets = root.GetVariantSets()
+        if not vsets.HasVariantSet(VARIANT_SET):
+            return {"": _relative(root, restyle_targets(root)[0], [])}
+        vset = vsets.GetVariantSet(VARIANT_SET)
+        variant = chosen or vset.GetVariantSelection()
+        session = stage.GetSessionLayer()
+        try:
+            with Usd.EditContext(stage, session):
+                vset.SetVariantSelection(variant)
+            return {variant: _relative(root, restyle_targets(root)[0], [])}
+        finally:
+            over = session.GetPrimAtPath(root.GetPath())
+            if over:
+                del over.variantSelections[VARIANT_SET]
 
     def surface_targets(self, path: Sdf.Path) -> dict[str, _Targets] | None:
         """The surface mesh's own bound material and the mesh (relative to the mesh), found in

@@ -245,13 +245,21 @@ def _scene_values(model: WorldModel) -> dict:
     }
 
 
-def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) -> None:
+def write_base_layer(
+    model: WorldModel,
+    path: Path,
+    asset_refs: dict[str, str],
+    asset_sources: dict[str, tuple[Path, ...]] | None = None,
+) -> None:
     """Write ``layers/base.usda`` (or any layer file: its extension picks the format).
 
     Args:
         model: the world.
         path: file to write.
         asset_refs: class name -> asset path relative to the base layer.
+        asset_sources: asset path relative to the base layer -> the library asset's files it
+            copies (:func:`asset_dependencies`), so its paint is looked up once per process
+            (:func:`~usdworld.authoring.appearance.define_appearances`); None to look each up.
     """
     layer = Sdf.Layer.CreateNew(str(path))
     stage = Usd.Stage.Open(layer)
@@ -273,7 +281,7 @@ def write_base_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) 
     if model.appearances:
         # The colour overrides land on the referenced assets' materials, found in each
         # asset's own stage (and the ground layer's): no stage composes the world.
-        define_appearances(layer, model.appearances)
+        define_appearances(layer, model.appearances, asset_sources)
     layer.Save()
 
 
@@ -291,7 +299,12 @@ def base_layer_name(n_objects: int, params: AuthoringParams) -> str:
     return BASE_CRATE_LAYER if n_objects >= params.large_world_min_objects else BASE_LAYER
 
 
-def write_base_crate_layer(model: WorldModel, path: Path, asset_refs: dict[str, str]) -> None:
+def write_base_crate_layer(
+    model: WorldModel,
+    path: Path,
+    asset_refs: dict[str, str],
+    asset_sources: dict[str, tuple[Path, ...]] | None = None,
+) -> None:
     """Write the base layer in the crate format, atomically: to a temporary ``.usdc`` name in
     the same folder (the extension picks the format), then renamed onto ``path``.
 
@@ -299,12 +312,13 @@ def write_base_crate_layer(model: WorldModel, path: Path, asset_refs: dict[str, 
         model: the world.
         path: the ``.usdc`` file to write.
         asset_refs: class name -> asset path relative to the base layer.
+        asset_sources: as for :func:`write_base_layer`.
     """
     path = Path(path)
     # a fresh name, not a file made by mkstemp: Sdf creates it with the umask's permissions
     tmp = path.with_name(f".{path.stem}.tmp-{uuid.uuid4().hex[:12]}.usdc")
     try:
-        write_base_layer(model, tmp, asset_refs)
+        write_base_layer(model, tmp, asset_refs, asset_sources)
         with open(tmp, "rb") as f:
             os.fsync(f.fileno())
         os.replace(tmp, path)
@@ -485,17 +499,19 @@ def write_world(
     (out_dir / "layers").mkdir(parents=True, exist_ok=True)
     (out_dir / ASSETS_DIR).mkdir(exist_ok=True)
     refs = {}
+    sources = {}
     for class_name, src in sorted(asset_files.items()):
         copy_asset(src, out_dir / ASSETS_DIR)
         refs[class_name] = f"../{ASSETS_DIR}/{src.name}"
+        sources[refs[class_name]] = asset_dependencies(Path(src).resolve())  # remembered by copy_asset
     if model.surfaces:
         write_ground_layer(model, out_dir / GROUND_LAYER)
     base = base_layer_name(len(model.placements), params)
     if base == BASE_CRATE_LAYER:
-        write_base_crate_layer(model, out_dir / base, refs)
+        write_base_crate_layer(model, out_dir / base, refs, sources)
         write_object_index(model.placements, out_dir / base)
     else:
-        write_base_layer(model, out_dir / base, refs)
+        write_base_layer(model, out_dir / base, refs, sources)
     if keep_edits is not None:
         shutil.copyfile(keep_edits, out_dir / EDITS_LAYER)
     else:

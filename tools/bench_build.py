@@ -78,7 +78,7 @@ STAGES = (
     ),
     ("street vanishing point: LSD segments", [("geometry/vanishing.py", "detect_segments")]),
     ("street vanishing point: RANSAC (street and vertical)", [("geometry/vanishing.py", "find_vanishing_point"), ("geometry/vanishing.py", "find_vertical_vanishing_point")]),
-    ("perception (objects from the labels)", [("pipeline.py", "_objects")]),
+    ("perception (objects from the labels)", [("pipeline.py", "_objects"), ("perception/objects.py", "segment_regions")]),
     ("asset catalogue", [("authoring/asset_measures.py", "asset_catalogue")]),
     (
         "camera estimate (street view, focal, lanes, roll, pose)",

@@ -14,9 +14,10 @@ colours of objects and surfaces measured in the photo (appearance, for that ligh
 world's layers and ``report.json``.
 
 Stages that need nothing from each other run side by side on ``BuildRequest.threads`` threads
-(:mod:`usdworld.stage_threads`): the street's lines while the labels and the camera are read; the
-light while the ground surfaces are built and the colours measured. Each result is taken where
-the sequential build used it, so the world is the same for any thread count.
+(:mod:`usdworld.stage_threads`): the street's lines while the labels and the camera are read and
+the label map's regions found; the light while the ground surfaces are built and the colours
+measured. Each result is taken where the sequential build used it, so the world is the same for
+any thread count.
 
 :func:`build_model` runs them in three typed steps, so a photo can be placed again with other
 placement numbers without being perceived again (a camera rig, :mod:`usdworld.views.build`):
@@ -95,8 +96,10 @@ from usdworld.perception.facades import StreetView
 from usdworld.perception.streets import StreetLabels
 from usdworld.perception.objects import (
     ImageObject,
+    SegmentRegions,
     objects_from_detections,
-    objects_from_segmentation,
+    objects_from_regions,
+    segment_regions,
     sort_objects,
 )
 from usdworld.perception.refs import join_things_and_stuff
@@ -146,8 +149,8 @@ class BuildRequest:
             vegetation and sky from the photo (:mod:`usdworld.perception.streets`; ``--no-infer-streets``
             turns it off).
         threads: threads the build runs its independent stages on, the calling one included
-            (:mod:`usdworld.stage_threads`): the street's lines beside the labels' decoding, the
-            light beside the ground surfaces and the colours. 1 runs them one after the other (batch
+            (:mod:`usdworld.stage_threads`): the street's lines beside the labels' decoding and
+            regions, the light beside the ground surfaces and the colours. 1 runs them one after the other (batch
             workers and a rig's views do: their processes are the parallelism). The world is the
             same for any count.
     """
@@ -302,17 +305,21 @@ def _objects(
     view: StreetView | None,
     table: ClassTable,
     params: Parameters,
+    regions: SegmentRegions | None,
 ) -> list[ImageObject]:
+    """The image objects; ``regions``: :func:`segment_regions` of ``seg`` (None without labels)."""
     lookups = label_lookups()
     if dets is None:
-        return objects_from_segmentation(seg, view, table, lookups, params.perception) if seg is not None else []
+        if seg is None or regions is None:
+            return []
+        return objects_from_regions(regions, seg, view, table, lookups, params.perception)
     things = merge_duplicates(
         objects_from_detections(dets, image.width, image.height, seg, lookups=lookups, params=params.perception),
         params.collision,
     )
-    if seg is None:
+    if seg is None or regions is None:
         return sort_objects(things)
-    segmented = objects_from_segmentation(seg, view, table, lookups, params.perception)
+    segmented = objects_from_regions(regions, seg, view, table, lookups, params.perception)
     return join_things_and_stuff(things, segmented, params.perception)
 
 
@@ -424,9 +431,12 @@ def read_scene_head(
         dets = _read_detections(request, image)
         if request.segment != "none":  # the model runs once every input file has been read and checked
             seg = segment_photo(request.segment, request.segment_model, image, dets, params.perception)
+        with earlier_errors_first(lines):
+            # The label map's regions need no perspective: found while the lines are.
+            regions = segment_regions(seg, table, label_lookups(), params.perception) if seg is not None else None
         segments, vanishing = lines.result()
     view = street_view(spec, image.width, image.height, vanishing, params.placement.curb_height_m, params.camera)
-    objects = _objects(dets, image, seg, view, table, params)
+    objects = _objects(dets, image, seg, view, table, params, regions)
     catalogue = asset_catalogue((o.class_name for o in objects), libraries)
     focal = None
     no_intrinsics = spec is None or spec.K is None

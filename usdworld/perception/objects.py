@@ -380,33 +380,43 @@ def _facade_sides(
     return ranges
 
 
-def objects_from_segmentation(
+@dataclass(frozen=True)
+class SegmentRegions:
+    """The regions of a label map before the photo's perspective cuts them
+    (:func:`segment_regions`; :func:`objects_from_regions` makes the objects).
+
+    Attributes:
+        things: (class, source label, instance id, box (4,) int64, (h, w) bool crop) of each
+            instance large enough to place, in instance order.
+        stuff: (class, source label, (h, w) bool crop, (h, w) bool region its component spans,
+            x, y of the crop's top-left pixel, the class's minimum area in pixels) of each stuff
+            component large enough, by class name, then component label.
+    """
+
+    things: tuple[tuple[str, str, int, np.ndarray, np.ndarray], ...]
+    stuff: tuple[tuple[str, str, np.ndarray, np.ndarray, int, int, int], ...]
+
+
+def segment_regions(
     seg: Segmentation,
-    view: StreetView | None,
     classes: ClassTable,
     lookups: LabelLookups,
     params: PerceptionParams = DEFAULT_PERCEPTION,
-) -> list[ImageObject]:
-    """Things from the instance map (or class components) and stuff from class masks.
+) -> SegmentRegions:
+    """The things of the instance map and the stuff components of the class masks: the part of
+    :func:`objects_from_segmentation` that needs no perspective (a build finds them while it
+    looks for the street's vanishing point, :mod:`usdworld.stage_threads`).
 
     Args:
         seg: label ids (and instance ids) of one image.
-        view: the photo's perspective; with it, runs of facades are cut into buildings
-            (:mod:`usdworld.perception.facades`), else (or when a facade's base is not in
-            view) into chunks of a fixed pixel aspect.
-        classes: the class table; its roles say how each class's regions are cut and joined.
+        classes: the class table; its roles say how each class's regions are joined.
         lookups: the Cityscapes table's arrays (:func:`usdworld.io.label_table.label_lookups`).
         params: the perception thresholds.
-
-    Returns:
-        Objects sorted by (class, instance id, contact u).
     """
     labels = np.asarray(seg.label_ids)
     H, W = labels.shape
-    split_aspect = params.split_aspect_by_class
-    owner = np.zeros((H, W), dtype=np.int32)
-    objects: list[ImageObject] = []
-    pending: list[tuple[str, str, int, np.ndarray, np.ndarray, bool]] = []
+    things: list[tuple[str, str, int, np.ndarray, np.ndarray]] = []
+    stuff: list[tuple[str, str, np.ndarray, np.ndarray, int, int, int]] = []
 
     inst = np.asarray(seg.instance_ids) if seg.instance_ids is not None else None
     if inst is not None:
@@ -418,7 +428,7 @@ def objects_from_segmentation(
             crop = inst[y0:y1, x0:x1] == iid
             if crop.sum() < params.min_thing_area_px:
                 continue
-            pending.append((str(lookups.placed[label_id]), str(lookups.names[label_id]), iid, box, crop, True))
+            things.append((str(lookups.placed[label_id]), str(lookups.names[label_id]), iid, box, crop))
 
     by_class: dict[str, list[int]] = {}
     for i in range(256):
@@ -470,29 +480,67 @@ def objects_from_segmentation(
             if crop.sum() < min_area:
                 continue
             source = str(lookups.names[int(np.bincount(labels[y : y + h, x : x + w][crop]).argmax())])
-            ranges = None
-            piece_area = min_area
-            if view is not None and classes.has(class_name, "facade"):
-                piece_area = max(params.min_stuff_area_px, int(min_area * params.facade_piece_area))
-                ranges = _facade_sides(
-                    crop, region, x, y, labels, view, piece_area, W, split_aspect[class_name], lookups, params
-                )
-            if ranges is None and classes.has(class_name, "topped"):
-                ranges = crown_ranges(crop, _ground_below(crop, x, y, labels, lookups, or_things=True), params)
-            if ranges is None:
-                if class_name in split_aspect:
-                    ranges = _split_columns(crop, split_aspect[class_name], params.split_min_width_px)
-                else:
-                    ranges = [(0, w)]
-            for c0, c1 in ranges:
-                sub = crop[:, c0:c1]
-                rows = np.nonzero(sub.any(axis=1))[0]
-                if len(rows) == 0 or sub.sum() < piece_area / 2:
-                    continue
-                sub = sub[rows[0] : rows[-1] + 1]
-                box = np.array([x + c0, y + rows[0], x + c1, y + rows[-1] + 1])
-                pending.append((class_name, source, -1, box, sub, False))
+            stuff.append((class_name, source, crop, region, x, y, min_area))
+    return SegmentRegions(tuple(things), tuple(stuff))
 
+
+def objects_from_regions(
+    regions: SegmentRegions,
+    seg: Segmentation,
+    view: StreetView | None,
+    classes: ClassTable,
+    lookups: LabelLookups,
+    params: PerceptionParams = DEFAULT_PERCEPTION,
+) -> list[ImageObject]:
+    """The objects of a label map's regions: stuff cut into pieces (facades by the photo's
+    perspective), then each object's ground contact.
+
+    Args:
+        regions: :func:`segment_regions` of ``seg`` with the same tables and parameters.
+        seg: label ids (and instance ids) of one image.
+        view: the photo's perspective; with it, runs of facades are cut into buildings
+            (:mod:`usdworld.perception.facades`), else (or when a facade's base is not in
+            view) into chunks of a fixed pixel aspect.
+        classes: the class table.
+        lookups: the Cityscapes table's arrays.
+        params: the perception thresholds.
+
+    Returns:
+        Objects sorted by (class, instance id, contact u).
+    """
+    labels = np.asarray(seg.label_ids)
+    H, W = labels.shape
+    split_aspect = params.split_aspect_by_class
+    pending: list[tuple[str, str, int, np.ndarray, np.ndarray, bool]] = [
+        (class_name, source, iid, box, crop, True) for class_name, source, iid, box, crop in regions.things
+    ]
+    for class_name, source, crop, region, x, y, min_area in regions.stuff:
+        w = crop.shape[1]
+        ranges = None
+        piece_area = min_area
+        if view is not None and classes.has(class_name, "facade"):
+            piece_area = max(params.min_stuff_area_px, int(min_area * params.facade_piece_area))
+            ranges = _facade_sides(
+                crop, region, x, y, labels, view, piece_area, W, split_aspect[class_name], lookups, params
+            )
+        if ranges is None and classes.has(class_name, "topped"):
+            ranges = crown_ranges(crop, _ground_below(crop, x, y, labels, lookups, or_things=True), params)
+        if ranges is None:
+            if class_name in split_aspect:
+                ranges = _split_columns(crop, split_aspect[class_name], params.split_min_width_px)
+            else:
+                ranges = [(0, w)]
+        for c0, c1 in ranges:
+            sub = crop[:, c0:c1]
+            rows = np.nonzero(sub.any(axis=1))[0]
+            if len(rows) == 0 or sub.sum() < piece_area / 2:
+                continue
+            sub = sub[rows[0] : rows[-1] + 1]
+            box = np.array([x + c0, y + rows[0], x + c1, y + rows[-1] + 1])
+            pending.append((class_name, source, -1, box, sub, False))
+
+    owner = np.zeros((H, W), dtype=np.int32)
+    objects: list[ImageObject] = []
     for idx, (_, _, _, box, crop, _) in enumerate(pending, start=1):
         x0, y0, x1, y1 = (int(b) for b in box)
         np.copyto(owner[y0:y1, x0:x1], idx, where=crop)
@@ -520,6 +568,31 @@ def objects_from_segmentation(
             )
         )
     return sort_objects(objects)
+
+
+def objects_from_segmentation(
+    seg: Segmentation,
+    view: StreetView | None,
+    classes: ClassTable,
+    lookups: LabelLookups,
+    params: PerceptionParams = DEFAULT_PERCEPTION,
+) -> list[ImageObject]:
+    """Things from the instance map (or class components) and stuff from class masks:
+    :func:`objects_from_regions` of :func:`segment_regions`.
+
+    Args:
+        seg: label ids (and instance ids) of one image.
+        view: the photo's perspective; with it, runs of facades are cut into buildings
+            (:mod:`usdworld.perception.facades`), else (or when a facade's base is not in
+            view) into chunks of a fixed pixel aspect.
+        classes: the class table; its roles say how each class's regions are cut and joined.
+        lookups: the Cityscapes table's arrays (:func:`usdworld.io.label_table.label_lookups`).
+        params: the perception thresholds.
+
+    Returns:
+        Objects sorted by (class, instance id, contact u).
+    """
+    return objects_from_regions(segment_regions(seg, classes, lookups, params), seg, view, classes, lookups, params)
 
 
 def sort_objects(objects: list[ImageObject]) -> list[ImageObject]:

@@ -102,16 +102,19 @@ STAGES = (
 )
 
 
-def _median_s(fn, runs: int) -> tuple[float, float]:
-    """Median wall and CPU seconds (this process, all threads) of ``runs`` calls after one warm-up."""
+def _median_s(fn, runs: int) -> tuple[float, float, float]:
+    """Median wall and CPU seconds (this process, all threads) of ``runs`` calls after one warm-up,
+    and the median CPU seconds of the calling thread alone: the work left on the build's critical
+    path when its stages run on helper threads too (about its wall time with a free core per thread)."""
     fn()
-    walls, cpus = [], []
+    walls, cpus, own = [], [], []
     for _ in range(runs):
-        t0, c0 = time.perf_counter(), time.process_time()
+        t0, c0, m0 = time.perf_counter(), time.process_time(), time.thread_time()
         fn()
         walls.append(time.perf_counter() - t0)
         cpus.append(time.process_time() - c0)
-    return statistics.median(walls), statistics.median(cpus)
+        own.append(time.thread_time() - m0)
+    return statistics.median(walls), statistics.median(cpus), statistics.median(own)
 
 
 def _frame(tmp: Path, width: int, height: int, seed: int) -> dict[str, Path]:
@@ -194,16 +197,19 @@ def main(argv: list[str] | None = None) -> int:
         f"build threads {threads}, OpenCV threads {cv2.getNumThreads()}"
     )
     print(f"\n{width}x{height} Cityscapes-format frame, synth seed {args.seed}, {objects} objects; median of {args.runs}, wall / CPU:\n")
-    print("| checkout | build | of which compute (no writing) | decode inputs only | build / decode, wall | CPU | build on one thread |")
+    print(
+        "| checkout | build, wall / CPU / calling thread's CPU | of which compute (no writing) | decode inputs only "
+        "| build / decode, wall | CPU | build on one thread, wall / CPU / calling thread's CPU |"
+    )
     print("|---|---|---|---|---|---|---|")
     rows = [(f"this one ({REPO.name}), in this process", timings)]
     if pairs is not None:
         rows += [(f"{name}, fresh process, round {i + 1}", t) for i, round_ in enumerate(pairs) for name, t in round_]
     for name, t in rows:
-        (bw, bc), (mw, mc), (dw, dc) = t["build"], t["compute"], t["decode"]
-        one = f"{t['build_1'][0] * 1000:.0f} / {t['build_1'][1] * 1000:.0f} ms" if "build_1" in t else "(no threads)"
+        (bw, bc, bm), (mw, mc, _), (dw, dc, _) = t["build"], t["compute"], t["decode"]
+        one = " / ".join(f"{v * 1000:.0f}" for v in t["build_1"]) + " ms" if "build_1" in t else "(no threads)"
         print(
-            f"| {name} | {bw * 1000:.0f} / {bc * 1000:.0f} ms | {mw * 1000:.0f} / {mc * 1000:.0f} ms "
+            f"| {name} | {bw * 1000:.0f} / {bc * 1000:.0f} / {bm * 1000:.0f} ms | {mw * 1000:.0f} / {mc * 1000:.0f} ms "
             f"| {dw * 1000:.0f} / {dc * 1000:.0f} ms | {bw / dw:.1f}x | {bc / dc:.1f}x | {one} |"
         )
     print(f"\n| stage (build on one thread) | CPU per build (median of {args.runs}, no profiler) | share of the build (cProfile: its calls from pipeline.py) |")
@@ -225,17 +231,26 @@ def _print_targets(timings: dict, command: dict | None, width: int, height: int,
     """The issue's two build targets against this checkout's medians (wall, as the issue sets them;
     CPU beside), and the command that re-measures them on an idle machine."""
     load = os.getloadavg()[0]
-    (bw, bc) = timings["build"]
+    (bw, bc, bm) = timings["build"]
     print(f"\nTargets (issue 21 item 1; wall on an idle machine; load average now {load:.2f} on {os.cpu_count()} cores):\n")
-    print("| target | this checkout, wall | CPU | met (wall) |")
+    print("| target | this checkout, wall | CPU (calling thread's) | met (wall) |")
     print("|---|---|---|---|")
-    print(f"| build in process <= 150 ms at 2048x1024 ({width}x{height} here) | {bw * 1000:.0f} ms | {bc * 1000:.0f} ms | {'yes' if bw <= 0.150 else 'no'} |")
+    print(
+        f"| build in process <= 150 ms at 2048x1024 ({width}x{height} here) | {bw * 1000:.0f} ms "
+        f"| {bc * 1000:.0f} ms ({bm * 1000:.0f} ms) | {'yes' if bw <= 0.150 else 'no'} |"
+    )
     if command is not None:
         (fw, fc) = next(iter(command.values()))
         (cw, cc) = next(v for k, v in command.items() if REPO.name in k and k.startswith("`usdworld build`"))
-        print(f"| whole `usdworld build` <= 2.0x its floor | {cw / fw:.2f}x ({cw:.2f} / {fw:.2f} s) | {cc / fc:.2f}x | {'yes' if cw / fw <= 2.0 else 'no'} |")
+        print(
+            f"| whole `usdworld build` <= 2.0x its floor | {cw / fw:.2f}x ({cw:.2f} / {fw:.2f} s) | {cc / fc:.2f}x "
+            f"| {'yes' if cw / fw <= 2.0 else 'no'} |"
+        )
     if load > 0.5 * (os.cpu_count() or 1):
-        print("\nThe machine is loaded: threads gain wall time only where a core is free; re-measure idle.")
+        print(
+            "\nThe machine is loaded: threads gain wall time only where a core is free; re-measure idle "
+            "(the calling thread's CPU is what the build's critical path costs with a free core)."
+        )
     print(
         "\nRe-measure idle: python -m compileall -q usdworld tools && "
         f"python tools/bench_build.py --runs {args.runs} --rounds {args.rounds} --size {width}x{height} --seed {args.seed} "

@@ -645,6 +645,10 @@ def finish_view(placed: PlacedView) -> WorldModel:
     """What follows from the placements: the ground surfaces, the light (the placed objects'
     shadows), the colours measured for that light, and the metric world.
 
+    The surfaces and the colours measured in the photo need no light: with
+    ``placed.perceived.threads`` > 1 they are made on a helper thread while this one estimates
+    the light (:mod:`usdworld.stage_threads`).
+
     Args:
         placed: the placed view (:func:`place_view`).
 

@@ -15,6 +15,7 @@ from pxr import Usd, UsdGeom
 
 from usdworld.cli.main import main
 from usdworld.errors import InputError, OutputError
+from usdworld.parameters.video import VideoParams
 from usdworld.pipeline import BuildRequest, build
 from usdworld.render import RenderScene
 from usdworld.render.flythrough import (
@@ -117,6 +118,44 @@ def test_mp4_writer_keeps_the_frames_in_order_and_the_caller_may_reuse_its_array
     _, frames = read_video_frames(tmp_path / "g.mp4")
     assert len(frames) == len(levels)
     assert np.allclose([f.mean() for f in frames], levels, atol=3)
+
+
+def _x264_options(path: Path) -> dict[str, str]:
+    """The encoder settings libx264 records in the stream (its 'options:' SEI text), by name."""
+    data = path.read_bytes()
+    start = data.index(b"options: ") + len(b"options: ")
+    text = data[start : data.index(b"\x00", start)].decode("ascii", "replace")
+    return dict(item.split("=", 1) for item in text.split() if "=" in item)
+
+
+def test_mp4_writer_encodes_with_the_video_parameters(tmp_path: Path) -> None:
+    frame = np.zeros((32, 48, 3), np.uint8)
+    with Mp4Writer(tmp_path / "default.mp4", 48, 32) as video:
+        video.write(frame)
+    default = _x264_options(tmp_path / "default.mp4")
+    # the preset's diamond search and one sub-pixel iteration instead of its hexagon and two
+    assert (default["me"], default["subme"], default["crf"]) == ("dia", "1", "20.0")
+    assert default["ref"] == "1" and default["trellis"] == "0"  # the rest is still 'veryfast'
+    params = VideoParams(crf=23, preset="ultrafast", motion_search="hex", subpixel_refinement=2)
+    with Mp4Writer(tmp_path / "other.mp4", 48, 32, params=params) as video:
+        video.write(frame)
+    other = _x264_options(tmp_path / "other.mp4")
+    assert (other["me"], other["subme"], other["crf"], other["cabac"]) == ("hex", "2", "23.0", "0")
+
+
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("crf", 52),
+        ("crf", 20.5),
+        ("preset", "fastest"),
+        ("motion_search", "full"),
+        ("subpixel_refinement", -1),
+    ],
+)
+def test_video_params_reject_what_libx264_would_not_take(field: str, value: object) -> None:
+    with pytest.raises(ValueError, match=f"video.{field}"):
+        VideoParams(**{field: value})
 
 
 def test_mp4_writer_reports_a_dead_ffmpeg_and_leaves_no_file(tmp_path: Path) -> None:

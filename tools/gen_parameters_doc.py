@@ -23,6 +23,7 @@ from usdworld.parameters import Parameters  # noqa: E402
 from usdworld.parameters.authoring import AuthoringParams  # noqa: E402
 from usdworld.parameters.base import plain, section_rows  # noqa: E402
 from usdworld.parameters.rendering import RenderingParams  # noqa: E402
+from usdworld.parameters.video import VideoParams  # noqa: E402
 from usdworld.parameters.views import ViewsParams  # noqa: E402
 
 #: The generated page.
@@ -89,6 +90,13 @@ def render(params: Parameters) -> str:
         "the time a render takes, never its pixels).",
         "",
         *_table(section_rows(RenderingParams())),
+        "",
+        "## video",
+        "",
+        "How videos (the fly-through) are encoded with libx264 (a section of its own, not recorded in "
+        "`report.json`: it trades the encoder's time against the file's size).",
+        "",
+        *_table(section_rows(VideoParams())),
     ]
     return "\n".join(lines) + "\n"
 

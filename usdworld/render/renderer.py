@@ -415,7 +415,11 @@ class Renderer:
                 buffers.draw(ctx, "depth")
                 self._color_fbo.color_mask = (True, True, True, True)
             ctx.depth_func = "<="
+            # The depth buffer already holds each pixel's nearest depth, and the fragments that
+            # pass "<=" lie at it: the lit pass writes no depth (llvmpipe then skips the stores).
+            self._color_fbo.depth_mask = False
             buffers.draw(ctx, pass_name)
+            self._color_fbo.depth_mask = True
         # The sky last, at the far plane: it passes "<=" only where no surface was drawn (the
         # surfaces' depth is < 1: the pre-pass's "<" test against the cleared 1 writes no other).
         sky = self._programs["sky"]

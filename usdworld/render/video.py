@@ -30,12 +30,10 @@ from typing import Any, Self
 import numpy as np
 
 from usdworld.errors import InputError, OutputError, UsdWorldError
+from usdworld.parameters.video import VideoParams
 
 log = logging.getLogger(__name__)
 
-#: Constant rate factor of libx264 (lower: better quality, larger file).
-DEFAULT_CRF = 20
-DEFAULT_PRESET = "veryfast"
 #: Frames queued for the encoder at most (memory: this many frames, e.g. 2.4 MB each at 1280x640).
 QUEUE_FRAMES = 8
 
@@ -66,8 +64,7 @@ class Mp4Writer:
         width: frame width in pixels (even).
         height: frame height in pixels (even).
         fps: frames per second.
-        crf: libx264 constant rate factor.
-        preset: libx264 speed preset.
+        params: the encoder's settings (default :class:`~usdworld.parameters.video.VideoParams`).
 
     Raises:
         InputError: odd or non-positive size, or fps <= 0.
@@ -80,14 +77,14 @@ class Mp4Writer:
         width: int,
         height: int,
         fps: float = 30.0,
-        crf: int = DEFAULT_CRF,
-        preset: str = DEFAULT_PRESET,
+        params: VideoParams | None = None,
     ) -> None:
         check_video_size(width, height)
         if not fps > 0:
             raise InputError(f"fps must be > 0, got {fps}")
         self.path = Path(path)
         self.width, self.height, self.fps = int(width), int(height), float(fps)
+        self.params = params or VideoParams()
         self.frames_written = 0
         folder = self.path.parent
         try:
@@ -110,7 +107,7 @@ class Mp4Writer:
                 codec="libx264",
                 macro_block_size=1,
                 ffmpeg_log_level="error",
-                output_params=["-crf", str(int(crf)), "-preset", preset, "-movflags", "+faststart"],
+                output_params=[*self.params.x264_arguments(), "-movflags", "+faststart"],
             )
             self._gen.send(None)  # start ffmpeg
         except UsdWorldError:

@@ -207,3 +207,31 @@ def test_a_third_sublayer_takes_the_whole_stage(world):
     root.subLayerPaths.insert(1, "./layers/drive.usda")
     root.Save()
     assert open_outside(world / "world.usda", 0) is None
+
+
+def test_a_culled_object_with_a_child_in_view_takes_the_whole_stage(world):
+    """A mesh added below a far base object (out of view with its asset's box) stands in
+    front of the camera: the index says that object is not plain, so the whole world is read."""
+    name = _names(world)["far_car"][0]
+    file = world / "world.usda"
+    full_stage = Usd.Stage.Open(str(file))
+    _, pose = _cull(full_stage)
+    from pxr import Gf, UsdGeom
+
+    obj = full_stage.GetPrimAtPath(f"/World/Objects/{name}")
+    world_from_obj = UsdGeom.Xformable(obj).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
+    ahead = pose.world_from_cam[:3, 3] + 8.0 * pose.world_from_cam[:3, 2]  # 8 m in front of the camera
+    at = world_from_obj.GetInverse().Transform(Gf.Vec3d(float(ahead[0]), float(ahead[1]), 0.0))
+    base = Sdf.Layer.FindOrOpen(str(world / BASE_CRATE_LAYER))
+    mesh = Sdf.PrimSpec(base.GetPrimAtPath(f"/World/Objects/{name}"), "Extra", Sdf.SpecifierDef, "Mesh")
+    names = Sdf.ValueTypeNames
+    Sdf.AttributeSpec(mesh, "points", names.Point3fArray).default = [
+        Gf.Vec3f(at[0] + dx, at[1] + dy, dz) for dx, dy, dz in ((0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1))
+    ]
+    Sdf.AttributeSpec(mesh, "faceVertexCounts", names.IntArray).default = [3, 3, 3, 3]
+    Sdf.AttributeSpec(mesh, "faceVertexIndices", names.IntArray).default = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]
+    _rekey(world, base)
+    full, masked, _ = _scenes(world)
+    assert masked is None
+    owner = next(o for o in full.objects if o.path == f"/World/Objects/{name}")
+    assert any(owner.index in b.object_ids for b in full.batches)  # its child is drawn

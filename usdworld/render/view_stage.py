@@ -3,8 +3,8 @@
 Composing every object of a 10,000-object world (a reference and a variant each) costs more
 than drawing the few hundred the camera sees. A world whose object index is kept
 (:mod:`usdworld.authoring.editing.index_file`: the base layer's object opinions, keyed by
-its SHA-256) gives each object's class, ``model`` variant and ``active`` without composing
-it; its place and scale are read from its spec. :func:`open_outside` composes everything
+its SHA-256) gives each object's class, ``model`` variant, ``active``, asset, place and scale,
+and whether its spec holds anything else, without composing it or reading its spec. :func:`open_outside` composes everything
 outside the objects scope (camera, lights, ground); :func:`scene_for_view` composes beside
 it the objects the edits layer touches and the objects whose box (an upright cylinder
 around the asset's box, any yaw) or its shadow may meet the view (:class:`~.instancing.ViewCull`,
@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from itertools import repeat
 from pathlib import Path
 
 import numpy as np
@@ -33,10 +32,6 @@ from usdworld.render.instancing import ViewCull, read_prototype
 from usdworld.render.scene import RenderObject, RenderScene
 
 OBJECTS = "/World/Objects"
-#: Property names a base-layer object may carry and still be described by the index: its
-#: transform ops (translate, rotateZ, scale, read below), its label and its provenance.
-_KNOWN = ("xformOp:translate", "xformOp:rotateZ", "xformOp:scale", "xformOpOrder", "semantics:", "usdworld:")
-_OP_ORDER = ("xformOp:translate", "xformOp:rotateZ", "xformOp:scale")
 #: Which corner of a box takes the upper side, per axis (the order of :func:`~.instancing.box_corners`).
 _CORNER_BITS = tuple(np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=bool).T)
 #: Metres a conservative box is widened by (float rounding of the composed transforms).
@@ -151,70 +146,43 @@ class _Base:
     scale: np.ndarray  # (N, 3) float64
 
 
-#: Metadata a base-layer object's spec may carry (anything else: a payload, instancing, children ...).
-_INFO = frozenset(
-    {"specifier", "typeName", "references", "variantSelection", "variantSetNames", "apiSchemas"}
-)
-
-
 def _base_objects(layers: list[Sdf.Layer], names: list[str], edited: set[str]) -> _Base | None:
-    """Class and variant (the index), asset, translate and scale (the base layer's specs) of the
-    objects the edits layer does not touch; None when the index is not kept for the base layer
-    or an object carries what the index does not describe (a child, another transform, a
-    visibility, a purpose, primvars, a material binding, a payload, instancing ...)."""
-    from usdworld.authoring.editing.index_file import INDEX_FILE, layers_key, load_opinions
+    """Class, variant, asset, translate and scale of the objects the edits layer does not touch,
+    from the object index (:mod:`~usdworld.authoring.editing.index_file`; a file keyed to other
+    bytes is read again from the layer and rewritten, as the editor does); None when an object
+    is not plain (:func:`~usdworld.authoring.editing.index.plain_asset`: a child, another
+    transform, a visibility, a purpose, primvars, a material binding, a payload, instancing ...)."""
+    from usdworld.authoring.editing.index_file import lower_opinions
 
     base = layers[1]
     if not base.realPath:
         return None
-    kept = load_opinions(Path(base.realPath).parent / INDEX_FILE, layers_key([Path(base.realPath)]))
-    if kept is None:
-        return None
+    kept = lower_opinions(layers, 0)  # the file exists (_root_sublayers): keep it current
     at = {n: i for i, n in enumerate(kept.names)}
+    rows = [at.get(name) for name in names if name not in edited]
+    if None in rows:
+        return None
+    rows_a = np.array(rows, dtype=np.int64)
+    active = np.array([a is not False for a in kept.active], dtype=bool)
+    rows_a = rows_a[kept.defined[rows_a] & active[rows_a]]
+    if not kept.plain[rows_a].all():
+        return None
+    labels = [kept.label[i] for i in rows_a]
+    if not all(labels):
+        return None
+    translate = np.column_stack([kept.translate[rows_a], kept.height[rows_a, 0]])
+    scale = np.column_stack([kept.scale[rows_a], kept.height[rows_a, 1]])
+    if np.isnan(translate).any() or np.isnan(scale).any():
+        return None
     assets: dict[str, str] = {}
-    out = _Base([], [], [], np.zeros((0, 3)), np.zeros((0, 3)))
-    t_rows, s_rows = [], []
-    for name in names:
-        if name in edited:
-            continue
-        i = at.get(name)
-        if i is None:
-            return None
-        if not kept.defined[i] or kept.active[i] is False:
-            continue
-        path = f"{OBJECTS}/{name}"
-        spec = base.GetPrimAtPath(path)
-        if spec is None or not _INFO.issuperset(spec.ListInfoKeys()) or spec.typeName != "Xform":
-            return None
-        if spec.specifier != Sdf.SpecifierDef:
-            return None
-        if not all(map(str.startswith, spec.GetInfo("properties"), repeat(_KNOWN))):
-            return None
-        order = base.GetAttributeAtPath(path + ".xformOpOrder")
-        t = base.GetAttributeAtPath(path + ".xformOp:translate")
-        sc = base.GetAttributeAtPath(path + ".xformOp:scale")
-        refs = spec.GetInfo("references").prependedItems
-        if not (order and t and sc) or tuple(order.default or ()) != _OP_ORDER or len(refs) != 1:
-            return None
-        ref = refs[0]
-        label = kept.label[i]
-        if not label or t.default is None or sc.default is None or not ref.assetPath or ref.primPath:
-            return None
-        if ref.layerOffset != Sdf.LayerOffset():
-            return None
-        asset = assets.get(ref.assetPath)
+    kinds = []
+    for i in rows_a.tolist():
+        ref = kept.asset[i]
+        asset = assets.get(ref)
         if asset is None:
-            asset = assets[ref.assetPath] = base.ComputeAbsolutePath(ref.assetPath)
-        out.names.append(name)
-        out.labels.append(label)
-        out.kinds.append((asset, kept.variant[i]))
-        t_rows.append(t.default)
-        s_rows.append(sc.default)
-    return dataclasses.replace(
-        out,
-        translate=np.array(t_rows, dtype=np.float64).reshape(-1, 3),
-        scale=np.array(s_rows, dtype=np.float64).reshape(-1, 3),
-    )
+            asset = assets[ref] = base.ComputeAbsolutePath(ref)
+        kinds.append((asset, kept.variant[i]))
+    return _Base([kept.names[i] for i in rows_a], labels, kinds, translate.reshape(-1, 3), scale.reshape(-1, 3))
 
 
 def open_outside(world_file: Path, min_objects: int) -> Usd.Stage | None:
@@ -369,11 +337,7 @@ def whole_world_scene(facts: WorldObjects, scene: RenderScene) -> RenderScene | 
             return None  # a thing part unlike its object counts ids of its own
         own = (obj > 0) & (inst == old_id[obj])
         inst = np.where(own, new_id[obj], inst)
-        ids = {
-            "instance_ids": inst.astype(b.instance_ids.dtype),
-            "object_ids": index_map[obj].astype(b.object_ids.dtype),
-        }
-        batches.append(dataclasses.replace(b, **ids))
+        batches.append(b.with_ids(inst.astype(b.instance_ids.dtype), index_map[obj].astype(b.object_ids.dtype)))
     out = RenderScene(tuple(batches), scene.part_order, tuple(objects), scene.culled_bounds_world)
     lo, hi = out.bounds_world()
     rest = ~facts.composed

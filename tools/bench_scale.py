@@ -48,7 +48,8 @@ the first left, e.g. the object index) and reading the (unculled) render scene a
 objects with another checkout (e.g. the code before this benchmark's changes), and whether
 both write the same bytes; figures are wall / CPU seconds. A third table renders each size (up
 to ``--no-render-above``) with the other checkout and with this one, ``--render-runs``
-alternating rounds in fresh processes on one world: open, culled scene, draw and their sum,
+alternating rounds in fresh processes, each on the world it authored (the same layers; the
+object index in its own format): open, culled scene, draw and their sum,
 wall / CPU seconds, the triangles and the instances the camera's passes drew (``Renderer.last_shown``;
 all of them for a checkout without the occlusion test) and whether the objects were composed
 for the view only (:mod:`usdworld.render.view_stage`); ``--no-against`` leaves out the second
@@ -404,21 +405,24 @@ def against(model, n: int, folder: Path, reference: Path, scene: bool) -> dict:
 
 def render_against(model, n: int, folder: Path, reference: Path, runs: int) -> list[tuple[str, dict]]:
     """The render snippet (open, culled scene, all passes from the source camera) with ``reference``
-    and with this checkout, alternating, ``runs`` rounds, in fresh processes on one world."""
-    from usdworld.authoring import asset_library
-    from usdworld.authoring.world import write_world
+    and with this checkout, alternating, ``runs`` rounds, in fresh processes; each checkout renders
+    the world it authors itself (the same layers; the object index is in each one's format)."""
+    import pickle
 
-    libraries = asset_library.library_dirs(None)
-    classes = sorted({p.obj.class_name for p in model.placements})
-    assets = {c: asset_library.asset_path(c, libraries) for c in classes}
-    world = folder / f"render_{n}"
-    write_world(model, world, assets, None)
+    pkl = folder / f"model_{n}.pkl"
+    pkl.write_bytes(pickle.dumps(model))
+    repos = {"ref": reference, "new": _HERE}
+    worlds = {tag: folder / f"render_{tag}_{n}" for tag in repos}
+    for tag, repo in repos.items():
+        _snippet(_AUTHOR_SNIPPET, pkl, worlds[tag], repo=repo)
+    pkl.unlink()
     rows = []
     for run in range(runs):
-        order = (("ref", reference), ("new", _HERE)) if run % 2 == 0 else (("new", _HERE), ("ref", reference))
-        for tag, repo in order:
-            rows.append((tag, _snippet(_RENDER_SNIPPET, world / "world.usda", repo=repo)))
-    shutil.rmtree(world)
+        order = ("ref", "new") if run % 2 == 0 else ("new", "ref")
+        for tag in order:
+            rows.append((tag, _snippet(_RENDER_SNIPPET, worlds[tag] / "world.usda", repo=repos[tag])))
+    for world in worlds.values():
+        shutil.rmtree(world)
     return rows
 
 

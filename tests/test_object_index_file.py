@@ -55,7 +55,7 @@ def _same(a: Opinions, b: Opinions) -> bool:
         and np.array_equal(a.translate, b.translate, equal_nan=True)
         and np.array_equal(a.scale, b.scale, equal_nan=True)
         and (a.label, a.variant, a.active) == (b.label, b.variant, b.active)
-        and np.array_equal(a.height, b.height, equal_nan=True)
+        and np.array_equal(a.z_scale_yaw, b.z_scale_yaw, equal_nan=True)
         and a.asset == b.asset
         and np.array_equal(a.plain, b.plain)
     )
@@ -72,8 +72,8 @@ def test_the_build_writes_what_the_base_layer_holds(template):
     kept = load_opinions(base.parent / INDEX_FILE, layers_key([base]))
     assert kept is not None and len(kept) == 3
     assert _same(kept, read_opinions([Sdf.Layer.FindOrOpen(str(base))]))
-    # what the render's view stage reads instead of the specs: heights, assets, plain objects
-    assert kept.plain.all() and not np.isnan(kept.height).any()
+    # what the render's view stage reads instead of the specs: heights, yaws, assets, plain objects
+    assert kept.plain.all() and not np.isnan(kept.z_scale_yaw).any()
     assert all(a is not None and a.startswith("../assets/") for a in kept.asset)
     # a small world keeps its text base layer and gets no file
     assert not (template["small"] / "layers" / INDEX_FILE).exists()
@@ -165,7 +165,7 @@ def test_merging_takes_the_stronger_opinion_field_by_field():
 
 
 def test_a_file_of_the_first_format_is_read_again_and_rewritten(large):
-    """An index written before the heights, assets and plainness were kept (format 1) is keyed
+    """An index written before the heights, yaws, assets and plainness were kept (format 1) is keyed
     to another format: never read as the current one; the editor's read rewrites it."""
     import io
 
@@ -175,7 +175,7 @@ def test_a_file_of_the_first_format_is_read_again_and_rewritten(large):
     layer = Sdf.Layer.FindOrOpen(str(base))
     file = base.parent / INDEX_FILE
     with np.load(file) as data:
-        old = {k: data[k] for k in data.files if k not in ("height", "assets", "asset_code", "plain")}
+        old = {k: data[k] for k in data.files if k not in ("z_scale_yaw", "assets", "asset_code", "plain")}
     h = __import__("hashlib").sha256(b"usdworld-object-index/1\0")
     h.update(base.name.encode() + b"\0" + __import__("hashlib").sha256(base.read_bytes()).digest())
     old["key"] = np.array(h.hexdigest())
@@ -193,7 +193,9 @@ def test_a_file_of_the_first_format_is_read_again_and_rewritten(large):
 _VARIANTS_OF_A_PLAIN_SPEC = {
     "a child": lambda spec: Sdf.PrimSpec(spec, "Extra", Sdf.SpecifierDef, "Mesh"),
     "a visibility": lambda spec: Sdf.AttributeSpec(spec, "visibility", Sdf.ValueTypeNames.Token),
-    "primvars": lambda spec: Sdf.AttributeSpec(spec, "primvars:displayColor", Sdf.ValueTypeNames.Color3fArray),
+    "primvars": lambda spec: Sdf.AttributeSpec(
+        spec, "primvars:displayColor", Sdf.ValueTypeNames.Color3fArray
+    ),
     "a material binding": lambda spec: Sdf.RelationshipSpec(spec, "material:binding"),
     "another op": lambda spec: spec.attributes["xformOpOrder"].__setattr__(
         "default", ["xformOp:translate", "xformOp:rotateZ", "xformOp:scale", "xformOp:rotateX"]

@@ -324,7 +324,7 @@ def object_opinions(placements: Sequence[Placement], asset_refs: dict[str, str])
     Returns:
         Their names; translate x, y ((N, 2) float64); scale x, y ((N, 2) float64, rounded to
         float32 as the float3 attribute stores it); class label; ``model`` variant; no
-        ``active`` opinion; translate z and scale z ((N, 2) float64); the asset path; plain
+        ``active`` opinion; translate z, scale z and rotateZ ((N, 3) float64); the asset path; plain
         (every object is one ``def`` of only these opinions and its provenance).
     """
     n = len(placements)
@@ -332,6 +332,8 @@ def object_opinions(placements: Sequence[Placement], asset_refs: dict[str, str])
     factor = np.array([float(p.scale) for p in placements], dtype=np.float64)
     stretch = np.array([p.stretch for p in placements], dtype=np.float64).reshape(n, -1)
     scale = (factor[:, None] * stretch[:, :3]).astype(np.float32).astype(np.float64).reshape(n, 3)
+    # the float rotateZ attribute's value, as _define_object_opinions writes it
+    yaw = np.array([round(math.degrees(p.yaw), 6) for p in placements], dtype=np.float32).astype(np.float64)
     return Opinions(
         tuple(p.name for p in placements),
         np.ones(n, dtype=bool),
@@ -340,7 +342,7 @@ def object_opinions(placements: Sequence[Placement], asset_refs: dict[str, str])
         tuple(p.obj.class_name for p in placements),
         tuple(p.variant for p in placements),
         (None,) * n,
-        np.column_stack([position[:, 2], scale[:, 2]]).reshape(n, 2),
+        np.column_stack([position[:, 2], scale[:, 2], yaw]).reshape(n, 3),
         tuple(asset_refs[p.obj.class_name] for p in placements),
         np.ones(n, dtype=bool),
     )

@@ -98,8 +98,8 @@ class Opinions:
         label: the first ``class`` label, ``""`` for an empty label list, None for none.
         variant: the ``model`` variant selection, or None.
         active: the ``active`` opinion, or None.
-        height: (N, 2) float64 z of ``xformOp:translate`` and of ``xformOp:scale``, NaN where
-            the group has none (None when made: all NaN).
+        z_scale_yaw: (N, 3) float64 z of ``xformOp:translate``, z of ``xformOp:scale`` and the
+            ``xformOp:rotateZ`` angle (degrees), NaN where the group has none (None when made: all NaN).
         asset: the asset path of a plain object's one reference, as authored (relative to its
             layer), else None (None when made: all None).
         plain: (N,) bool, the object is one ``def Xform`` spec in one layer of the group that
@@ -117,14 +117,14 @@ class Opinions:
     label: tuple[str | None, ...]
     variant: tuple[str | None, ...]
     active: tuple[bool | None, ...]
-    height: np.ndarray | None = field(default=None)
+    z_scale_yaw: np.ndarray | None = field(default=None)
     asset: tuple[str | None, ...] | None = field(default=None)
     plain: np.ndarray | None = field(default=None)
 
     def __post_init__(self) -> None:
         n = len(self.names)
-        if self.height is None:
-            object.__setattr__(self, "height", np.full((n, 2), np.nan))
+        if self.z_scale_yaw is None:
+            object.__setattr__(self, "z_scale_yaw", np.full((n, 3), np.nan))
         if self.asset is None:
             object.__setattr__(self, "asset", (None,) * n)
         if self.plain is None:
@@ -158,7 +158,7 @@ def plain_asset(spec: Sdf.PrimSpec) -> str | None:
     order = attrs.get("xformOpOrder")
     if order is None or tuple(order.default or ()) != XFORM_OPS:
         return None
-    for name in ("xformOp:translate", "xformOp:scale"):
+    for name in XFORM_OPS:
         if name not in attrs or attrs[name].default is None or attrs[name].HasInfo("timeSamples"):
             return None
     refs = spec.referenceList
@@ -187,7 +187,7 @@ def read_opinions(layers: Sequence[Sdf.Layer]) -> Opinions:
     defined = np.zeros(n, dtype=bool)
     translate = np.full((n, 2), np.nan)
     scale = np.full((n, 2), np.nan)
-    height = np.full((n, 2), np.nan)
+    z_scale_yaw = np.full((n, 3), np.nan)
     plain = np.zeros(n, dtype=bool)
     labels: list[str | None] = []
     variants: list[str | None] = []
@@ -197,12 +197,15 @@ def read_opinions(layers: Sequence[Sdf.Layer]) -> Opinions:
         defined[i] = any(s.specifier == Sdf.SpecifierDef for s in specs)
         attrs = [s.attributes for s in specs]
         t, s3, label = (_strongest(attrs, k) for k in ("xformOp:translate", "xformOp:scale", _LABEL))
+        yaw = _strongest(attrs, "xformOp:rotateZ")
+        if yaw is not None:
+            z_scale_yaw[i, 2] = float(yaw)
         if t is not None:
             translate[i] = float(t[0]), float(t[1])
-            height[i, 0] = float(t[2])
+            z_scale_yaw[i, 0] = float(t[2])
         if s3 is not None:
             scale[i] = float(s3[0]), float(s3[1])
-            height[i, 1] = float(s3[2])
+            z_scale_yaw[i, 1] = float(s3[2])
         asset = plain_asset(specs[0]) if len(specs) == 1 else None
         plain[i] = asset is not None
         assets.append(asset)
@@ -218,7 +221,7 @@ def read_opinions(layers: Sequence[Sdf.Layer]) -> Opinions:
         tuple(labels),
         tuple(variants),
         tuple(actives),
-        height,
+        z_scale_yaw,
         tuple(assets),
         plain,
     )
@@ -240,8 +243,8 @@ def merge_opinions(upper: Opinions, lower: Opinions) -> Opinions:
     translate[has] = lower.translate[src[has]]
     scale = np.full((len(names), 2), np.nan)
     scale[has] = lower.scale[src[has]]
-    height = np.full((len(names), 2), np.nan)
-    height[has] = lower.height[src[has]]
+    z_scale_yaw = np.full((len(names), 3), np.nan)
+    z_scale_yaw[has] = lower.z_scale_yaw[src[has]]
     plain = np.zeros(len(names), dtype=bool)
     plain[has] = lower.plain[src[has]]
     label = [lower.label[i] if i >= 0 else None for i in src]
@@ -254,9 +257,9 @@ def merge_opinions(upper: Opinions, lower: Opinions) -> Opinions:
             translate[j] = upper.translate[j]
         if not np.isnan(upper.scale[j, 0]):
             scale[j] = upper.scale[j]
-        for axis in range(2):
-            if not np.isnan(upper.height[j, axis]):
-                height[j, axis] = upper.height[j, axis]
+        for axis in range(3):
+            if not np.isnan(upper.z_scale_yaw[j, axis]):
+                z_scale_yaw[j, axis] = upper.z_scale_yaw[j, axis]
         for merged, own in ((label, upper.label), (variant, upper.variant), (active, upper.active)):
             if own[j] is not None:
                 merged[j] = own[j]
@@ -271,7 +274,7 @@ def merge_opinions(upper: Opinions, lower: Opinions) -> Opinions:
         tuple(label),
         tuple(variant),
         tuple(active),
-        height,
+        z_scale_yaw,
         tuple(asset),
         plain,
     )

@@ -30,7 +30,7 @@ log = logging.getLogger(__name__)
 
 #: The file, in the base layer's folder.
 INDEX_FILE = "objects.index.npz"
-#: Bumped when the file's content changes, so old files never match (2: the objects' heights,
+#: Bumped when the file's content changes, so old files never match (2: the objects' heights, yaws,
 #: assets and plainness, for the render's view stage).
 INDEX_FORMAT = "usdworld-object-index/2"
 _CHUNK = 1 << 20
@@ -82,7 +82,7 @@ def save_opinions(path: Path, opinions: Opinions, key: str) -> None:
         variants=variants,
         has_variant=has_variant,
         active=active,
-        height=opinions.height,
+        z_scale_yaw=opinions.z_scale_yaw,
         assets=np.array(table, dtype=np.str_),
         asset_code=asset_code,
         plain=opinions.plain,
@@ -108,7 +108,7 @@ def load_opinions(path: Path, key: str) -> Opinions | None:
                 tuple(v if h else None for v, h in zip(labels, data["has_label"].tolist())),
                 tuple(v if h else None for v, h in zip(variants, data["has_variant"].tolist())),
                 tuple(None if a < 0 else bool(a) for a in data["active"].tolist()),
-                data["height"].astype(np.float64).reshape(n, 2),
+                data["z_scale_yaw"].astype(np.float64).reshape(n, 3),
                 assets,
                 data["plain"].astype(bool).reshape(n),
             )

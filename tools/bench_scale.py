@@ -51,7 +51,8 @@ to ``--no-render-above``) with the other checkout and with this one, ``--render-
 alternating rounds in fresh processes, each on the world it authored (the same layers; the
 object index in its own format): open, culled scene, draw and their sum,
 wall / CPU seconds, the triangles and the instances the camera's passes drew (``Renderer.last_shown``;
-all of them for a checkout without the occlusion test) and whether the objects were composed
+all of them for a checkout without the occlusion test) and the shadow map drew (``Renderer.last_sunlit``;
+all for older code), of all the scene's, and whether the objects were composed
 for the view only (:mod:`usdworld.render.view_stage`); ``--no-against`` leaves out the second
 table (with ``--no-measure``: the render table alone).
 """
@@ -110,11 +111,13 @@ with Renderer(w, h) as r:
     r.render(scene, pose.K, pose.world_from_cam)
     t5, c5 = time.perf_counter(), time.process_time()
     shown = getattr(r, "last_shown", None)  # (instances drawn by the camera's passes, all); older code: None
+    sunlit = getattr(r, "last_sunlit", None)  # instances the shadow map drew; older code: None (all)
 print(json.dumps({"import": t1 - t0, "open": t2 - t1, "scene": t3 - t2, "context": t4 - t3, "draw": t5 - t4,
                   "render": (t3 - t1) + (t5 - t4), "open_cpu": c2 - c1, "scene_cpu": c3 - c2,
                   "draw_cpu": c5 - c4, "render_cpu": (c3 - c1) + (c5 - c4), "triangles": scene.n_triangles,
                   "instances": sum(b.n_instances for b in scene.batches),
                   "instances_shown": shown[0] if shown else sum(b.n_instances for b in scene.batches),
+                  "instances_sunlit": sunlit if sunlit is not None else sum(b.n_instances for b in scene.batches),
                   "objects": len(scene.objects), "view_stage": view}))
 """
 
@@ -540,7 +543,7 @@ def main(argv: list[str] | None = None) -> int:
                 )
                 print(
                     "| objects | | open | scene | draw | render (open + scene + draw) | triangles "
-                    "| instances drawn (camera / shadow) | objects composed for the view only | load |"
+                    "| instances drawn (camera / shadow map, of all) | objects composed for the view only | load |"
                 )
                 print("|---|---|---|---|---|---|---|---|---|---|")
                 for n in render_sizes:
@@ -552,7 +555,8 @@ def main(argv: list[str] | None = None) -> int:
                             return f"{r[key]:.3f} / {cpu}"
 
                         every = r.get("instances", 0)
-                        shown = f"{r.get('instances_shown', every):,} / {every:,}"
+                        sunlit = r.get("instances_sunlit", every)
+                        shown = f"{r.get('instances_shown', every):,} / {sunlit:,} of {every:,}"
                         print(
                             f"| {n:,d} | {'before' if tag == 'ref' else 'after'} | {g('open')} | {g('scene')} "
                             f"| {g('draw')} | {g('render')} | {r['triangles']:,} | {shown} "

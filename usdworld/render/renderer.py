@@ -192,6 +192,8 @@ class _BatchBuffers:
 
     def show_to_sun(self, inside: np.ndarray | None) -> None:
         """Let the shadow map draw only the instances where ``inside`` ((N,) bool) is True; None: all."""
+        if inside is not None and inside.all():
+            inside = None  # the buffer keeps every instance: nothing to write
         if inside is None and self._sunlit is None:
             return
         if inside is not None and self._sunlit is not None and np.array_equal(inside, self._sunlit):

@@ -55,6 +55,9 @@ def _same(a: Opinions, b: Opinions) -> bool:
         and np.array_equal(a.translate, b.translate, equal_nan=True)
         and np.array_equal(a.scale, b.scale, equal_nan=True)
         and (a.label, a.variant, a.active) == (b.label, b.variant, b.active)
+        and np.array_equal(a.z_scale_yaw, b.z_scale_yaw, equal_nan=True)
+        and a.asset == b.asset
+        and np.array_equal(a.plain, b.plain)
     )
 
 
@@ -69,6 +72,9 @@ def test_the_build_writes_what_the_base_layer_holds(template):
     kept = load_opinions(base.parent / INDEX_FILE, layers_key([base]))
     assert kept is not None and len(kept) == 3
     assert _same(kept, read_opinions([Sdf.Layer.FindOrOpen(str(base))]))
+    # what the render's view stage reads instead of the specs: heights, yaws, assets, plain objects
+    assert kept.plain.all() and not np.isnan(kept.z_scale_yaw).any()
+    assert all(a is not None and a.startswith("../assets/") for a in kept.asset)
     # a small world keeps its text base layer and gets no file
     assert not (template["small"] / "layers" / INDEX_FILE).exists()
     assert (template["small"] / BASE_LAYER).is_file()
@@ -156,3 +162,92 @@ def test_merging_takes_the_stronger_opinion_field_by_field():
     assert merged.active == (False, None, None)
     empty = Opinions((), np.zeros(0, bool), np.zeros((0, 2)), np.zeros((0, 2)), (), (), ())
     assert merge_opinions(empty, lower) is lower
+
+
+def test_a_file_of_the_first_format_is_read_again_and_rewritten(large):
+    """An index written before the heights, yaws, assets and plainness were kept (format 1) is keyed
+    to another format: never read as the current one; the editor's read rewrites it."""
+    import io
+
+    from usdworld.authoring.editing import index_file
+
+    base = large / BASE_CRATE_LAYER
+    layer = Sdf.Layer.FindOrOpen(str(base))
+    file = base.parent / INDEX_FILE
+    with np.load(file) as data:
+        old = {k: data[k] for k in data.files if k not in ("z_scale_yaw", "assets", "asset_code", "plain")}
+    h = __import__("hashlib").sha256(b"usdworld-object-index/1\0")
+    h.update(base.name.encode() + b"\0" + __import__("hashlib").sha256(base.read_bytes()).digest())
+    old["key"] = np.array(h.hexdigest())
+    buf = io.BytesIO()
+    np.savez(buf, **old)
+    file.write_bytes(buf.getvalue())
+    assert index_file.INDEX_FORMAT != "usdworld-object-index/1"
+    assert load_opinions(file, layers_key([base])) is None
+    edits = Sdf.Layer.FindOrOpen(str(large / "layers" / "edits.usda"))
+    assert _same(lower_opinions((edits, layer), 1), read_opinions([layer]))
+    kept = load_opinions(file, layers_key([base]))
+    assert kept is not None and _same(kept, read_opinions([layer])) and kept.plain.all()
+
+
+_VARIANTS_OF_A_PLAIN_SPEC = {
+    "a child": lambda spec: Sdf.PrimSpec(spec, "Extra", Sdf.SpecifierDef, "Mesh"),
+    "a visibility": lambda spec: Sdf.AttributeSpec(spec, "visibility", Sdf.ValueTypeNames.Token),
+    "primvars": lambda spec: Sdf.AttributeSpec(
+        spec, "primvars:displayColor", Sdf.ValueTypeNames.Color3fArray
+    ),
+    "a material binding": lambda spec: Sdf.RelationshipSpec(spec, "material:binding"),
+    "another op": lambda spec: spec.attributes["xformOpOrder"].__setattr__(
+        "default", ["xformOp:translate", "xformOp:rotateZ", "xformOp:scale", "xformOp:rotateX"]
+    ),
+    "ops reordered": lambda spec: spec.attributes["xformOpOrder"].__setattr__(
+        "default", ["xformOp:translate", "xformOp:scale", "xformOp:rotateZ"]
+    ),
+    "a time-sampled place": lambda spec: spec.layer.SetTimeSample(
+        spec.path.AppendProperty("xformOp:translate"), 1.0, Gf.Vec3d(1, 2, 0)
+    ),
+    "another variant set": lambda spec: spec.variantSelections.__setitem__("look", "worn"),
+    "a payload": lambda spec: spec.payloadList.Prepend(Sdf.Payload("other.usda")),
+    "instanceable": lambda spec: setattr(spec, "instanceable", True),
+    "a kind": lambda spec: setattr(spec, "kind", "component"),
+    "an over": lambda spec: setattr(spec, "specifier", Sdf.SpecifierOver),
+    "a second reference": lambda spec: spec.referenceList.Append(Sdf.Reference("../assets/tree.usda")),
+    "a prim path": lambda spec: spec.referenceList.__setattr__(
+        "prependedItems", [Sdf.Reference("../assets/car.usda", "/Car")]
+    ),
+    "a layer offset": lambda spec: spec.referenceList.__setattr__(
+        "prependedItems", [Sdf.Reference("../assets/car.usda", layerOffset=Sdf.LayerOffset(2.0))]
+    ),
+    "no scale": lambda spec: spec.RemoveProperty(spec.attributes["xformOp:scale"]),
+}
+
+
+@pytest.mark.parametrize("change", sorted(_VARIANTS_OF_A_PLAIN_SPEC))
+def test_a_spec_with_anything_the_index_does_not_describe_is_not_plain(template, change):
+    """The render composes a plain object from the index alone: anything else on its spec
+    (that could change its meshes, place or visibility) makes it not plain, in the file too."""
+    from usdworld.authoring.editing.index import plain_asset
+
+    base = Sdf.Layer.FindOrOpen(str(template["large"] / BASE_CRATE_LAYER))
+    layer = Sdf.Layer.CreateAnonymous(".usda")
+    path = Sdf.Path(f"{OBJ}/car_0001")
+    Sdf.CreatePrimInLayer(layer, path.GetParentPath())
+    assert Sdf.CopySpec(base, path, layer, path)
+    spec = layer.GetPrimAtPath(path)
+    assert plain_asset(spec) == base.GetPrimAtPath(path).referenceList.prependedItems[0].assetPath
+    assert read_opinions([layer]).plain.tolist() == [True]
+    _VARIANTS_OF_A_PLAIN_SPEC[change](spec)
+    assert plain_asset(spec) is None
+    opinions = read_opinions([layer])
+    assert opinions.plain.tolist() == [False] and opinions.asset == (None,)
+
+
+def test_an_object_in_two_layers_is_not_plain(template):
+    base = Sdf.Layer.FindOrOpen(str(template["large"] / BASE_CRATE_LAYER))
+    upper = Sdf.Layer.CreateAnonymous(".usda")
+    Sdf.CreatePrimInLayer(upper, f"{OBJ}/car_0001")  # an over, as an edit writes
+    lower = read_opinions([base])
+    merged = merge_opinions(read_opinions([upper]), lower)
+    assert lower.plain.all() and merged.names[0] == "car_0001"
+    assert merged.plain.tolist() == [False, True, True] and merged.asset[0] is None
+    assert not read_opinions([upper, base]).plain[0]

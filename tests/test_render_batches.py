@@ -226,3 +226,20 @@ def test_the_fly_through_clears_the_tallest_thing_near_its_circle(tmp_path) -> N
     near = np.linalg.norm(p[:, :2] - focus, axis=1) <= 29.0
     assert cleared.aerial_height_m == float(p[near, 2].max()) + 6.0
     assert abs(cleared.aerial_height_m - 46.0) < 1e-3  # the tower, not the one beyond
+
+
+def test_a_batch_with_other_ids_keeps_its_places_and_bounds(tmp_path) -> None:
+    scene = RenderScene.from_stage(_street(tmp_path))
+    for b in scene.batches:
+        n = b.n_instances
+        other = b.with_ids(np.arange(n) + 26000, np.arange(n) + 1)
+        assert other.instance_ids.tolist() == list(range(26000, 26000 + n))
+        assert other.object_ids.tolist() == list(range(1, n + 1))
+        assert other.world_from_local.tobytes() == b.world_from_local.tobytes()
+        assert other.class_ids.tobytes() == b.class_ids.tobytes()
+        fresh = MeshBatch(
+            b.topology, b.normals_local, b.vertex_colors, b.instance_colors, b.world_from_local,
+            b.class_ids, other.instance_ids, other.object_ids,
+        )
+        assert other.bounds_world().tobytes() == fresh.bounds_world().tobytes() == b.bounds_world().tobytes()
+        assert other.bounds_world() is b.bounds_world()  # worked out once

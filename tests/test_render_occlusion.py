@@ -129,3 +129,69 @@ def test_a_box_is_hidden_only_behind_the_depth_by_the_margin_and_in_front_of_the
     side = ahead + T[:3, 0] * 30.0  # 30 m to the right at 20 m: outside the image
     rect, d, front = project_boxes(_corners(tuple(side - 0.5), tuple(side + 0.5)), view_proj, W, H, near)
     assert front[0] and hidden(rect, d, front, DepthPyramid(np.ones((H, W), dtype=np.float32)))[0]
+
+
+def _long_street() -> RenderScene:
+    """A road 600 m long with boxes along it: the near ones inside the sun's shadow box (which
+    follows the view up to 120 m), the far ones beyond its sides (the camera still sees them)."""
+    stage = new_stage()
+    box(stage, "/World/Road", (-5, -15, -0.1), (600, 15, 0), color=(0.3, 0.3, 0.3), cls="road")
+    for k, x in enumerate((12.0, 25.0, 40.0, 60.0, 250.0, 320.0, 400.0, 480.0)):
+        y = (-4.0, 3.0)[k % 2]
+        lo, hi = (x, y, 0), (x + 4, y + 2, 6)
+        box(stage, f"/World/Objects/b{k}", lo, hi, color=(0.5, 0.4, 0.3), cls="building")
+    return RenderScene.from_stage(stage)
+
+
+def test_instances_beyond_the_sides_of_the_suns_box_are_left_out_of_the_shadow_map_with_the_same_pixels(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    cam = camera(K=K, pitch=0.02, roll=0.0, yaw=0.0)
+    sun = Lighting(sun_direction_world=sun_direction(150.0, 35.0))
+    scene = _long_street()
+    with Renderer(W, H, lighting=sun) as r:
+        culled = r.render(scene, cam.K, cam.world_from_cam())
+        sunlit = r.last_sunlit
+    monkeypatch.setattr(renderer_module, "outside_clip_sides", lambda c, vp, m: np.zeros(len(c), dtype=bool))
+    with Renderer(W, H, lighting=sun) as r:
+        full = r.render(scene, cam.K, cam.world_from_cam())
+        assert r.last_sunlit == sum(b.n_instances for b in scene.batches) > sunlit
+    total = sum(b.n_instances for b in scene.batches)
+    assert sunlit <= total - 4  # the four far boxes at least
+    seen = set(np.unique(full.object_ids).tolist())
+    assert {5, 6} <= seen  # far boxes the camera shows but the shadow map leaves out
+    for name in ("rgb", "class_ids", "instance_ids", "object_ids", "depth_m"):
+        assert getattr(culled, name).tobytes() == getattr(full, name).tobytes(), name
+    # the near boxes' shadows show: a map without the instances inside the sun's box differs
+    monkeypatch.setattr(renderer_module, "outside_clip_sides", lambda c, vp, m: np.ones(len(c), dtype=bool))
+    with Renderer(W, H, lighting=sun) as r:
+        assert not np.array_equal(r.render(scene, cam.K, cam.world_from_cam()).rgb, full.rgb)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    data=st.data(),
+    lo=st.tuples(*[st.floats(-50.0, 50.0)] * 3),
+    size=st.tuples(*[st.floats(0.01, 20.0)] * 3),
+)
+def test_a_box_beyond_a_side_of_the_clip_box_holds_only_points_beyond_it(data, lo, size) -> None:
+    from usdworld.render.occlusion import outside_clip_sides
+
+    scale = data.draw(st.floats(0.01, 0.1))
+    shift = data.draw(st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)))
+    vp = np.diag([scale, scale * 1.3, 0.01, 1.0])
+    vp[:2, 3] = shift
+    lo_a = np.array(lo)
+    hi_a = lo_a + np.array(size)
+    corners = np.array(
+        [[x, y, z] for x in (lo_a[0], hi_a[0]) for y in (lo_a[1], hi_a[1]) for z in (lo_a[2], hi_a[2])]
+    )
+    out = outside_clip_sides(corners[None], vp, 0.0)[0]
+    rng = np.random.default_rng(0)
+    pts = lo_a + rng.random((64, 3)) * (hi_a - lo_a)
+    clip = pts @ vp[:3, :3].T + vp[:3, 3]
+    inside_any = np.any(np.all(np.abs(clip[:, :2]) <= 1.0, axis=1))
+    if out:
+        assert not inside_any
+    if inside_any:
+        assert not out

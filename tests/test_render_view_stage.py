@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pxr import Sdf, Usd
 
 from usdworld.authoring import asset_library
@@ -90,6 +92,12 @@ def test_the_view_stage_gives_the_whole_worlds_scene_and_pixels(world):
     full, masked, composed = _scenes(world)
     assert masked is not None
     assert 0 < composed < N_OBJECTS * 3 // 4  # much of the street is out of view
+    # the stage composes one object (the scope's first); the others are read from the index
+    file = world / "world.usda"
+    outside = open_outside(file, 0)
+    stage, facts = view_stage(file, outside, _cull(outside)[0])
+    assert [p.GetName() for p in stage.GetPrimAtPath("/World/Objects").GetChildren()] == [facts.order[0]]
+    assert len(facts.virtual.names) == composed - 1
     assert len(full.objects) == N_OBJECTS
     _assert_same(full, masked)
     from usdworld.render import Renderer
@@ -207,3 +215,67 @@ def test_a_third_sublayer_takes_the_whole_stage(world):
     root.subLayerPaths.insert(1, "./layers/drive.usda")
     root.Save()
     assert open_outside(world / "world.usda", 0) is None
+
+
+def test_a_culled_object_with_a_child_in_view_takes_the_whole_stage(world):
+    """A mesh added below a far base object (out of view with its asset's box) stands in
+    front of the camera: the index says that object is not plain, so the whole world is read."""
+    name = _names(world)["far_car"][0]
+    file = world / "world.usda"
+    full_stage = Usd.Stage.Open(str(file))
+    _, pose = _cull(full_stage)
+    from pxr import Gf, UsdGeom
+
+    obj = full_stage.GetPrimAtPath(f"/World/Objects/{name}")
+    world_from_obj = UsdGeom.Xformable(obj).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
+    ahead = pose.world_from_cam[:3, 3] + 8.0 * pose.world_from_cam[:3, 2]  # 8 m in front of the camera
+    at = world_from_obj.GetInverse().Transform(Gf.Vec3d(float(ahead[0]), float(ahead[1]), 0.0))
+    base = Sdf.Layer.FindOrOpen(str(world / BASE_CRATE_LAYER))
+    mesh = Sdf.PrimSpec(base.GetPrimAtPath(f"/World/Objects/{name}"), "Extra", Sdf.SpecifierDef, "Mesh")
+    names = Sdf.ValueTypeNames
+    Sdf.AttributeSpec(mesh, "points", names.Point3fArray).default = [
+        Gf.Vec3f(at[0] + dx, at[1] + dy, dz) for dx, dy, dz in ((0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1))
+    ]
+    Sdf.AttributeSpec(mesh, "faceVertexCounts", names.IntArray).default = [3, 3, 3, 3]
+    faces = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]
+    Sdf.AttributeSpec(mesh, "faceVertexIndices", names.IntArray).default = faces
+    _rekey(world, base)
+    full, masked, _ = _scenes(world)
+    assert masked is None
+    owner = next(o for o in full.objects if o.path == f"/World/Objects/{name}")
+    assert any(owner.index in b.object_ids for b in full.batches)  # its child is drawn
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    translate=st.tuples(*[st.floats(-3000.0, 3000.0, allow_nan=False)] * 3),
+    yaw=st.one_of(st.sampled_from([0.0, 90.0, -90.0, 180.0, -180.0, 45.0, 360.0]), st.floats(-720.0, 720.0)),
+    scale=st.tuples(*[st.one_of(st.just(1.0), st.floats(-3.0, 3.0, allow_nan=False, width=32))] * 3),
+)
+def test_an_objects_transform_from_its_ops_is_the_xform_caches(translate, yaw, scale):
+    """The virtual objects' transforms have the bits UsdGeom gives the composed objects."""
+    from pxr import Gf, UsdGeom
+
+    from usdworld.render.view_stage import _local_to_world
+
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.Xform.Define(stage, "/World")
+    UsdGeom.Scope.Define(stage, "/World/Objects")
+    obj = UsdGeom.Xform.Define(stage, "/World/Objects/thing")
+    obj.AddTranslateOp().Set(Gf.Vec3d(*translate))
+    obj.AddRotateZOp(UsdGeom.XformOp.PrecisionFloat).Set(yaw)
+    obj.AddScaleOp(UsdGeom.XformOp.PrecisionFloat).Set(Gf.Vec3f(*scale))
+    want = UsdGeom.XformCache().GetLocalToWorldTransform(obj.GetPrim())
+    yaw32 = float(np.float32(yaw))  # the float attribute's value
+    got = _local_to_world(np.array(translate), yaw32, np.array(scale, dtype=np.float32).astype(np.float64))
+    assert np.array(got).tobytes() == np.array(want).tobytes()
+
+
+def test_virtual_objects_are_read_at_the_default_time_only(world):
+    file = world / "world.usda"
+    outside = open_outside(file, 0)
+    stage, facts = view_stage(file, outside, _cull(outside)[0])
+    with pytest.raises(ValueError, match="default time"):
+        RenderScene.from_stage(
+            stage, prototypes=dict(facts.prototypes), virtual=facts.virtual, time=Usd.TimeCode(1)
+        )

@@ -48,9 +48,11 @@ the first left, e.g. the object index) and reading the (unculled) render scene a
 objects with another checkout (e.g. the code before this benchmark's changes), and whether
 both write the same bytes; figures are wall / CPU seconds. A third table renders each size (up
 to ``--no-render-above``) with the other checkout and with this one, ``--render-runs``
-alternating rounds in fresh processes on one world: open, culled scene, draw and their sum,
+alternating rounds in fresh processes, each on the world it authored (the same layers; the
+object index in its own format): open, culled scene, draw and their sum,
 wall / CPU seconds, the triangles and the instances the camera's passes drew (``Renderer.last_shown``;
-all of them for a checkout without the occlusion test) and whether the objects were composed
+all of them for a checkout without the occlusion test) and the shadow map drew (``Renderer.last_sunlit``;
+all for older code), of all the scene's, and whether the objects were composed
 for the view only (:mod:`usdworld.render.view_stage`); ``--no-against`` leaves out the second
 table (with ``--no-measure``: the render table alone).
 """
@@ -109,11 +111,13 @@ with Renderer(w, h) as r:
     r.render(scene, pose.K, pose.world_from_cam)
     t5, c5 = time.perf_counter(), time.process_time()
     shown = getattr(r, "last_shown", None)  # (instances drawn by the camera's passes, all); older code: None
+    sunlit = getattr(r, "last_sunlit", None)  # instances the shadow map drew; older code: None (all)
 print(json.dumps({"import": t1 - t0, "open": t2 - t1, "scene": t3 - t2, "context": t4 - t3, "draw": t5 - t4,
                   "render": (t3 - t1) + (t5 - t4), "open_cpu": c2 - c1, "scene_cpu": c3 - c2,
                   "draw_cpu": c5 - c4, "render_cpu": (c3 - c1) + (c5 - c4), "triangles": scene.n_triangles,
                   "instances": sum(b.n_instances for b in scene.batches),
                   "instances_shown": shown[0] if shown else sum(b.n_instances for b in scene.batches),
+                  "instances_sunlit": sunlit if sunlit is not None else sum(b.n_instances for b in scene.batches),
                   "objects": len(scene.objects), "view_stage": view}))
 """
 
@@ -404,21 +408,24 @@ def against(model, n: int, folder: Path, reference: Path, scene: bool) -> dict:
 
 def render_against(model, n: int, folder: Path, reference: Path, runs: int) -> list[tuple[str, dict]]:
     """The render snippet (open, culled scene, all passes from the source camera) with ``reference``
-    and with this checkout, alternating, ``runs`` rounds, in fresh processes on one world."""
-    from usdworld.authoring import asset_library
-    from usdworld.authoring.world import write_world
+    and with this checkout, alternating, ``runs`` rounds, in fresh processes; each checkout renders
+    the world it authors itself (the same layers; the object index is in each one's format)."""
+    import pickle
 
-    libraries = asset_library.library_dirs(None)
-    classes = sorted({p.obj.class_name for p in model.placements})
-    assets = {c: asset_library.asset_path(c, libraries) for c in classes}
-    world = folder / f"render_{n}"
-    write_world(model, world, assets, None)
+    pkl = folder / f"model_{n}.pkl"
+    pkl.write_bytes(pickle.dumps(model))
+    repos = {"ref": reference, "new": _HERE}
+    worlds = {tag: folder / f"render_{tag}_{n}" for tag in repos}
+    for tag, repo in repos.items():
+        _snippet(_AUTHOR_SNIPPET, pkl, worlds[tag], repo=repo)
+    pkl.unlink()
     rows = []
     for run in range(runs):
-        order = (("ref", reference), ("new", _HERE)) if run % 2 == 0 else (("new", _HERE), ("ref", reference))
-        for tag, repo in order:
-            rows.append((tag, _snippet(_RENDER_SNIPPET, world / "world.usda", repo=repo)))
-    shutil.rmtree(world)
+        order = ("ref", "new") if run % 2 == 0 else ("new", "ref")
+        for tag in order:
+            rows.append((tag, _snippet(_RENDER_SNIPPET, worlds[tag] / "world.usda", repo=repos[tag])))
+    for world in worlds.values():
+        shutil.rmtree(world)
     return rows
 
 
@@ -536,7 +543,7 @@ def main(argv: list[str] | None = None) -> int:
                 )
                 print(
                     "| objects | | open | scene | draw | render (open + scene + draw) | triangles "
-                    "| instances drawn (camera / shadow) | objects composed for the view only | load |"
+                    "| instances drawn (camera / shadow map, of all) | objects composed for the view only | load |"
                 )
                 print("|---|---|---|---|---|---|---|---|---|---|")
                 for n in render_sizes:
@@ -548,7 +555,8 @@ def main(argv: list[str] | None = None) -> int:
                             return f"{r[key]:.3f} / {cpu}"
 
                         every = r.get("instances", 0)
-                        shown = f"{r.get('instances_shown', every):,} / {every:,}"
+                        sunlit = r.get("instances_sunlit", every)
+                        shown = f"{r.get('instances_shown', every):,} / {sunlit:,} of {every:,}"
                         print(
                             f"| {n:,d} | {'before' if tag == 'ref' else 'after'} | {g('open')} | {g('scene')} "
                             f"| {g('draw')} | {g('render')} | {r['triangles']:,} | {shown} "

@@ -327,35 +327,42 @@ def write_base_crate_layer(
         raise
 
 
-def object_opinions(placements: Sequence[Placement]) -> Opinions:
+def object_opinions(placements: Sequence[Placement], asset_refs: dict[str, str]) -> Opinions:
     """The opinions :func:`define_objects` writes on the objects, as the editor's index reads
     them from the layer (:func:`~usdworld.authoring.editing.index.read_opinions`).
 
     Args:
         placements: the objects, in the order they are written.
+        asset_refs: class name -> the asset path each object's reference names.
 
     Returns:
         Their names; translate x, y ((N, 2) float64); scale x, y ((N, 2) float64, rounded to
         float32 as the float3 attribute stores it); class label; ``model`` variant; no
-        ``active`` opinion.
+        ``active`` opinion; translate z, scale z and rotateZ ((N, 3) float64); the asset path; plain
+        (every object is one ``def`` of only these opinions and its provenance).
     """
     n = len(placements)
-    translate = np.array([p.position_world[:2] for p in placements], dtype=np.float64).reshape(n, 2)
+    position = np.array([p.position_world[:3] for p in placements], dtype=np.float64).reshape(n, 3)
     factor = np.array([float(p.scale) for p in placements], dtype=np.float64)
     stretch = np.array([p.stretch for p in placements], dtype=np.float64).reshape(n, -1)
-    scale = (factor[:, None] * stretch[:, :2]).astype(np.float32).astype(np.float64)
+    scale = (factor[:, None] * stretch[:, :3]).astype(np.float32).astype(np.float64).reshape(n, 3)
+    # the float rotateZ attribute's value, as _define_object_opinions writes it
+    yaw = np.array([round(math.degrees(p.yaw), 6) for p in placements], dtype=np.float32).astype(np.float64)
     return Opinions(
         tuple(p.name for p in placements),
         np.ones(n, dtype=bool),
-        translate.reshape(n, 2),
-        scale.reshape(n, 2),
+        position[:, :2].copy(),
+        scale[:, :2].copy(),
         tuple(p.obj.class_name for p in placements),
         tuple(p.variant for p in placements),
         (None,) * n,
+        np.column_stack([position[:, 2], scale[:, 2], yaw]).reshape(n, 3),
+        tuple(asset_refs[p.obj.class_name] for p in placements),
+        np.ones(n, dtype=bool),
     )
 
 
-def write_object_index(placements: Sequence[Placement], base: Path) -> None:
+def write_object_index(placements: Sequence[Placement], base: Path, asset_refs: dict[str, str]) -> None:
     """Write the editor's object index beside a world's base layer, keyed by that layer
     (:mod:`usdworld.authoring.editing.index_file`).
 
@@ -363,8 +370,9 @@ def write_object_index(placements: Sequence[Placement], base: Path) -> None:
         placements: the objects the base layer holds, in its order.
         base: the base layer file, already written; the file is valid while the root stacks
             only the edits layer on it (a rig's drive layer makes the editor read it again).
+        asset_refs: class name -> the asset path the base layer's references name.
     """
-    save_opinions(base.parent / INDEX_FILE, object_opinions(placements), layers_key([base]))
+    save_opinions(base.parent / INDEX_FILE, object_opinions(placements, asset_refs), layers_key([base]))
 
 
 def write_ground_layer(model: WorldModel, path: Path) -> None:
@@ -509,7 +517,7 @@ def write_world(
     base = base_layer_name(len(model.placements), params)
     if base == BASE_CRATE_LAYER:
         write_base_crate_layer(model, out_dir / base, refs, sources)
-        write_object_index(model.placements, out_dir / base)
+        write_object_index(model.placements, out_dir / base, refs)
     else:
         write_base_layer(model, out_dir / base, refs, sources)
     if keep_edits is not None:

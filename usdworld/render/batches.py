@@ -15,6 +15,7 @@ placing every part on the CPU (:func:`~usdworld.render.usd_mesh.place_mesh`), in
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
@@ -74,6 +75,7 @@ class MeshBatch:
     instance_ids: np.ndarray
     object_ids: np.ndarray
     _used_points: np.ndarray = field(init=False, repr=False)
+    _bounds: np.ndarray | None = field(init=False, repr=False, default=None)
 
     def __post_init__(self) -> None:
         n = len(self.world_from_local)
@@ -143,13 +145,29 @@ class MeshBatch:
             yield placed.astype(np.float32)
 
     def bounds_world(self) -> np.ndarray:
-        """(2, 3) float64 ``[min, max]`` of every instance's corners, as float32 positions give them."""
-        lo = np.full(3, np.inf, dtype=np.float32)
-        hi = np.full(3, -np.inf, dtype=np.float32)
-        for placed in self.placed_points():
-            lo = np.minimum(lo, placed.min(axis=(0, 1)))
-            hi = np.maximum(hi, placed.max(axis=(0, 1)))
-        return np.stack([lo, hi]).astype(np.float64)
+        """(2, 3) float64 ``[min, max]`` of every instance's corners, as float32 positions give
+        them (read-only; worked out once)."""
+        if self._bounds is None:
+            lo = np.full(3, np.inf, dtype=np.float32)
+            hi = np.full(3, -np.inf, dtype=np.float32)
+            for placed in self.placed_points():
+                lo = np.minimum(lo, placed.min(axis=(0, 1)))
+                hi = np.maximum(hi, placed.max(axis=(0, 1)))
+            bounds = np.stack([lo, hi]).astype(np.float64)
+            bounds.setflags(write=False)
+            object.__setattr__(self, "_bounds", bounds)
+        return self._bounds
+
+    def with_ids(self, instance_ids: np.ndarray, object_ids: np.ndarray) -> MeshBatch:
+        """The same meshes at the same places with other ids (its bounds not worked out again).
+
+        Args:
+            instance_ids: (N,) int Cityscapes instance id per instance.
+            object_ids: (N,) int object index per instance.
+        """
+        out = dataclasses.replace(self, instance_ids=instance_ids, object_ids=object_ids)
+        object.__setattr__(out, "_bounds", self._bounds)
+        return out
 
 
 def _colour_key(mesh: LocalMesh) -> tuple[bytes | None, np.ndarray | None]:

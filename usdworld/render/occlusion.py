@@ -28,6 +28,10 @@ from usdworld.render.batches import MeshBatch
 DEPTH_MARGIN = 64.0 / (1 << 24)
 #: Relative widening of an instance's box: 8 float32 ulps (2^-23 each) of its coordinates.
 BOX_MARGIN_REL = 8.0 / (1 << 23)
+#: Texels of the sun's shadow map an instance's box must lie beyond a side of the sun's box
+#: by to be left out of the map: the float32 rounding of the clip coordinates (a few 1e-7 of
+#: the unit box) is far below one texel (2 / map size, 1e-3 at 2048). Geometry, not tuned.
+SUN_MARGIN_TEXELS = 2.0
 #: Cells per axis :meth:`DepthPyramid.max_over` reads (at the level whose cells are at least a
 #: quarter of the rectangle, a rectangle spans at most 5): finer than 2 cells at the level of
 #: the rectangle's own size, which takes in up to twice its size of the sky beside it.
@@ -61,6 +65,30 @@ def instance_corners(batch: MeshBatch) -> np.ndarray:
     lo, hi = placed.min(axis=1), placed.max(axis=1)
     pad = BOX_MARGIN_REL * np.maximum(np.abs(lo).max(axis=1), np.abs(hi).max(axis=1)) + 1e-6
     return _corners(lo - pad[:, None], hi + pad[:, None])
+
+
+def outside_clip_sides(corners_world: np.ndarray, view_proj: np.ndarray, margin: float) -> np.ndarray:
+    """Which boxes lie wholly beyond one side (x or y) of a view's clip box, by more than ``margin``.
+
+    Every triangle inside such a box is clipped away: it makes no fragment (the sun's shadow
+    map leaves it out and keeps the same bits).
+
+    Args:
+        corners_world: (M, 8, 3) float64 box corners, world frame.
+        view_proj: (4, 4) float64 world -> clip space.
+        margin: clip-space units beyond the side (a few texels: float rounding in the shader).
+
+    Returns:
+        (M,) bool; False for a box with a corner at or behind the eye (w <= 0).
+    """
+    c = np.asarray(corners_world, dtype=np.float64)
+    hom = c @ view_proj[:, :3].T + view_proj[:, 3]
+    x, y, w = hom[..., 0], hom[..., 1], hom[..., 3]
+    edge = (1.0 + margin) * w
+    out = np.zeros(len(c), dtype=bool)
+    for v in (x, y):
+        out |= np.all(v > edge, axis=1) | np.all(v < -edge, axis=1)
+    return out & np.all(w > 0.0, axis=1)
 
 
 def project_boxes(

@@ -11,7 +11,9 @@ Passes (one draw call per mesh batch each; no multisampling anywhere, so every i
 
 1. shadow: depth from an orthographic sun camera into a ``shadow_map_size``\u00b2 depth texture;
    its box follows the view, or is fixed once for a whole camera path over a static scene
-   (:meth:`Renderer.fix_shadow_box`: the fly-through draws it once);
+   (:meth:`Renderer.fix_shadow_box`: the fly-through draws it once); instances whose box lies
+   beyond a side of the sun's box make no fragment and are not drawn
+   (:func:`~usdworld.render.occlusion.outside_clip_sides`);
 2. labels: class id, instance id and object index as int32 and the OpenCV camera depth
    ``z`` in metres as float32 (0 where no surface was hit) in one multi-target pass;
 3. colour: Blinn-Phong + hemisphere ambient with a 3x3 PCF shadow lookup (normal offset +
@@ -36,7 +38,15 @@ from usdworld.render.camera import check_intrinsics, gl_projection, gl_view
 from usdworld.render.context import RenderError, create_context
 from usdworld.render.lighting import Lighting, PathShadow, path_shadow, sun_view_projection
 from usdworld.render.batches import MeshBatch
-from usdworld.render.occlusion import DepthPyramid, hidden, instance_corners, occluders, project_boxes
+from usdworld.render.occlusion import (
+    SUN_MARGIN_TEXELS,
+    DepthPyramid,
+    hidden,
+    instance_corners,
+    occluders,
+    outside_clip_sides,
+    project_boxes,
+)
 from usdworld.render.scene import RenderScene
 
 log = logging.getLogger(__name__)
@@ -115,8 +125,12 @@ class _BatchBuffers:
         pos = ctx.buffer(np.ascontiguousarray(corners, dtype="f8").tobytes())
         nrm = ctx.buffer(np.ascontiguousarray(normals, dtype="f4").tobytes())
         self._records = _instance_records(batch)
-        # the shadow map draws every instance; the camera's passes those shown (all until told)
+        # the shadow map draws the instances in the sun's box; the camera's passes those shown
+        # (all until told)
         inst_all = ctx.buffer(self._records.tobytes())
+        self._sun = inst_all
+        self.n_sunlit = self.n_instances
+        self._sunlit: np.ndarray | None = None
         inst = ctx.buffer(self._records.tobytes())
         inst_rev = ctx.buffer(self._records[::-1].tobytes())
         self._camera = (inst, inst_rev)
@@ -176,8 +190,22 @@ class _BatchBuffers:
         self.n_shown = len(records)
         self._shown = None if shown is None else shown.copy()
 
+    def show_to_sun(self, inside: np.ndarray | None) -> None:
+        """Let the shadow map draw only the instances where ``inside`` ((N,) bool) is True; None: all."""
+        if inside is not None and inside.all():
+            inside = None  # the buffer keeps every instance: nothing to write
+        if inside is None and self._sunlit is None:
+            return
+        if inside is not None and self._sunlit is not None and np.array_equal(inside, self._sunlit):
+            return
+        records = self._records if inside is None else self._records[inside]
+        if len(records):
+            self._sun.write(records.tobytes())
+        self.n_sunlit = len(records)
+        self._sunlit = None if inside is None else inside.copy()
+
     def render(self, ctx: Any, name: str) -> None:
-        n = self.n_instances if name == "shadow" else self.n_shown
+        n = self.n_sunlit if name == "shadow" else self.n_shown
         if n:
             self.vaos[name].render(mode=ctx.TRIANGLES, instances=n)
 
@@ -244,6 +272,8 @@ class Renderer:
         self.rendering = rendering or RenderingParams()
         #: instances the last :meth:`render` drew in its label and colour passes, of all (for benchmarks)
         self.last_shown: tuple[int, int] | None = None
+        #: the instances the last shadow map drew
+        self.last_sunlit: int | None = None
         self.lighting = lighting or Lighting()
         self.near_m = float(near_m)
         self._ctx = create_context()
@@ -592,6 +622,11 @@ class Renderer:
         return sun_vp, texel
 
     def _draw_shadow_map(self, buffers: _SceneBuffers, sun_vp: np.ndarray) -> None:
+        # instances beyond the sides of the sun's box make no fragment: left out (same map)
+        margin = SUN_MARGIN_TEXELS * 2.0 / self._shadow_size
+        for b in buffers.batches:
+            b.show_to_sun(~outside_clip_sides(b.corners_world(), sun_vp, margin))
+        self.last_sunlit = sum(b.n_sunlit for b in buffers.batches)
         ctx = self._context()
         self._shadow_fbo.use()  # each framebuffer keeps its own full-size viewport
         self._shadow_fbo.clear(depth=1.0)

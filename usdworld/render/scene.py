@@ -64,6 +64,31 @@ class RenderObject:
     index: int
 
 
+@dataclass(frozen=True)
+class VirtualObjects:
+    """Objects of the objects scope that the stage does not compose, read as it would read them.
+
+    Each is an object drawn as a prototype (:mod:`usdworld.render.instancing`): its label,
+    the key of its prototype (:func:`~usdworld.render.instancing.prototype_key`; the
+    prototype is in the ``prototypes`` cache given with it) and its local-to-world transform
+    (the bits ``UsdGeom.XformCache`` gives). The scene reader counts them in among the
+    composed objects at their place in the scope's stage order.
+
+    Attributes:
+        order: every object name of the scope -> its place in the composed stage's order.
+        names: the virtual objects, in stage order.
+        labels: their ``class`` labels.
+        keys: their prototype keys.
+        local_to_world: their ``Gf.Matrix4d`` transforms (row vectors, as USD gives them).
+    """
+
+    order: dict[str, int]
+    names: tuple[str, ...]
+    labels: tuple[str, ...]
+    keys: tuple[tuple, ...]
+    local_to_world: tuple[Gf.Matrix4d, ...]
+
+
 @dataclass(frozen=True, eq=False)
 class RenderScene:
     """All meshes of a stage, batched by asset mesh (:mod:`usdworld.render.batches`), world frame.
@@ -174,6 +199,8 @@ class RenderScene:
         time: Usd.TimeCode | None = None,
         prototypes: dict[tuple, Prototype | None] | None = None,
         static: StaticCache | None = None,
+        virtual: VirtualObjects | None = None,
+        geometry: GeometryCache | None = None,
     ) -> RenderScene:
         """Collect every renderable mesh of the composed stage.
 
@@ -196,8 +223,19 @@ class RenderScene:
             static: the objects that stand still, kept by several calls on one unchanged
                 stage at different times (:class:`StaticCache`), so that each of them is read
                 once; None reads every object.
+            virtual: objects the stage leaves out (a population mask) that are read as if it
+                held them (:class:`VirtualObjects`; their prototypes in ``prototypes``); only
+                at the default time, without ``static``.
+            geometry: the asset meshes already read (shared with the reads of the virtual
+                objects' prototypes, so their parts batch as the stage's own would).
+
+        Raises:
+            ValueError: ``virtual`` with a time or ``static``, or a virtual object's
+                prototype not in ``prototypes``.
         """
-        return _extract(stage, objects_path, cull, time, prototypes, static)
+        if virtual is not None and (time is not None or static is not None):
+            raise ValueError("RenderScene.from_stage: virtual objects are read at the default time only")
+        return _extract(stage, objects_path, cull, time, prototypes, static, virtual, geometry)
 
 
 def world_from_stage(stage: Usd.Stage) -> np.ndarray:
@@ -290,6 +328,8 @@ def _extract(
     time: Usd.TimeCode | None,
     cache: dict[tuple, Prototype | None] | None,
     static: StaticCache | None = None,
+    virtual: VirtualObjects | None = None,
+    geometry_cache: GeometryCache | None = None,
 ) -> RenderScene:
     objects_sdf = Sdf.Path(objects_path or _default_objects_path(stage))
     world_T = world_from_stage(stage)
@@ -302,7 +342,8 @@ def _extract(
     local_layers = list(stage.GetLayerStack(includeSessionLayers=True))
     local_ids = local_layer_ids(stage)
     prototypes: dict[tuple, Prototype | None] = {} if cache is None else cache
-    geometry: GeometryCache = {}  # asset meshes, shared by prototypes and by objects read on their own
+    # asset meshes, shared by prototypes and by objects read on their own
+    geometry: GeometryCache = {} if geometry_cache is None else geometry_cache
 
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
     if static is not None and static.scope_moves is None:
@@ -312,10 +353,42 @@ def _extract(
     first_entry: dict[Sdf.Path, int] = {}  # where each object's entries start
     to_keep: set[Sdf.Path] = set()  # the objects read now that stand still
     it = iter(Usd.PrimRange(stage.GetPseudoRoot(), predicate))
+    n_virtual = 0 if virtual is None else len(virtual.names)
+    placed = 0  # virtual objects counted in so far
+    in_scope = False  # the objects scope was reached
+
+    def count_in(until: float) -> int:
+        """Count in the virtual objects before stage place ``until``; the next one's number."""
+        k = placed
+        while k < n_virtual and virtual.order[virtual.names[k]] < until:
+            name = virtual.names[k]
+            path = objects_sdf.AppendChild(name)
+            label = labels[path] = virtual.labels[k]
+            label_id = label_id_for_class(label)
+            instance_id = ids.next(label_id) if label_id in ids.things else label_id
+            owner = objects[path] = RenderObject(str(path), label, label_id, instance_id, len(objects) + 1)
+            proto = prototypes.get(virtual.keys[k])
+            if proto is None:
+                raise ValueError(f"RenderScene.from_stage: no prototype for the virtual object {name}")
+            part_ids = []
+            for part in proto.parts:
+                class_id = label_id_for_class(part.label if part.label is not None else label)
+                part_ids.append((class_id, *ids.of_part(owner, class_id)))
+            l2w = virtual.local_to_world[k]
+            entries.append(_Pending(proto, l2w, world_T @ matrix_from_gf(l2w), part_ids))
+            k += 1
+        return k
+
     for prim in it:
         path = prim.GetPath()
         if prim.IsPseudoRoot():
             continue
+        if placed < n_virtual:
+            if path.GetParentPath() == objects_sdf:
+                placed = count_in(virtual.order[path.name])
+            elif in_scope and not path.HasPrefix(objects_sdf):
+                placed = count_in(float("inf"))  # past the scope
+            in_scope = in_scope or path == objects_sdf
         still = static.objects.get(path) if keep and static is not None else None
         if still is not None:  # read before: only its ids are counted again
             it.PruneChildren()
@@ -381,6 +454,10 @@ def _extract(
         class_id = label_id_for_class(labels[path])
         instance_id, object_index = ids.of_part(_owner(path, objects_sdf, objects), class_id)
         entries.append(ScenePart(local, world_from_local, class_id, instance_id, object_index))
+    if placed < n_virtual:
+        if not in_scope:
+            raise ValueError("RenderScene.from_stage: virtual objects without their scope in the stage")
+        placed = count_in(float("inf"))
     if static is not None and to_keep:
         _keep_still(static, first_entry, to_keep, objects, entries)
     parts, culled = _place(entries, world_T, cull)

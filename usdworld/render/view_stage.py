@@ -1,42 +1,50 @@
-"""A large world composed for one view: only the objects whose box or shadow can reach it.
+"""A large world read for one view: only the objects whose box or shadow can reach it.
 
 Composing every object of a 10,000-object world (a reference and a variant each) costs more
 than drawing the few hundred the camera sees. A world whose object index is kept
 (:mod:`usdworld.authoring.editing.index_file`: the base layer's object opinions, keyed by
-its SHA-256) gives each object's class, ``model`` variant and ``active`` without composing
-it; its place and scale are read from its spec. :func:`open_outside` composes everything
-outside the objects scope (camera, lights, ground); :func:`scene_for_view` composes beside
-it the objects the edits layer touches and the objects whose box (an upright cylinder
-around the asset's box, any yaw) or its shadow may meet the view (:class:`~.instancing.ViewCull`,
-the test the scene reader uses), reads the scene, and gives its objects the ids they have
-in the whole world (class counts in stage order). The far plane and the shadow map's box
-take in the culled objects' boxes: the objects that may hold the culled boxes' extreme
-coordinates are composed too, and a scene whose bounds another object's box could widen is
-refused. Whatever the index and the specs cannot describe (no kept index, another sublayer,
-an object with a child, another transform, a visibility or purpose, primvars, a payload,
-an asset with parts of another thing class) gives None, and the caller composes the whole
-world; the pixels are the same bits either way.
+its SHA-256) gives each object's class, ``model`` variant, ``active``, asset, translate,
+rotateZ and scale, and whether its spec holds anything else (plain), without composing it
+or reading its spec. :func:`open_outside` composes everything outside the objects scope
+(camera, lights, ground); :func:`scene_for_view` picks the objects whose box (an upright
+cylinder around the asset's box, any yaw) or its shadow may meet the view
+(:class:`~.instancing.ViewCull`, the test the scene reader uses), composes beside the rest
+the objects the edits layer touches (and the scope's first object), and reads the scene
+with the other picks as virtual objects (:class:`~.scene.VirtualObjects`): each asset and
+variant is composed once, on a stage of its own, as the prototype the scene reader would
+read, and each object's transform is made from its ops with UsdGeom's own products (the
+same bits). The scene's objects then get the ids they have in the whole world (class
+counts in stage order). The far plane and the shadow map's box take in the culled objects'
+boxes: the objects that may hold the culled boxes' extreme coordinates are read too, and a
+scene whose bounds another object's box could widen is refused. Whatever the index cannot
+describe (no kept index, another sublayer, an object that is not plain: a child, another
+transform, a visibility or purpose, primvars, a payload; an asset with parts of another
+thing class, hidden, or not read as a prototype) gives None, and the caller composes the
+whole world; the pixels are the same bits either way.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from itertools import repeat
 from pathlib import Path
 
 import numpy as np
-from pxr import Sdf, Tf, Usd, UsdGeom
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
 from usdworld.render.classes import label_id_for_class, thing_label_ids
-from usdworld.render.instancing import ViewCull, read_prototype
-from usdworld.render.scene import RenderObject, RenderScene
+from usdworld.render.instancing import (
+    Prototype,
+    ViewCull,
+    local_layer_ids,
+    prototype_key,
+    pruned,
+    read_prototype,
+)
+from usdworld.render.scene import RenderObject, RenderScene, VirtualObjects
+from usdworld.render.usd_mesh import GeometryCache
 
 OBJECTS = "/World/Objects"
-#: Property names a base-layer object may carry and still be described by the index: its
-#: transform ops (translate, rotateZ, scale, read below), its label and its provenance.
-_KNOWN = ("xformOp:translate", "xformOp:rotateZ", "xformOp:scale", "xformOpOrder", "semantics:", "usdworld:")
-_OP_ORDER = ("xformOp:translate", "xformOp:rotateZ", "xformOp:scale")
 #: Which corner of a box takes the upper side, per axis (the order of :func:`~.instancing.box_corners`).
 _CORNER_BITS = tuple(np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=bool).T)
 #: Metres a conservative box is widened by (float rounding of the composed transforms).
@@ -53,7 +61,10 @@ class WorldObjects:
         labels: their ``class`` labels.
         lo: (N, 3) float64 lower corner of a box holding each object's meshes, metres.
         hi: (N, 3) float64 upper corner.
-        composed: (N,) bool, the object is in the masked stage.
+        composed: (N,) bool, the object is read with the scene: in the masked stage or virtual.
+        virtual: the objects read from the index and their prototypes instead of the stage.
+        prototypes: those prototypes, by key (a cache for the scene reader).
+        geometry: the meshes they were read from (shared with the scene reader).
     """
 
     order: tuple[str, ...]
@@ -62,6 +73,9 @@ class WorldObjects:
     lo: np.ndarray
     hi: np.ndarray
     composed: np.ndarray
+    virtual: VirtualObjects
+    prototypes: dict[tuple, Prototype]
+    geometry: GeometryCache
 
 
 def _root_sublayers(world_file: Path) -> list[Sdf.Layer] | None:
@@ -115,29 +129,76 @@ def _stage_order(layers: list[Sdf.Layer]) -> list[str] | None:
     return names
 
 
-def _asset_boxes(kinds: set[tuple[str, str | None]]) -> tuple[dict, dict] | None:
-    """(2, 3) box of each (asset file, variant)'s meshes in the object's frame (as the scene
-    reads it), and the class labels its parts carry of their own."""
+@dataclass(frozen=True)
+class _Kinds:
+    """What each (asset file, variant) gives an object that references it, read once."""
+
+    boxes: dict[tuple[str, str | None], np.ndarray]  # (2, 3) box of its meshes in the object's frame
+    part_labels: dict[tuple[str, str | None], set[str]]  # the class labels its parts carry of their own
+    keys: dict[tuple[str, str | None], tuple]  # its prototype key (as the scene reader makes it)
+    prototypes: dict[tuple, Prototype]  # by prototype key
+    geometry: GeometryCache  # the meshes read
+
+
+def _asset_kinds(kinds: set[tuple[str, str | None]]) -> _Kinds | None:
+    """Read each (asset file, variant) as the scene reader reads a plain object referencing it
+    (an ``Xform`` with one reference and a ``model`` selection), on a stage of its own; None
+    when one would not be read as a prototype (hidden, a mesh, a reset transform, no mesh)."""
     layer = Sdf.Layer.CreateAnonymous(".usda")
     Sdf.CreatePrimInLayer(layer, "/K").specifier = Sdf.SpecifierDef
     paths = {}
     for k, (asset, variant) in enumerate(sorted(kinds, key=str)):
         spec = Sdf.CreatePrimInLayer(layer, f"/K/k{k}")
         spec.specifier = Sdf.SpecifierDef
+        spec.typeName = "Xform"
         spec.referenceList.Prepend(Sdf.Reference(asset))
         if variant:
             spec.variantSelections["model"] = variant
         paths[(asset, variant)] = f"/K/k{k}"
     stage = Usd.Stage.Open(layer)
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
-    boxes, labels = {}, {}
-    for key, path in paths.items():
-        proto = read_prototype(stage.GetPrimAtPath(path), predicate)
+    local_layers = list(stage.GetLayerStack(includeSessionLayers=True))
+    local_ids = local_layer_ids(stage)
+    out = _Kinds({}, {}, {}, {}, {})
+    for kind, path in paths.items():
+        prim = stage.GetPrimAtPath(path)
+        if not prim or pruned(prim):
+            return None
+        key = prototype_key(prim, local_ids, local_layers)
+        if key is None:
+            return None
+        proto = out.prototypes.get(key) or read_prototype(prim, predicate, out.geometry)
         if proto is None or not proto.parts:
             return None
-        boxes[key] = proto.box_local
-        labels[key] = {part.label for part in proto.parts if part.label is not None}
-    return boxes, labels
+        out.keys[kind] = key
+        out.prototypes[key] = proto
+        out.boxes[kind] = proto.box_local
+        out.part_labels[kind] = {part.label for part in proto.parts if part.label is not None}
+    return out
+
+
+def _local_to_world(translate: np.ndarray, yaw_deg: float, scale: np.ndarray) -> Gf.Matrix4d:
+    """The transform ``UsdGeom.XformCache`` gives an object of the objects scope (whose
+    ancestors have no transform) with the ops translate, rotateZ, scale: the same products
+    in the same order (``UsdGeomXformable``: the ops from the last, identity ones skipped;
+    then times the parent's identity), so the same bits.
+
+    Args:
+        translate: (3,) float64 the translate op's value.
+        yaw_deg: the rotateZ op's (float) value, degrees.
+        scale: (3,) float64 the scale op's (float3) value.
+    """
+    identity = Gf.Matrix4d(1.0)
+    ops = (
+        Gf.Matrix4d(1.0).SetTranslate(Gf.Vec3d(*translate.tolist())),
+        Gf.Matrix4d(1.0).SetRotate(Gf.Rotation(Gf.Vec3d.ZAxis(), yaw_deg)),
+        Gf.Matrix4d(1.0).SetScale(Gf.Vec3d(*scale.tolist())),
+    )
+    local = Gf.Matrix4d(1.0)
+    for op in reversed(ops):
+        if op != identity:
+            local *= op
+    return local * identity
 
 
 @dataclass(frozen=True)
@@ -149,72 +210,48 @@ class _Base:
     kinds: list[tuple[str, str | None]]  # (asset file, variant) per object
     translate: np.ndarray  # (N, 3) float64
     scale: np.ndarray  # (N, 3) float64
-
-
-#: Metadata a base-layer object's spec may carry (anything else: a payload, instancing, children ...).
-_INFO = frozenset(
-    {"specifier", "typeName", "references", "variantSelection", "variantSetNames", "apiSchemas"}
-)
+    yaw_deg: np.ndarray  # (N,) float64 the rotateZ values
 
 
 def _base_objects(layers: list[Sdf.Layer], names: list[str], edited: set[str]) -> _Base | None:
-    """Class and variant (the index), asset, translate and scale (the base layer's specs) of the
-    objects the edits layer does not touch; None when the index is not kept for the base layer
-    or an object carries what the index does not describe (a child, another transform, a
-    visibility, a purpose, primvars, a material binding, a payload, instancing ...)."""
-    from usdworld.authoring.editing.index_file import INDEX_FILE, layers_key, load_opinions
+    """Class, variant, asset, translate and scale of the objects the edits layer does not touch,
+    from the object index (:mod:`~usdworld.authoring.editing.index_file`; a file keyed to other
+    bytes is read again from the layer and rewritten, as the editor does); None when an object
+    is not plain (:func:`~usdworld.authoring.editing.index.plain_asset`: a child, another
+    transform, a visibility, a purpose, primvars, a material binding, a payload, instancing ...)."""
+    from usdworld.authoring.editing.index_file import lower_opinions
 
     base = layers[1]
     if not base.realPath:
         return None
-    kept = load_opinions(Path(base.realPath).parent / INDEX_FILE, layers_key([Path(base.realPath)]))
-    if kept is None:
-        return None
+    kept = lower_opinions(layers, 0)  # the file exists (_root_sublayers): keep it current
     at = {n: i for i, n in enumerate(kept.names)}
+    rows = [at.get(name) for name in names if name not in edited]
+    if None in rows:
+        return None
+    rows_a = np.array(rows, dtype=np.int64)
+    active = np.array([a is not False for a in kept.active], dtype=bool)
+    rows_a = rows_a[kept.defined[rows_a] & active[rows_a]]
+    if not kept.plain[rows_a].all():
+        return None
+    labels = [kept.label[i] for i in rows_a]
+    if not all(labels):
+        return None
+    translate = np.column_stack([kept.translate[rows_a], kept.z_scale_yaw[rows_a, 0]])
+    scale = np.column_stack([kept.scale[rows_a], kept.z_scale_yaw[rows_a, 1]])
+    yaw = kept.z_scale_yaw[rows_a, 2]
+    if np.isnan(translate).any() or np.isnan(scale).any() or np.isnan(yaw).any():
+        return None
     assets: dict[str, str] = {}
-    out = _Base([], [], [], np.zeros((0, 3)), np.zeros((0, 3)))
-    t_rows, s_rows = [], []
-    for name in names:
-        if name in edited:
-            continue
-        i = at.get(name)
-        if i is None:
-            return None
-        if not kept.defined[i] or kept.active[i] is False:
-            continue
-        path = f"{OBJECTS}/{name}"
-        spec = base.GetPrimAtPath(path)
-        if spec is None or not _INFO.issuperset(spec.ListInfoKeys()) or spec.typeName != "Xform":
-            return None
-        if spec.specifier != Sdf.SpecifierDef:
-            return None
-        if not all(map(str.startswith, spec.GetInfo("properties"), repeat(_KNOWN))):
-            return None
-        order = base.GetAttributeAtPath(path + ".xformOpOrder")
-        t = base.GetAttributeAtPath(path + ".xformOp:translate")
-        sc = base.GetAttributeAtPath(path + ".xformOp:scale")
-        refs = spec.GetInfo("references").prependedItems
-        if not (order and t and sc) or tuple(order.default or ()) != _OP_ORDER or len(refs) != 1:
-            return None
-        ref = refs[0]
-        label = kept.label[i]
-        if not label or t.default is None or sc.default is None or not ref.assetPath or ref.primPath:
-            return None
-        if ref.layerOffset != Sdf.LayerOffset():
-            return None
-        asset = assets.get(ref.assetPath)
+    kinds = []
+    for i in rows_a.tolist():
+        ref = kept.asset[i]
+        asset = assets.get(ref)
         if asset is None:
-            asset = assets[ref.assetPath] = base.ComputeAbsolutePath(ref.assetPath)
-        out.names.append(name)
-        out.labels.append(label)
-        out.kinds.append((asset, kept.variant[i]))
-        t_rows.append(t.default)
-        s_rows.append(sc.default)
-    return dataclasses.replace(
-        out,
-        translate=np.array(t_rows, dtype=np.float64).reshape(-1, 3),
-        scale=np.array(s_rows, dtype=np.float64).reshape(-1, 3),
-    )
+            asset = assets[ref] = base.ComputeAbsolutePath(ref)
+        kinds.append((asset, kept.variant[i]))
+    names_a = [kept.names[i] for i in rows_a]
+    return _Base(names_a, labels, kinds, translate.reshape(-1, 3), scale.reshape(-1, 3), yaw.reshape(-1))
 
 
 def open_outside(world_file: Path, min_objects: int) -> Usd.Stage | None:
@@ -248,7 +285,17 @@ def scene_for_view(world_file: Path, outside: Usd.Stage, cull: ViewCull) -> Rend
     if opened is None:
         return None
     stage, facts = opened
-    return whole_world_scene(facts, RenderScene.from_stage(stage, cull=cull))
+    try:
+        scene = RenderScene.from_stage(
+            stage,
+            cull=cull,
+            prototypes=dict(facts.prototypes),
+            virtual=facts.virtual,
+            geometry=facts.geometry,
+        )
+    except (KeyError, ValueError):
+        return None  # a composed object the index does not name, or no objects scope
+    return whole_world_scene(facts, scene)
 
 
 def view_stage(
@@ -276,18 +323,18 @@ def view_stage(
     base = _base_objects(layers, order, edited)
     if base is None:
         return None
-    read = _asset_boxes(set(base.kinds)) if base.kinds else ({}, {})
+    read = _asset_kinds(set(base.kinds))
     if read is None:
         return None
-    boxes, part_labels = read
+    boxes, part_labels = read.boxes, read.part_labels
     things = thing_label_ids()
     for kind, label in set(zip(base.kinds, base.labels)):
         own = label_id_for_class(label)
         if any(label_id_for_class(c) in things and label_id_for_class(c) != own for c in part_labels[kind]):
             return None  # a part of another thing class (a rider) counts instance ids of its own
-    keys = {k: n for n, k in enumerate(boxes)}
+    rows = {k: n for n, k in enumerate(boxes)}
     table = np.array(list(boxes.values())).reshape(-1, 2, 3)
-    box = table[np.array([keys[k] for k in base.kinds], dtype=np.int64)] * base.scale[:, None, :]
+    box = table[np.array([rows[k] for k in base.kinds], dtype=np.int64)] * base.scale[:, None, :]
     box = np.stack([box.min(axis=1), box.max(axis=1)], axis=1)  # a negative scale flips the box
     r = np.hypot(np.abs(box[:, :, 0]).max(axis=1), np.abs(box[:, :, 1]).max(axis=1))  # any yaw about Z
     t = base.translate
@@ -308,15 +355,32 @@ def view_stage(
         # z is exact up to the slack (a yaw keeps it); not the lowest: the ground lies below
         # the objects, and whole_world_scene checks the bounds
         pick[c[hi[c, 2] >= hi[c, 2].max() - 2.0 * _SLACK_M]] = True
+    # composed: the edited objects and the first (the objects scope is then in the stage, and
+    # the virtual objects are counted in at their places in it); the other picks are virtual
+    real = {*edited, order[0]}
+    pick[[k for k, name in enumerate(names) if name == order[0]]] = True
     paths = [str(p) for p in outside_stage.GetPopulationMask().GetPaths()]
-    paths += [f"{OBJECTS}/{n}" for n in sorted(edited)]
-    paths += [f"{OBJECTS}/{names[k]}" for k in np.flatnonzero(pick)]
+    paths += [f"{OBJECTS}/{n}" for n in sorted(real)]
     stage = Usd.Stage.OpenMasked(str(world_file), Usd.StagePopulationMask(paths))
     for path in ("/World", OBJECTS):
         prim = stage.GetPrimAtPath(path)
-        if not prim or (UsdGeom.Xformable(prim) and UsdGeom.Xformable(prim).GetOrderedXformOps()):
+        xformable = UsdGeom.Xformable(prim)
+        if not prim or pruned(prim) or (xformable and xformable.GetOrderedXformOps()):
             return None
-    facts = WorldObjects(tuple(order), tuple(names), tuple(base.labels), lo, hi, pick)
+    virtual = [k for k in np.flatnonzero(pick).tolist() if names[k] not in real]
+    transforms = tuple(
+        _local_to_world(base.translate[k], float(base.yaw_deg[k]), base.scale[k]) for k in virtual
+    )
+    objects = VirtualObjects(
+        {name: k for k, name in enumerate(order)},
+        tuple(names[k] for k in virtual),
+        tuple(base.labels[k] for k in virtual),
+        tuple(read.keys[base.kinds[k]] for k in virtual),
+        transforms,
+    )
+    facts = WorldObjects(
+        tuple(order), tuple(names), tuple(base.labels), lo, hi, pick, objects, read.prototypes, read.geometry
+    )
     return stage, facts
 
 
@@ -369,11 +433,8 @@ def whole_world_scene(facts: WorldObjects, scene: RenderScene) -> RenderScene | 
             return None  # a thing part unlike its object counts ids of its own
         own = (obj > 0) & (inst == old_id[obj])
         inst = np.where(own, new_id[obj], inst)
-        ids = {
-            "instance_ids": inst.astype(b.instance_ids.dtype),
-            "object_ids": index_map[obj].astype(b.object_ids.dtype),
-        }
-        batches.append(dataclasses.replace(b, **ids))
+        ids = inst.astype(b.instance_ids.dtype), index_map[obj].astype(b.object_ids.dtype)
+        batches.append(b.with_ids(*ids))
     out = RenderScene(tuple(batches), scene.part_order, tuple(objects), scene.culled_bounds_world)
     lo, hi = out.bounds_world()
     rest = ~facts.composed

@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from itertools import repeat
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,14 @@ from usdworld.errors import InputError
 from usdworld.world_files import OBJECTS_PATH
 
 _LABEL = "semantics:labels:class"
+#: The transform ops of an object the build places, in their order (``xformOpOrder``).
+XFORM_OPS = ("xformOp:translate", "xformOp:rotateZ", "xformOp:scale")
+#: Metadata a plain object's spec may carry (not a payload, instancing, a kind ...).
+_PLAIN_INFO = frozenset(
+    {"specifier", "typeName", "references", "variantSelection", "variantSetNames", "apiSchemas"}
+)
+#: Property names a plain object's spec may carry: its transform ops, its label, its provenance.
+_PLAIN_PROPERTIES = (*XFORM_OPS, "xformOpOrder", "semantics:", "usdworld:")
 
 
 @dataclass(frozen=True)
@@ -89,6 +98,16 @@ class Opinions:
         label: the first ``class`` label, ``""`` for an empty label list, None for none.
         variant: the ``model`` variant selection, or None.
         active: the ``active`` opinion, or None.
+        z_scale_yaw: (N, 3) float64 z of ``xformOp:translate``, z of ``xformOp:scale`` and the
+            ``xformOp:rotateZ`` angle (degrees), NaN where the group has none (None when made: all NaN).
+        asset: the asset path of a plain object's one reference, as authored (relative to its
+            layer), else None (None when made: all None).
+        plain: (N,) bool, the object is one ``def Xform`` spec in one layer of the group that
+            holds nothing but what these fields describe (:func:`plain_asset`): no child, no
+            other transform op, metadata or property (a visibility, primvars, a payload ...),
+            one reference to an asset's default prim, and no selection but ``model`` (None when
+            made: all False). A reader may then compose it from these fields alone (the
+            render's view stage).
     """
 
     names: tuple[str, ...]
@@ -98,9 +117,58 @@ class Opinions:
     label: tuple[str | None, ...]
     variant: tuple[str | None, ...]
     active: tuple[bool | None, ...]
+    z_scale_yaw: np.ndarray | None = field(default=None)
+    asset: tuple[str | None, ...] | None = field(default=None)
+    plain: np.ndarray | None = field(default=None)
+
+    def __post_init__(self) -> None:
+        n = len(self.names)
+        if self.z_scale_yaw is None:
+            object.__setattr__(self, "z_scale_yaw", np.full((n, 3), np.nan))
+        if self.asset is None:
+            object.__setattr__(self, "asset", (None,) * n)
+        if self.plain is None:
+            object.__setattr__(self, "plain", np.zeros(n, dtype=bool))
 
     def __len__(self) -> int:
         return len(self.names)
+
+
+def plain_asset(spec: Sdf.PrimSpec) -> str | None:
+    """The asset path of an object's spec that holds only what :class:`Opinions` describes, or None.
+
+    Plain: a ``def Xform`` with no child; metadata among specifier, type, references, variant
+    selections (``model`` only) and variant set names, API schemas; one prepended reference
+    (an asset path, its default prim, no layer offset) and no other reference list item; the
+    transform ops translate, rotateZ, scale in that order, each with a value where the index
+    reads one; other properties only labels and provenance (``semantics:``, ``usdworld:``).
+
+    Args:
+        spec: the object's prim spec.
+    """
+    if spec.specifier != Sdf.SpecifierDef or spec.typeName != "Xform" or spec.nameChildren:
+        return None
+    if not _PLAIN_INFO.issuperset(spec.ListInfoKeys()):
+        return None
+    if not set(spec.variantSelections.keys()) <= {VARIANT_SET}:
+        return None
+    attrs = spec.attributes
+    if not all(map(str.startswith, spec.properties.keys(), repeat(_PLAIN_PROPERTIES))):
+        return None
+    order = attrs.get("xformOpOrder")
+    if order is None or tuple(order.default or ()) != XFORM_OPS:
+        return None
+    for name in XFORM_OPS:
+        if name not in attrs or attrs[name].default is None or attrs[name].HasInfo("timeSamples"):
+            return None
+    refs = spec.referenceList
+    items = refs.prependedItems
+    if refs.isExplicit or refs.explicitItems or refs.appendedItems or refs.addedItems or len(items) != 1:
+        return None
+    ref = items[0]
+    if not ref.assetPath or ref.primPath or ref.layerOffset != Sdf.LayerOffset() or ref.customData:
+        return None
+    return ref.assetPath
 
 
 def read_opinions(layers: Sequence[Sdf.Layer]) -> Opinions:
@@ -119,23 +187,43 @@ def read_opinions(layers: Sequence[Sdf.Layer]) -> Opinions:
     defined = np.zeros(n, dtype=bool)
     translate = np.full((n, 2), np.nan)
     scale = np.full((n, 2), np.nan)
+    z_scale_yaw = np.full((n, 3), np.nan)
+    plain = np.zeros(n, dtype=bool)
     labels: list[str | None] = []
     variants: list[str | None] = []
     actives: list[bool | None] = []
+    assets: list[str | None] = []
     for i, specs in enumerate(children.values()):
         defined[i] = any(s.specifier == Sdf.SpecifierDef for s in specs)
         attrs = [s.attributes for s in specs]
         t, s3, label = (_strongest(attrs, k) for k in ("xformOp:translate", "xformOp:scale", _LABEL))
+        yaw = _strongest(attrs, "xformOp:rotateZ")
+        if yaw is not None:
+            z_scale_yaw[i, 2] = float(yaw)
         if t is not None:
             translate[i] = float(t[0]), float(t[1])
+            z_scale_yaw[i, 0] = float(t[2])
         if s3 is not None:
             scale[i] = float(s3[0]), float(s3[1])
+            z_scale_yaw[i, 1] = float(s3[2])
+        asset = plain_asset(specs[0]) if len(specs) == 1 else None
+        plain[i] = asset is not None
+        assets.append(asset)
         labels.append(None if label is None else (str(label[0]) if len(label) else ""))
         selections = (s.variantSelections.get(VARIANT_SET) for s in specs)
         variants.append(next((v for v in selections if v is not None), None))
         actives.append(next((bool(s.active) for s in specs if s.HasInfo("active")), None))
     return Opinions(
-        tuple(children), defined, translate, scale, tuple(labels), tuple(variants), tuple(actives)
+        tuple(children),
+        defined,
+        translate,
+        scale,
+        tuple(labels),
+        tuple(variants),
+        tuple(actives),
+        z_scale_yaw,
+        tuple(assets),
+        plain,
     )
 
 
@@ -155,19 +243,41 @@ def merge_opinions(upper: Opinions, lower: Opinions) -> Opinions:
     translate[has] = lower.translate[src[has]]
     scale = np.full((len(names), 2), np.nan)
     scale[has] = lower.scale[src[has]]
+    z_scale_yaw = np.full((len(names), 3), np.nan)
+    z_scale_yaw[has] = lower.z_scale_yaw[src[has]]
+    plain = np.zeros(len(names), dtype=bool)
+    plain[has] = lower.plain[src[has]]
     label = [lower.label[i] if i >= 0 else None for i in src]
     variant = [lower.variant[i] if i >= 0 else None for i in src]
     active = [lower.active[i] if i >= 0 else None for i in src]
+    asset = [lower.asset[i] if i >= 0 else None for i in src]
     for j in range(len(upper)):  # the upper group's names are the first rows
         defined[j] |= upper.defined[j]
         if not np.isnan(upper.translate[j, 0]):
             translate[j] = upper.translate[j]
         if not np.isnan(upper.scale[j, 0]):
             scale[j] = upper.scale[j]
+        for axis in range(3):
+            if not np.isnan(upper.z_scale_yaw[j, axis]):
+                z_scale_yaw[j, axis] = upper.z_scale_yaw[j, axis]
         for merged, own in ((label, upper.label), (variant, upper.variant), (active, upper.active)):
             if own[j] is not None:
                 merged[j] = own[j]
-    return Opinions(names, defined, translate, scale, tuple(label), tuple(variant), tuple(active))
+        # one spec in all the layers: an object of the upper group alone
+        plain[j] = upper.plain[j] and src[j] < 0
+        asset[j] = upper.asset[j] if plain[j] else None
+    return Opinions(
+        names,
+        defined,
+        translate,
+        scale,
+        tuple(label),
+        tuple(variant),
+        tuple(active),
+        z_scale_yaw,
+        tuple(asset),
+        plain,
+    )
 
 
 def index_from_opinions(

@@ -30,8 +30,9 @@ log = logging.getLogger(__name__)
 
 #: The file, in the base layer's folder.
 INDEX_FILE = "objects.index.npz"
-#: Bumped when the file's content changes, so old files never match.
-INDEX_FORMAT = "usdworld-object-index/1"
+#: Bumped when the file's content changes, so old files never match (2: the objects' heights, yaws,
+#: assets and plainness, for the render's view stage).
+INDEX_FORMAT = "usdworld-object-index/2"
 _CHUNK = 1 << 20
 
 
@@ -65,6 +66,9 @@ def save_opinions(path: Path, opinions: Opinions, key: str) -> None:
     labels, has_label = _strings(opinions.label)
     variants, has_variant = _strings(opinions.variant)
     active = np.array([-1 if a is None else int(a) for a in opinions.active], dtype=np.int8)
+    table = sorted({a for a in opinions.asset if a is not None})
+    at = {a: k for k, a in enumerate(table)}
+    asset_code = np.array([-1 if a is None else at[a] for a in opinions.asset], dtype=np.int32)
     buf = io.BytesIO()
     np.savez(
         buf,
@@ -78,6 +82,10 @@ def save_opinions(path: Path, opinions: Opinions, key: str) -> None:
         variants=variants,
         has_variant=has_variant,
         active=active,
+        z_scale_yaw=opinions.z_scale_yaw,
+        assets=np.array(table, dtype=np.str_),
+        asset_code=asset_code,
+        plain=opinions.plain,
     )
     write_bytes_atomic(path, buf.getvalue())
 
@@ -90,6 +98,8 @@ def load_opinions(path: Path, key: str) -> Opinions | None:
                 return None
             n = len(data["names"])
             labels, variants = data["labels"].tolist(), data["variants"].tolist()
+            table = data["assets"].tolist()
+            assets = tuple(None if k < 0 else table[k] for k in data["asset_code"].tolist())
             return Opinions(
                 tuple(data["names"].tolist()),
                 data["defined"].astype(bool),
@@ -98,8 +108,11 @@ def load_opinions(path: Path, key: str) -> Opinions | None:
                 tuple(v if h else None for v, h in zip(labels, data["has_label"].tolist())),
                 tuple(v if h else None for v, h in zip(variants, data["has_variant"].tolist())),
                 tuple(None if a < 0 else bool(a) for a in data["active"].tolist()),
+                data["z_scale_yaw"].astype(np.float64).reshape(n, 3),
+                assets,
+                data["plain"].astype(bool).reshape(n),
             )
-    except (OSError, ValueError, KeyError):
+    except (OSError, ValueError, KeyError, IndexError):
         return None
 
 

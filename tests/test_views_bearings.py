@@ -14,7 +14,8 @@ from usdworld.layout.draft import DepthMethod
 from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
 from usdworld.perception.depth.fusion import DepthCue
-from usdworld.views.drive import bearing_triangulation, track_drive
+from usdworld.views.bearings import bearing_triangulation
+from usdworld.views.drive import track_drive
 from usdworld.views.fusion import Observation, combine
 
 PARAMS = ViewsParams()
@@ -30,7 +31,7 @@ def _seen(
     ref: int = 1,
 ) -> Observation:
     """``point`` seen from ``camera`` (one view per frame) with a relative depth error ``scale``:
-    placed at ``camera + (1 + scale) (point - camera)``, its depth stated sure to 5 % of the range."""
+    placed at ``camera + (1 + scale) (point - camera)``, its depth stated sure to 10 % of the range."""
     c = np.array(camera)
     z = c + (1.0 + scale) * (np.array(point) - c)
     rng = float(np.linalg.norm(z - c))
@@ -47,9 +48,9 @@ def _seen(
         size_m=np.array([footprint, footprint, 6.0]),
         depth_m=rng,
         method=DepthMethod.CONTACT,
-        cues=(DepthCue("contact", rng, 0.05 * rng),),
+        cues=(DepthCue("contact", rng, 0.1 * rng),),
     )
-    return Observation(frame, f"f{frame}", f"f{frame}.png", placement, c, 0.05 * rng, max(0.25, 0.02 * rng))
+    return Observation(frame, f"f{frame}", f"f{frame}.png", placement, c, 0.1 * rng, max(0.25, 0.02 * rng))
 
 
 def _drive(point: tuple[float, float], scale: float, frames: int = 21, step: float = 1.0, **kw) -> list[Observation]:
@@ -67,22 +68,22 @@ def test_a_pole_with_a_depth_error_its_frames_share_is_placed_by_its_bearings(sc
     """A pole beside a 20 m drive, every frame's depth off by the same share (up to 20 %): the frames'
     weighted mean keeps the shared error (about ``scale`` times the range); the rays from the moving
     camera cross at the pole, so it stands within a tenth of that error of it (the depth prior,
-    counted once, pulls a little where the rays cross at narrow angles) and 2 cm."""
+    counted once, pulls a little where the rays cross at narrow angles) and 5 cm."""
     obs = _drive((x, y), scale)
     (pole,) = track_drive(obs, [0.1 * k for k in range(len(obs))], PARAMS)
     assert not pole.moving
     truth = np.array([x, y])
     mean_error = float(np.linalg.norm(combine(obs)[0] - truth))
-    assert float(np.linalg.norm(pole.fused.placement.position_world[:2] - truth)) <= 0.1 * mean_error + 0.02
+    assert float(np.linalg.norm(pole.fused.placement.position_world[:2] - truth)) <= 0.1 * mean_error + 0.05
 
 
 def test_a_near_pole_is_placed_to_a_centimetre() -> None:
-    """15 % too far in every frame at 20 m: the weighted mean errs by about a metre, the bearings by
+    """15 % too far in every frame at 20 m: the weighted mean errs by half a metre, the bearings by
     under 1 cm. A parked car there keeps its weighted mean: its bearing is to its visible face,
     which turns with the view (2 % too far, as 15 % would make it a mover)."""
     obs = _drive((20.0, 8.0), 0.15)
     (pole,) = track_drive(obs, [0.1 * k for k in range(len(obs))], PARAMS)
-    assert float(np.linalg.norm(combine(obs)[0] - np.array([20.0, 8.0]))) > 1.0
+    assert float(np.linalg.norm(combine(obs)[0] - np.array([20.0, 8.0]))) > 0.4
     assert pole.fused.placement.position_world[:2] == pytest.approx([20.0, 8.0], abs=0.01)
     cars = _drive((20.0, 8.0), 0.02, cls="car", footprint=1.8)
     (car,) = track_drive(cars, [0.1 * k for k in range(len(cars))], PARAMS)

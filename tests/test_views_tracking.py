@@ -58,12 +58,14 @@ def _positions(objects: list[DriveObject]) -> list[list[float]]:
 def test_a_frame_is_assigned_globally_not_nearest_first() -> None:
     """Two poles 4 m apart across a 40 m ray; the next frame places one 1.25 m from the first and
     one 3 m on the far side of it. Nearest first would give the first pole the 1.25 m one and leave
-    the other outside every gate (a third pole); the assignment pairs each with a pole."""
+    the other outside every gate (a third pole); the assignment pairs each with a pole. (Traffic
+    lights: they stand at their observations' weighted mean, where a pole, a trunk class, would be
+    triangulated from bearings that a camera standing still does not give.)"""
     obs = [
-        _obs(0, (40.0, 0.0), 1.0, 1.0, ref=1),
-        _obs(0, (40.0, 4.0), 1.0, 1.0, ref=2),
-        _obs(1, (40.0, 1.25), 1.0, 1.0, ref=1),
-        _obs(1, (40.0, -3.0), 1.0, 1.0, ref=2),
+        _obs(0, (40.0, 0.0), 1.0, 1.0, ref=1, cls="traffic_light"),
+        _obs(0, (40.0, 4.0), 1.0, 1.0, ref=2, cls="traffic_light"),
+        _obs(1, (40.0, 1.25), 1.0, 1.0, ref=1, cls="traffic_light"),
+        _obs(1, (40.0, -3.0), 1.0, 1.0, ref=2, cls="traffic_light"),
     ]
     objects = track_drive(obs, [0.0, 0.1], PARAMS)
     assert len(objects) == 2
@@ -98,18 +100,22 @@ def test_fragments_whose_frames_scatter_more_than_stated_are_joined() -> None:
     frames 6-11 alternate 39 / 41 m. The jump (45 -> 41 m) starts a second track; each fragment's
     frames scatter by 1.48 m (1.4826 MAD), more than the 1 m they state, so a frame's error is
     1.48^2 / (1 - 0.5) and the fragments, 5 m apart, agree (m2 = 25 / 4.73 = 5.3). With the stated
-    1 m alone the floored covariances leave them 18.75 apart in squared sigmas: two poles."""
+    1 m alone the floored covariances leave them 18.75 apart in squared sigmas: two poles. (Traffic
+    lights, placed at their weighted mean: see test_a_frame_is_assigned_globally_not_nearest_first.)"""
     xs = [44.0, 46.0] * 3 + [39.0, 41.0] * 3
-    obs = [_obs(k, (x, 0.0), 1.0, 0.3) for k, x in enumerate(xs)]
+    obs = [_obs(k, (x, 0.0), 1.0, 0.3, cls="traffic_light") for k, x in enumerate(xs)]
     (pole,) = track_drive(obs, [0.1 * k for k in range(12)], PARAMS)
     assert len(pole.times) == 12 and not pole.moving
     assert pole.fused.placement.position_world[:2] == pytest.approx([42.5, 0.0], abs=1e-9)
 
     # the same 5 m jump between fragments whose frames agree with what they state stays two poles
-    steady = [_obs(k, (45.0 if k < 6 else 40.0, 0.0), 1.0, 0.3) for k in range(12)]
+    steady = [_obs(k, (45.0 if k < 6 else 40.0, 0.0), 1.0, 0.3, cls="traffic_light") for k in range(12)]
     assert len(track_drive(steady, [0.1 * k for k in range(12)], PARAMS)) == 2
     # and a fragment of fewer than scatter_min_frames frames uses what its surest frame states
-    short = [_obs(k, x, 1.0, 0.3) for k, x in enumerate([(44.0, 0.0), (46.0, 0.0), (39.0, 0.0), (41.0, 0.0)])]
+    short = [
+        _obs(k, x, 1.0, 0.3, cls="traffic_light")
+        for k, x in enumerate([(44.0, 0.0), (46.0, 0.0), (39.0, 0.0), (41.0, 0.0)])
+    ]
     assert len(track_drive(short, [0.1 * k for k in range(4)], PARAMS)) == 2
 
 
@@ -132,7 +138,9 @@ def test_frame_scatter_measures_a_spread_along_the_ray(spread: float, bearing: f
 def test_a_tree_its_view_cuts_in_two_is_placed_once() -> None:
     """Each of five frames places one tree (footprint 2.6 m) twice, 1.2 m apart across a 30 m ray
     and 0.8 m apart along it: the two share every frame, so no fragment join can make them one;
-    their footprints overlap, so each frame's two are one tree, placed between them."""
+    their footprints overlap, so each frame's two are one tree. The camera stands still, so the
+    halves' bearings disagree in every frame and the triangulation keeps one of them: the tree
+    stands on a half's ray, within its footprint of where one frame's two combine."""
     obs = []
     for f in range(5):
         obs.append(_obs(f, (30.0, 0.0), 1.5, 0.3, ref=1, cls="tree", footprint=2.6))
@@ -140,10 +148,12 @@ def test_a_tree_its_view_cuts_in_two_is_placed_once() -> None:
     objects = track_drive(obs, [0.1 * f for f in range(5)], PARAMS)
     assert len(objects) == 1
     assert len(objects[0].fused.observations) == 10
-    # every frame repeats the pair, so the tree stands where one frame's two combine: between them
     xy = combine(obs[:2])[0]
-    assert objects[0].fused.placement.position_world[:2] == pytest.approx(xy, abs=1e-9)
     assert 30.0 < xy[0] < 30.8 and 0.0 < xy[1] < 1.2
+    placed = objects[0].fused.placement.position_world[:2]
+    assert float(np.linalg.norm(placed - xy)) < 1.3
+    bearings = [math.atan2(1.2, 30.8), 0.0]
+    assert min(abs(math.atan2(placed[1], placed[0]) - b) for b in bearings) < 1e-3
 
 
 def test_trees_one_behind_the_other_or_beside_it_stay_two() -> None:

@@ -36,7 +36,21 @@ frames are tracked in time order, so the work grows with the number of frames:
    and across their mean viewing ray, divided by ``1 - frame_error_correlation`` (the
    scatter shows only the part the frames do not share). Stated spreads understate the
    single-view depth error of far objects, and a fragment whose frames scatter by metres
-   is not known to a fraction of a metre.
+   is not known to a fraction of a metre. A trunk class's fragment (tree, pole, sign) is
+   compared at its bearing triangulation (below).
+5. Standing tracks of one trunk class whose triangulated positions are nearer than their
+   footprints' inscribed radii summed are one object (:func:`merge_standing_trunks`),
+   whether or not they share frames: two trunks cannot stand in one place.
+
+**Trunks are triangulated.** A standing tree, pole or sign seen from a moving camera is
+where its frames' rays cross (:func:`bearing_triangulation`): its single-view depth errs
+by a share that all its frames repeat (its size or contact misjudged once for all), its
+bearing (the column of its trunk's base) does not. The depth cues enter once, as a prior
+along the mean viewing ray with the standing estimate's floored variance, so a far object
+seen over a short baseline keeps its depth; frames whose bearing is to another point (a
+crown cut by what stands in front) get little weight. Vehicles stay at their
+information-weighted mean: their visible face, and so their bearing's point, turns with
+the view, and a parked car with a depth error looks like a slow mover.
 
 **Moving or standing.** A vehicle's or person's track is *moving* when it spans at least
 ``moving_min_frames`` frames and its fitted velocity disagrees with standing still beyond
@@ -44,7 +58,8 @@ its uncertainty: ``v^T C_v^-1 v > association_gate_chi2`` (the chi-square 99 % q
 degrees of freedom) and ``|v| >= moving_speed_min_mps`` (a slower drift is what a depth
 error that grows with range makes of a parked car the camera drives past). Everything
 else stands: it is placed once, at the information-weighted mean of all its observations
-(as :func:`fuse` places an object several cameras see).
+(as :func:`fuse` places an object several cameras see), or a trunk class at its bearing
+triangulation.
 
 **What a moving object gets.** Its placement (the default, un-timed value) is its fitted
 position at its first frame; per frame where it is seen, a time sample of its position
@@ -68,6 +83,7 @@ from usdworld.geometry.rotation import turned
 from usdworld.io.class_table import load_class_table
 from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
+from usdworld.views.bearings import bearing_sigmas, bearing_triangulation
 from usdworld.views.fusion import (
     FusedObject,
     Observation,
@@ -301,15 +317,18 @@ def merge_overlapping(items: list[FusedObject], params: ViewsParams) -> list[Fus
         if best is None:
             return items
         _, a, b = best
-        members = sorted(
-            (*items[a].observations, *items[b].observations), key=lambda o: (o.sigma_range_m, o.view)
-        )
-        xy, cov = combine(members)
-        primary = sized_by_a_whole_view(members[0].placement, members)
-        contact = np.array([xy[0], xy[1], primary.position_world[2]])
-        placement = dataclasses.replace(primary, name=items[a].placement.name).with_contact_at(contact)
-        items[a] = FusedObject(placement, tuple(members), fusion_method(members, cov, params), cov)
+        items[a] = _merged_item(items[a], items[b], params)
         del items[b]
+
+
+def _merged_item(a: FusedObject, b: FusedObject, params: ViewsParams) -> FusedObject:
+    """One frame's two objects made one, placed as :func:`fuse` places one (named as ``a``)."""
+    members = sorted((*a.observations, *b.observations), key=lambda o: (o.sigma_range_m, o.view))
+    xy, cov = combine(members)
+    primary = sized_by_a_whole_view(members[0].placement, members)
+    contact = np.array([xy[0], xy[1], primary.position_world[2]])
+    placement = dataclasses.replace(primary, name=a.placement.name).with_contact_at(contact)
+    return FusedObject(placement, tuple(members), fusion_method(members, cov, params), cov)
 
 
 def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params: ViewsParams) -> list[int | None]:
@@ -384,6 +403,7 @@ def track_drive(
                 open_tracks[k].add(t, item)
     done.extend(open_tracks)
     done = merge_fragments([tr for tr in done if tr.fit is not None], params)
+    done = merge_standing_trunks(done, params)
     index = {id(o): i for i, o in enumerate(obs)}
     done.sort(key=lambda tr: (tr.times[0], min(index[id(o)] for o in tr.items[0].observations)))
     counters: dict[str, int] = {}
@@ -435,14 +455,21 @@ def _standing_estimate(tr: _Track, params: ViewsParams) -> tuple[np.ndarray, np.
     """(2,) position and (2, 2) covariance of a standing track, floored for correlated frame errors.
 
     The information-weighted mean of its observations, whose covariance assumes independent
-    frames, plus ``frame_error_correlation`` (rho) times one frame's error covariance: the
-    share of a frame's error that the other frames repeat does not average away. A frame's
-    error covariance is its surest frame's stated one or, when larger (trace) and the track
-    has ``scatter_min_frames`` frames, the measured :func:`frame_scatter` divided by
-    ``1 - rho`` (the frames scatter by their unshared part only).
+    frames, plus :func:`_shared_error` (what the frames share does not average away).
     """
     members = [o for item in tr.items for o in item.observations]
     xy, cov = combine(members)
+    return xy, cov + _shared_error(tr, params)
+
+
+def _shared_error(tr: _Track, params: ViewsParams) -> np.ndarray:
+    """(2, 2) covariance of the error that a standing track's frames share, metres squared.
+
+    ``frame_error_correlation`` (rho) times one frame's error covariance. A frame's error
+    covariance is its surest frame's stated one or, when larger (trace) and the track has
+    ``scatter_min_frames`` frames, the measured :func:`frame_scatter` divided by ``1 - rho``
+    (the frames scatter by their unshared part only).
+    """
     frame = min((item.covariance for item in tr.items), key=lambda c: float(np.trace(c)))
     rho = params.frame_error_correlation
     if len(tr.items) >= params.scatter_min_frames and rho < 1.0:
@@ -451,7 +478,37 @@ def _standing_estimate(tr: _Track, params: ViewsParams) -> tuple[np.ndarray, np.
         measured = frame_scatter(positions, cameras) / (1.0 - rho)
         if float(np.trace(measured)) > float(np.trace(frame)):
             frame = measured
-    return xy, cov + rho * frame
+    return rho * frame
+
+
+def track_bearings(items: Sequence[FusedObject], params: ViewsParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A standing track's bearings: (N, 2) contacts, (N, 2) cameras and (N,) spreads.
+
+    One per observation of each of its frames, each from the camera that made it, with its
+    :func:`bearing_sigmas` spread: the two halves of a tree that a frame made one keep their
+    own bearings, of which the triangulation's weights keep the one that agrees with the
+    other frames (the mean of the halves would be the trunk of neither).
+    """
+    members = [o for item in items for o in item.observations]
+    contacts = np.array([o.placement.contact_world[:2] for o in members], dtype=np.float64)
+    cameras = np.array([o.camera_ground for o in members], dtype=np.float64)
+    return contacts, cameras, bearing_sigmas(members, params)
+
+
+def _merge_estimate(tr: _Track, params: ViewsParams) -> tuple[np.ndarray, np.ndarray]:
+    """(2,) position and (2, 2) covariance of a standing track as fragments are compared.
+
+    A trunk class's track is placed by its bearings (:func:`bearing_triangulation`, its
+    :func:`_standing_estimate` the depth prior), with the triangulation's covariance plus
+    :func:`_shared_error`: the bearings pin the point, but two fragments of one object still
+    differ by what each one's frames share (which part of a crown they saw, a depth error
+    the prior carries). Other classes' is the standing estimate.
+    """
+    prior = _standing_estimate(tr, params)
+    if tr.class_name not in load_class_table().with_role("trunk"):
+        return prior
+    xy, cov = bearing_triangulation(*track_bearings(tr.items, params), *prior, params)
+    return xy, cov + _shared_error(tr, params)
 
 
 def merge_fragments(tracks: list[_Track], params: ViewsParams) -> list[_Track]:
@@ -478,7 +535,7 @@ def merge_fragments(tracks: list[_Track], params: ViewsParams) -> list[_Track]:
     seen = np.zeros((len(frags), len(frames)), dtype=np.int32)
     for i, tr in enumerate(frags):
         seen[i, [frames[t] for t in tr.times]] = 1
-    estimates = [_standing_estimate(tr, params) for tr in frags]
+    estimates = [_merge_estimate(tr, params) for tr in frags]
     pos = np.array([e[0] for e in estimates])
     cov = np.array([e[1] for e in estimates])
     cls = np.array([tr.class_name for tr in frags])
@@ -494,7 +551,67 @@ def merge_fragments(tracks: list[_Track], params: ViewsParams) -> list[_Track]:
         frags[a] = _joined(frags[a], frags[b])
         seen[a] |= seen[b]
         alive[b] = False
-        pos[a], cov[a] = _standing_estimate(frags[a], params)
+        pos[a], cov[a] = _merge_estimate(frags[a], params)
+
+
+
+def merge_standing_trunks(tracks: list[_Track], params: ViewsParams) -> list[_Track]:
+    """Join standing tracks of one trunk class whose triangulated footprints overlap.
+
+    Two trunks cannot stand in one place (:func:`merge_overlapping`). Once each standing
+    track of a trunk class is placed by its bearings (:func:`_merge_estimate`), two of one
+    class whose positions are nearer than the sum of the radii of the discs inscribed in
+    their footprints (each track's median over its frames) are one object, whether or not
+    they share frames (the two halves of a tree cut by what stands in front of it are seen
+    together). Greedy, nearest pair first; a frame both saw keeps one object, the two
+    placements made one as :func:`merge_overlapping` makes them.
+
+    Args:
+        tracks: the drive's tracks, each with its fit.
+        params: the bearing triangulation's parameters and the correlation floor.
+
+    Returns:
+        The tracks, joined ones with their frames in time order and their fit redone.
+    """
+    trunks = load_class_table().with_role("trunk")
+    keep, cand = [], []
+    for tr in tracks:
+        standing = tr.fit is not None and not _is_moving(tr, tr.fit, params)
+        (cand if standing and tr.class_name in trunks else keep).append(tr)
+    pos = [_merge_estimate(tr, params)[0] for tr in cand]
+    radius = [float(np.median([_footprint_radius(item.placement) for item in tr.items])) for tr in cand]
+    while True:
+        best: tuple[float, int, int] | None = None
+        for a in range(len(cand)):
+            for b in range(a + 1, len(cand)):
+                if cand[a].class_name != cand[b].class_name:
+                    continue
+                d = float(np.linalg.norm(pos[a] - pos[b]))
+                if d < radius[a] + radius[b] and (best is None or d < best[0]):
+                    best = (d, a, b)
+        if best is None:
+            return keep + cand
+        _, a, b = best
+        cand[a] = _joined_overlapping(cand[a], cand[b], params)
+        pos[a] = _merge_estimate(cand[a], params)[0]
+        radius[a] = float(np.median([_footprint_radius(item.placement) for item in cand[a].items]))
+        del cand[b], pos[b], radius[b]
+
+
+def _joined_overlapping(a: _Track, b: _Track, params: ViewsParams) -> _Track:
+    """One track of two standing ones: a frame both saw keeps one object (:func:`_merged_item`)."""
+    by_time: dict[float, FusedObject] = dict(zip(a.times, a.items))
+    for t, item in zip(b.times, b.items):
+        by_time[t] = _merged_item(by_time[t], item, params) if t in by_time else item
+    times = sorted(by_time)
+    out = _Track(a.class_name, a.sigma_speed, times, [by_time[t] for t in times])
+    out.fit = fit_motion(
+        out.times,
+        np.array([item.placement.contact_world[:2] for item in out.items]),
+        np.array([item.covariance for item in out.items]),
+        out.sigma_speed,
+    )
+    return out
 
 
 def _pair_mahalanobis2(pos: np.ndarray, cov: np.ndarray) -> np.ndarray:
@@ -539,7 +656,10 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
         cov = fit.predict(float(times[0]))[1]
         fused = FusedObject(placement, tuple(members), "tracked", cov)
         return DriveObject(fused, True, times, positions, np.full(len(times), yaw), fit.velocity.copy())
-    xy, cov = combine(members)
+    if cls in load_class_table().with_role("trunk"):
+        xy, cov = bearing_triangulation(*track_bearings(tr.items, params), *_standing_estimate(tr, params), params)
+    else:
+        xy, cov = combine(members)
     sized = sized_by_a_whole_view(primary, members)
     placement = dataclasses.replace(sized, name=name).with_contact_at(np.array([xy[0], xy[1], z]))
     position = placement.position_world

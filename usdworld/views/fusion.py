@@ -164,7 +164,9 @@ def observations(
         cut = params.cut_sigma_share * float(max(p.size_m[0], p.size_m[1])) if p.obj.cut_sides else 0.0
         lateral = max(params.lateral_sigma_min_m, params.lateral_sigma_rel * rng) + cut
         out.append(
-            Observation(view, view_name, image_name, moved, camera, depth_sigma(p, params, row) + cut, lateral)
+            Observation(
+                view, view_name, image_name, moved, camera, depth_sigma(p, params, row) + cut, lateral
+            )
         )
     return out
 

@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from usdworld.layout.placement import Placement
-from usdworld.perception.depth.fusion import DepthCue
 from usdworld.parameters.views import ViewsParams
+from usdworld.perception.depth.fusion import DepthCue
 
 
 @dataclass(frozen=True)

@@ -94,8 +94,9 @@ def test_cnn_cue_unavailable_without_pixels() -> None:
 
 
 def test_documented_sigmas() -> None:
-    # Contact: one pixel of row error -> d^2 / (f h), with a 1 % floor, in quadrature.
-    assert contact_sigma_m(30.0, FY, CAM_H) == pytest.approx(np.hypot(900 / 1500, 0.3))
+    # Contact: a uniform error over one pixel of row (1/sqrt(12) px) -> d^2 / (f h sqrt(12)),
+    # with a 1 % floor, in quadrature.
+    assert contact_sigma_m(30.0, FY, CAM_H) == pytest.approx(np.hypot(900 / 1500 / np.sqrt(12.0), 0.3))
     mask, dm = _scene(12.0)
     cues = object_depth_cues(
         mask, np.zeros_like(mask), None, dm, 1.75, 50.0, FY, camera_height_m=CAM_H, class_height_std_m=0.1

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from usdworld.io.class_table import load_class_table
 from usdworld.io.label_table import label_lookups
 from usdworld.io.types import Detection, Detections, InputFile, Segmentation
+from usdworld.parameters.perception import DEFAULT_PERCEPTION
 from usdworld.perception.crowns import crown_ranges
 from usdworld.perception.facades import StreetView, fill_through_occluders
 from usdworld.perception.objects import (
@@ -491,3 +493,25 @@ def test_components_are_opencvs_whatever_their_count():
         np.testing.assert_array_equal(comp, comp_ref)
         np.testing.assert_array_equal(stats, stats_ref)
     assert n > np.iinfo(np.uint16).max
+
+
+def test_contact_row_errs_by_the_quantisation_spread_the_cue_states():
+    """A car whose bottom edge lies anywhere within one pixel row (OpenCV centres at integers: row
+    i is covered when its centre is above the edge): the contact row read from the mask (lowest
+    row + 0.5) is unbiased and errs by a uniform amount over one pixel, standard deviation
+    1/sqrt(12) px, the row error the contact cue states (``contact_row_error_px``)."""
+    errors = []
+    for edge in np.linspace(140.0, 141.0, 200, endpoint=False) + 0.0025:
+        labels = np.full((200, 400), 23, dtype=np.uint8)
+        labels[100:, :] = ROAD
+        covered = np.arange(200)
+        covered = covered[(covered >= 120) & (covered < edge)]
+        labels[covered[0] : covered[-1] + 1, 50:110] = CAR
+        inst = labels.astype(np.int32)
+        inst[labels == CAR] = 26000
+        (car,) = [o for o in _objects(Segmentation(labels, inst, (FILE,))) if o.is_thing]
+        errors.append(car.contact_px[1] - edge)
+    errors = np.array(errors)
+    assert abs(errors.mean()) < 0.01
+    assert np.all(np.abs(errors) <= 0.5)
+    assert errors.std() == pytest.approx(DEFAULT_PERCEPTION.contact_row_error_px, rel=0.01)

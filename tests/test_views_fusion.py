@@ -13,8 +13,17 @@ from layout_support import box_object
 from usdworld.layout.draft import DepthMethod
 from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
-from usdworld.perception.depth.fusion import DepthCue
-from usdworld.views.fusion import Observation, associate, depth_sigma, fuse, observations
+from usdworld.parameters.perception import DEFAULT_PERCEPTION
+from usdworld.perception.depth.fusion import DepthCue, contact_sigma_m
+from usdworld.views.fusion import (
+    ContactRow,
+    Observation,
+    associate,
+    depth_sigma,
+    fuse,
+    gate_sigma,
+    observations,
+)
 
 PARAMS = ViewsParams()
 
@@ -174,3 +183,23 @@ def test_the_variant_and_size_come_from_the_nearest_view_that_measured_them() ->
     assert p.size_m == pytest.approx([2.255, 0.33, 8.756])
     assert p.contact_world[:2] == pytest.approx([20.0, -5.0], abs=1e-9)
     assert p.position_world[:2] == pytest.approx([20.0, -5.0 + 0.9625], abs=1e-9)
+
+
+def test_gate_sigma_gives_a_contact_cue_back_its_whole_pixel_of_row() -> None:
+    """A view weighs its contact cue with the row's quantisation spread (1/sqrt(12) px); the views'
+    gates see the cue as a whole pixel of row would have made it, known answer for the cue alone,
+    and no other cue (nor a view without its row) changes."""
+    fy, h, d = 500.0, 1.5, 40.0
+    quantised = DEFAULT_PERCEPTION.contact_row_error_px
+    assert quantised == pytest.approx(1.0 / math.sqrt(12.0))
+    cue = DepthCue("contact", d, contact_sigma_m(d, fy, h))
+    whole = contact_sigma_m(d, fy, h, dataclasses.replace(DEFAULT_PERCEPTION, contact_row_error_px=1.0))
+    row = ContactRow(fy, h, quantised)
+    assert gate_sigma(cue, row, PARAMS) == pytest.approx(whole)
+    assert gate_sigma(cue, None, PARAMS) == pytest.approx(cue.sigma_m)
+    height = DepthCue("height", d, 6.0)
+    assert gate_sigma(height, row, PARAMS) == 6.0
+    p = dataclasses.replace(_placement("car", d, 0.0), cues=(cue, height))
+    assert depth_sigma(p, PARAMS, row) == pytest.approx(1.0 / math.sqrt(whole**-2 + 6.0**-2))
+    (o,) = observations(0, "v0", "v0.png", [p], np.eye(4), PARAMS, row)
+    assert o.sigma_range_m == pytest.approx(depth_sigma(p, PARAMS, row))

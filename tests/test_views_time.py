@@ -18,9 +18,9 @@ from usdworld.authoring.rig import visibility_samples
 from usdworld.cli.main import main
 from usdworld.render import RenderScene
 
-#: A drive whose oncoming car (``car_0007`` of the world) enters the view at the second of five frames.
-SEED = 1
-LATE = "/World/Objects/car_0007"
+#: A drive whose walker (``person_0004`` of the world) enters the view at the second of five frames.
+SEED = 7
+LATE = "/World/Objects/person_0004"
 
 
 @pytest.fixture(scope="module")

@@ -142,10 +142,14 @@ class PerceptionParams:
     )
     # --- depth cues (perception/depth/fusion.py) ---
     contact_row_error_px: float = param(
-        1.0,
+        1.0 / 12.0**0.5,
         "px",
-        "Error of the ground-contact row (e_v): one pixel of a mask's lowest row.",
-        "geometry: the contact row is quantised to whole pixels",
+        "Standard deviation of the ground-contact row (e_v): a mask's lowest row r holds the contact "
+        "edge somewhere in [r, r + 1), read as r + 0.5, so the edge is off by a uniform error of one "
+        "pixel's width. It weighs the contact cue against the height cue; the multi-view association "
+        "and motion tests widen it again (ViewsParams.gate_contact_row_error_px).",
+        "geometry: the standard deviation of a uniform error over one pixel, 1/sqrt(12) px "
+        "(measured on synthetic drives, exact masks: 0.34-0.40 px at 30-200 m)",
     )
     contact_rel_sigma: float = param(
         0.01,

@@ -54,7 +54,7 @@ from usdworld.pipeline import (
 )
 from usdworld.report import make_report
 from usdworld.views.drive import DriveObject, frame_times, track_drive
-from usdworld.views.fusion import FusedObject, fuse, observations
+from usdworld.views.fusion import ContactRow, FusedObject, fuse, observations
 from usdworld.views.ground import rig_surfaces
 from usdworld.views.rig import ground_pose, world_from_ground
 from usdworld.views.types import ViewSet, ViewSpec
@@ -290,8 +290,11 @@ def build_rig_model(request: ViewsRequest) -> RigModel:
         for v, m in zip(views, view_models)
     ]
     obs = []
+    row_error = request.parameters.perception.contact_row_error_px
     for i, (v, m, pose) in enumerate(zip(views, view_models, poses)):
-        obs.extend(observations(i, v.name, m.image_name, m.placements, pose, request.views_params))
+        cam = m.camera.camera
+        row = ContactRow(cam.fy, cam.height_m, row_error)
+        obs.extend(observations(i, v.name, m.image_name, m.placements, pose, request.views_params, row))
     times = frame_times([v.timestamp for v in views], request.views_params)
     drive = None
     if times is not None:  # a drive: frames tracked in time order

@@ -24,6 +24,23 @@ import numpy as np
 
 from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
+from usdworld.perception.depth.fusion import DepthCue
+
+
+@dataclass(frozen=True)
+class ContactRow:
+    """How one view's contact rows turn into depth: what :func:`gate_sigma` needs.
+
+    Attributes:
+        fy: the view camera's vertical focal length, pixels.
+        camera_height_m: its height above the ground, metres.
+        error_px: the contact row's standard deviation its placement used
+            (:attr:`~usdworld.parameters.perception.PerceptionParams.contact_row_error_px`), pixels.
+    """
+
+    fy: float
+    camera_height_m: float
+    error_px: float
 
 
 @dataclass(frozen=True)
@@ -74,14 +91,35 @@ class FusedObject:
     covariance: np.ndarray
 
 
-def depth_sigma(placement: Placement, params: ViewsParams) -> float:
-    """Standard deviation of a placement's depth: its cues' spreads fused by inverse variance.
+def gate_sigma(cue: DepthCue, row: ContactRow | None, params: ViewsParams) -> float:
+    """A cue's spread as the views' gates take it (metres): a contact cue's row error widened
+    from the single view's ``row.error_px`` to ``gate_contact_row_error_px``.
+
+    The row's part of a contact cue's variance is ``(e_v d^2 / (f h))^2`` beside its other
+    parts (camera, road, relative floor), so the difference of the two row errors' squares
+    is added to it; ``d`` is the cue's depth (the footprint centre's, a little beyond the
+    contact's: slightly wider). Other cues, or no row given, keep their spread.
+    """
+    sigma = float(cue.sigma_m)  # type: ignore[arg-type]
+    if cue.name != "contact" or row is None or cue.depth_m is None:
+        return sigma
+    extra_px2 = params.gate_contact_row_error_px**2 - row.error_px**2
+    if extra_px2 <= 0:
+        return sigma
+    d = float(cue.depth_m)
+    metres_per_px = d * d / (row.fy * row.camera_height_m)
+    return math.sqrt(sigma**2 + extra_px2 * metres_per_px**2)
+
+
+def depth_sigma(placement: Placement, params: ViewsParams, row: ContactRow | None = None) -> float:
+    """Standard deviation of a placement's depth: its cues' spreads (a contact cue's as
+    :func:`gate_sigma` widens it, when ``row`` is given) fused by inverse variance.
 
     Cues without a depth or a spread are left out; with none left,
     ``fallback_depth_rel_sigma`` times the depth.
     """
     weights = [
-        1.0 / c.sigma_m**2
+        1.0 / gate_sigma(c, row, params) ** 2
         for c in placement.cues
         if c.depth_m is not None and c.sigma_m is not None and math.isfinite(c.sigma_m) and c.sigma_m > 0
     ]
@@ -105,6 +143,7 @@ def observations(
     placements: Sequence[Placement],
     world_from_ground: np.ndarray,
     params: ViewsParams,
+    row: ContactRow | None = None,
 ) -> list[Observation]:
     """The placements of one view as observations in the world.
 
@@ -115,6 +154,7 @@ def observations(
         placements: its placements, in its ground frame.
         world_from_ground: (4, 4) float64 its ground frame in the world (:func:`usdworld.views.rig.world_from_ground`).
         params: the fusion's thresholds.
+        row: the view's contact rows (:func:`gate_sigma`); None keeps the cues' spreads.
     """
     camera = world_from_ground[:2, 3].copy()
     out = []
@@ -124,7 +164,9 @@ def observations(
         cut = params.cut_sigma_share * float(max(p.size_m[0], p.size_m[1])) if p.obj.cut_sides else 0.0
         lateral = max(params.lateral_sigma_min_m, params.lateral_sigma_rel * rng) + cut
         out.append(
-            Observation(view, view_name, image_name, moved, camera, depth_sigma(p, params) + cut, lateral)
+            Observation(
+                view, view_name, image_name, moved, camera, depth_sigma(p, params, row) + cut, lateral
+            )
         )
     return out
 

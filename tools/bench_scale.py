@@ -269,26 +269,27 @@ def edit_rounds(
 ) -> dict[str, list[tuple[float, float]]]:
     """The whole ``usdworld edit W move`` command, ``rounds`` times per checkout, and the floor.
 
-    Each round runs every checkout on a fresh copy of the same authored world (so each
-    command is the world's first edit), then ``usdworld --help``.
+    Each round runs every checkout on a fresh copy of the world it authored itself from the
+    same model (its object index is in that checkout's format; a world another checkout
+    wrote would make it read the layer again), so each command is the world's first edit;
+    then ``usdworld --help``.
 
     Returns:
         checkout tag (and ``floor``) -> (wall s, CPU s) per round.
     """
-    from usdworld.authoring import asset_library
-    from usdworld.authoring.world import write_world
+    import pickle
 
-    libraries = asset_library.library_dirs(None)
-    classes = sorted({p.obj.class_name for p in model.placements})
-    assets = {c: asset_library.asset_path(c, libraries) for c in classes}
     mover = next(p.name for p in model.placements if p.obj.class_name == "car")
-    source = folder / f"edit_source_{n}"
-    write_world(model, source, assets, None)
+    pkl = folder / f"edit_model_{n}.pkl"
+    pkl.write_bytes(pickle.dumps(model))
+    sources = {tag: folder / f"edit_source_{tag}_{n}" for tag in repos}
+    for tag, repo in repos.items():
+        _snippet(_AUTHOR_SNIPPET, pkl, sources[tag], repo=repo)
 
     def edit(tag: str, repo: Path, bytecode: bool = False) -> tuple[float, float]:
         world = folder / f"edit_{tag}_{n}"
         shutil.rmtree(world, ignore_errors=True)
-        shutil.copytree(source, world)
+        shutil.copytree(sources[tag], world)
         cmd = [sys.executable, "-m", "usdworld", "edit", str(world), "move", mover, "--by", "0.5,0"]
         cmd.append("--force")
         c0, t0 = _children_cpu(), time.perf_counter()
@@ -310,7 +311,9 @@ def edit_rounds(
             out[tag].append(edit(tag, repo))
         wall, cpu, _ = _timed([sys.executable, "-m", "usdworld", "--help"])
         out["floor"].append((wall, cpu))
-    shutil.rmtree(source)
+    for source in sources.values():
+        shutil.rmtree(source)
+    pkl.unlink()
     return out
 
 

@@ -39,17 +39,15 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from bench_common import run_timed
+from bench_common import run_timed, synth_world
 
 from usdworld.authoring.inspect import open_world
-from usdworld.pipeline import BuildRequest, build
 from usdworld.render import flythrough as fly
 from usdworld.render.outputs import view_camera, world_image_size
 from usdworld.render.renderer import Renderer
 from usdworld.render.scene import RenderScene
 from usdworld.render.video import Mp4Writer
 from usdworld.render.world_lights import lighting_from_stage
-from usdworld.synth import make_street_scene, write_cityscapes_frame
 
 
 #: Rendering the fly-through's frames alone in a fresh process (argv: world, frames, WxH): prints
@@ -149,17 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     width, height = (int(v) for v in args.size.lower().split("x"))
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        scene = make_street_scene(np.random.default_rng(3), 2048, 1024)
-        files = write_cityscapes_frame(scene, tmp / "in", "bench_000000_000001")
-        world = build(
-            BuildRequest(
-                image=files["image"],
-                labels=files["labels"],
-                instances=files["instances"],
-                camera=files["camera"],
-                output=tmp / "world",
-            )
-        ).world
+        world = synth_world(tmp)
         _in_process(world, tmp / "warm.mp4", 2, width, height)  # warm-up: imports, shaders
         runs: dict[str, list[float]] = {k: [] for k in ("cmd", "cmd_cpu", "inproc", "render", "encode")}
         compared: dict[tuple[str, str], list[float]] = {}

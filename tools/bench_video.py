@@ -37,13 +37,11 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from bench_common import children_cpu_s
+from bench_common import children_cpu_s, synth_world
 from bench_flythrough import _frames_alone
 
 from usdworld.parameters.video import VideoParams
-from usdworld.pipeline import BuildRequest, build
 from usdworld.render.video import Mp4Writer, read_video_frames
-from usdworld.synth import make_street_scene, write_cityscapes_frame
 
 
 def _setting(text: str) -> tuple[str, VideoParams]:
@@ -112,17 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     settings = {"default": VideoParams(), "preset": preset_only, **dict(_setting(s) for s in args.also)}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        scene = make_street_scene(np.random.default_rng(3), 2048, 1024)
-        files = write_cityscapes_frame(scene, tmp / "in", "bench_000000_000001")
-        world = build(
-            BuildRequest(
-                image=files["image"],
-                labels=files["labels"],
-                instances=files["instances"],
-                camera=files["camera"],
-                output=tmp / "world",
-            )
-        ).world
+        world = synth_world(tmp)
         _, images = _frames_alone(world, args.frames, width, height)
         runs: dict[str, list[tuple[float, float]]] = {name: [] for name in settings}
         loads = []

@@ -178,9 +178,10 @@ def test_a_crown_fragment_seen_beside_its_tree_joins_it_when_the_triangulations_
     times = [0.1 * k for k in range(22)]
 
     def drive(fragment: np.ndarray) -> list[Observation]:
-        obs = [_seen(k, (float(k), 0.0), tuple(tree), 0.0, cls="tree", footprint=2.2, ref=1) for k in range(22)]
-        obs += [_seen(k, (float(k), 0.0), tuple(fragment), 0.0, cls="tree", footprint=2.2, ref=2) for k in range(18, 22)]
-        return obs
+        def seen(k: int, point: np.ndarray, ref: int) -> Observation:
+            return _seen(k, (float(k), 0.0), tuple(point), 0.0, cls="tree", footprint=2.2, ref=ref)
+
+        return [seen(k, tree, 1) for k in range(22)] + [seen(k, fragment, 2) for k in range(18, 22)]
 
     (one,) = track_drive(drive(tree + 4.0 * u), times, PARAMS)
     assert len(one.fused.observations) == 26 and len(one.times) == 22

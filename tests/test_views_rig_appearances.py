@@ -33,9 +33,17 @@ def test_the_first_views_looks_are_renamed_to_the_rig_objects_that_hold_its_obse
     tree_0003 tree_0001; a fourth rig tree only view 1 saw. Each rig tree gets the look of its
     first view-0 observation, the joined one a single look, the unseen one none, and the road
     keeps its own: no look names a tree the rig does not have (view 0's tree_0003)."""
-    a, b, c = (_named(_seen(0, (0.0, 0.0), (20.0, y), 0.0, cls="tree"), f"tree_000{k}") for k, y in ((1, 5.0), (2, 6.0), (3, -5.0)))
+    a, b, c = (
+        _named(_seen(0, (0.0, 0.0), (20.0, y), 0.0, cls="tree"), f"tree_000{k}")
+        for k, y in ((1, 5.0), (2, 6.0), (3, -5.0))
+    )
     d = _named(_seen(1, (1.0, 0.0), (30.0, 5.0), 0.0, cls="tree"), "tree_0001")
     objects = [_fused("tree_0001", c), _fused("tree_0002", a, b), _fused("tree_0003", d)]
-    first = [_look("tree_0001", "object", 0.1), _look("tree_0002", "object", 0.2), _look("tree_0003", "object", 0.3), _look("road", "surface", 0.5)]
+    first = [
+        _look("tree_0001", "object", 0.1),
+        _look("tree_0002", "object", 0.2),
+        _look("tree_0003", "object", 0.3),
+        _look("road", "surface", 0.5),
+    ]
     got = {(x.target, x.kind): float(x.albedo[0]) for x in rig_appearances(first, objects)}
     assert got == {("tree_0002", "object"): 0.1, ("tree_0001", "object"): 0.3, ("road", "surface"): 0.5}

@@ -159,3 +159,50 @@ def test_two_halves_of_a_tree_seen_together_are_one_tree_and_two_trees_stay_two(
     two = [_seen(k, (k * 1.0, 0.0), (30.0, 7.0), 0.0, cls="tree", footprint=2.6, ref=1) for k in range(21)]
     two += [_seen(k, (k * 1.0, 0.0), (36.0, 7.0), 0.0, cls="tree", footprint=2.6, ref=2) for k in range(21)]
     assert len(track_drive(two, times, PARAMS)) == 2
+
+
+def test_a_crown_fragment_seen_beside_its_tree_joins_it_when_the_triangulations_agree() -> None:
+    """A tree (footprint 2.2 m) at (30, 8) seen exactly from 22 frames along +x; in the last four
+    also a second box, the part of its crown that what stands in front leaves, whose contact lies
+    4 m farther along the ray of frame 19.5 (13.6 m away, depths sure to 1.4 m): beyond what one
+    frame merges (4 m - 2.2 m > half a spread of the depth difference), so it starts a track of its
+    own that shares four frames with the tree's. Its bearings span 3 m of baseline, so its depth is
+    mostly its prior's and the two triangulations, 4 m apart, agree within their covariances
+    (m2 7.2 < 9.21), and in each shared frame the two boxes are under 0.3 m apart across the ray:
+    one tree,
+    placed on its own frames' point. The same fragment 3 m beside the tree across the ray (apart
+    across beyond the footprints in every shared frame) stays a tree of its own."""
+    tree = np.array([30.0, 8.0])
+    cam_mid = np.array([19.5, 0.0])
+    u = (tree - cam_mid) / np.linalg.norm(tree - cam_mid)
+    times = [0.1 * k for k in range(22)]
+
+    def drive(fragment: np.ndarray) -> list[Observation]:
+        def seen(k: int, point: np.ndarray, ref: int) -> Observation:
+            return _seen(k, (float(k), 0.0), tuple(point), 0.0, cls="tree", footprint=2.2, ref=ref)
+
+        return [seen(k, tree, 1) for k in range(22)] + [seen(k, fragment, 2) for k in range(18, 22)]
+
+    (one,) = track_drive(drive(tree + 4.0 * u), times, PARAMS)
+    assert len(one.fused.observations) == 26 and len(one.times) == 22
+    assert float(np.linalg.norm(one.fused.placement.position_world[:2] - tree)) < 0.5
+
+    beside = tree + 3.0 * np.array([-u[1], u[0]])
+    assert len(track_drive(drive(beside), times, PARAMS)) == 2
+
+
+def test_poles_one_behind_the_other_that_the_end_frames_see_apart_stay_two() -> None:
+    """Two poles (footprint 0.3 m) 50 and 58 m down one ray, seen together from 11 frames over a
+    10 m baseline across it. Their triangulations agree within their covariances (the depth error
+    the frames share, 5 m along the ray, is not triangulated away: m2 2.1), and the middle
+    frame sees them on one bearing; but the end frames see them 0.8 m apart across the ray, more
+    than their footprints reach: two poles, each on its own point."""
+    obs = []
+    for k in range(11):
+        camera = (0.0, float(k) - 5.0)
+        obs.append(_seen(k, camera, (50.0, 0.0), 0.0, ref=1))
+        obs.append(_seen(k, camera, (58.0, 0.0), 0.0, ref=2))
+    objects = track_drive(obs, [0.1 * k for k in range(11)], PARAMS)
+    assert len(objects) == 2
+    placed = sorted(o.fused.placement.position_world[:2].tolist() for o in objects)
+    assert placed == [pytest.approx([50.0, 0.0], abs=0.05), pytest.approx([58.0, 0.0], abs=0.05)]

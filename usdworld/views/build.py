@@ -37,7 +37,7 @@ from usdworld.errors import InputError, OutputError
 from usdworld.io.camera_files import read_camera
 from usdworld.io.images import read_image
 from usdworld.io.types import CameraSpec, InputFile
-from usdworld.layout.model import WorldModel
+from usdworld.layout.model import Appearance, WorldModel
 from usdworld.output_dir import prepare_output, swap_in, temporary_prefix
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.parameters.base import plain, section_rows
@@ -318,10 +318,45 @@ def build_rig_model(request: ViewsRequest) -> RigModel:
         surfaces=tuple(surfaces),
         inputs=tuple(inputs),
         warnings=tuple(warnings),
+        appearances=rig_appearances(view_models[0].appearances, objects),
     )
     return RigModel(
         model, tuple(objects), request.views, tuple(view_models), tuple(poses), drive, times, spread
     )
+
+
+def rig_appearances(first: Sequence[Appearance], objects: Sequence[FusedObject]) -> tuple[Appearance, ...]:
+    """The first view's measured looks carried over to the rig's objects.
+
+    The first view names its objects by its own count; the rig's objects are renamed when
+    views are fused or a drive is tracked (and fewer when one object's pieces are joined). An
+    object's look is the one the first view measured for its observation of it there (the
+    first such when the first view saw it in pieces); objects the first view did not see get
+    none, and the ground surfaces keep theirs.
+
+    Args:
+        first: the first view's appearances.
+        objects: the rig's objects, their observations naming the views' placements.
+
+    Returns:
+        The appearances, object targets named as the rig names them.
+    """
+    rig_name: dict[str, str] = {}
+    for o in objects:
+        for ob in o.observations:
+            if ob.view == 0:
+                rig_name.setdefault(ob.placement.name, o.placement.name)
+    out: list[Appearance] = []
+    taken: set[str] = set()
+    for look in first:
+        if look.kind != "object":
+            out.append(look)
+            continue
+        target = rig_name.get(look.target)
+        if target is not None and target not in taken:
+            taken.add(target)
+            out.append(dataclasses.replace(look, target=target))
+    return tuple(out)
 
 
 def rig_report(rig: RigModel, request: ViewsRequest) -> dict[str, Any]:

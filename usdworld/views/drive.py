@@ -563,8 +563,10 @@ def merge_standing_trunks(tracks: list[_Track], params: ViewsParams) -> list[_Tr
     class whose positions are nearer than the sum of the radii of the discs inscribed in
     their footprints (each track's median over its frames) are one object, whether or not
     they share frames (the two halves of a tree cut by what stands in front of it are seen
-    together). Greedy, nearest pair first; a frame both saw keeps one object, the two
-    placements made one as :func:`merge_overlapping` makes them.
+    together), or when they share frames and :func:`seen_as_one_trunk` (their triangulations
+    agree within their covariances and every shared frame sees them overlap across the ray).
+    Greedy, nearest pair first; a frame both saw keeps one object, the two placements made one
+    as :func:`merge_overlapping` makes them.
 
     Args:
         tracks: the drive's tracks, each with its fit.
@@ -578,7 +580,7 @@ def merge_standing_trunks(tracks: list[_Track], params: ViewsParams) -> list[_Tr
     for tr in tracks:
         standing = tr.fit is not None and not _is_moving(tr, tr.fit, params)
         (cand if standing and tr.class_name in trunks else keep).append(tr)
-    pos = [_merge_estimate(tr, params)[0] for tr in cand]
+    est = [_merge_estimate(tr, params) for tr in cand]
     radius = [float(np.median([_footprint_radius(item.placement) for item in tr.items])) for tr in cand]
     while True:
         best: tuple[float, int, int] | None = None
@@ -586,16 +588,62 @@ def merge_standing_trunks(tracks: list[_Track], params: ViewsParams) -> list[_Tr
             for b in range(a + 1, len(cand)):
                 if cand[a].class_name != cand[b].class_name:
                     continue
-                d = float(np.linalg.norm(pos[a] - pos[b]))
-                if d < radius[a] + radius[b] and (best is None or d < best[0]):
+                d = float(np.linalg.norm(est[a][0] - est[b][0]))
+                if best is not None and d >= best[0]:
+                    continue
+                if d < radius[a] + radius[b] or seen_as_one_trunk(cand[a], cand[b], est[a], est[b], params):
                     best = (d, a, b)
         if best is None:
             return keep + cand
         _, a, b = best
         cand[a] = _joined_overlapping(cand[a], cand[b], params)
-        pos[a] = _merge_estimate(cand[a], params)[0]
+        est[a] = _merge_estimate(cand[a], params)
         radius[a] = float(np.median([_footprint_radius(item.placement) for item in cand[a].items]))
-        del cand[b], pos[b], radius[b]
+        del cand[b], est[b], radius[b]
+
+
+def seen_as_one_trunk(
+    a: _Track,
+    b: _Track,
+    est_a: tuple[np.ndarray, np.ndarray],
+    est_b: tuple[np.ndarray, np.ndarray],
+    params: ViewsParams,
+) -> bool:
+    """Whether two standing trunk tracks that share frames are one object by their triangulations.
+
+    Their triangulated positions (:func:`_merge_estimate`) agree within
+    ``association_gate_chi2`` (covariances summed), and in every frame that saw both the two
+    placements overlap across the viewing ray (nearer than the sum of the radii of the discs
+    inscribed in their footprints): the halves of one crown cut by what stands in front of it
+    share their bearing, two trunks seen side by side do not. Their depths in such a frame
+    are not compared (a half's contact can lie metres off along the ray); the triangulations
+    compare them. Pairs that share no frame are :func:`merge_fragments`' to join.
+
+    Args:
+        a: one standing track of a trunk class.
+        b: another of the same class.
+        est_a: (2,) position and (2, 2) covariance of ``a`` (:func:`_merge_estimate`).
+        est_b: the same of ``b``.
+        params: ``association_gate_chi2``.
+    """
+    shared = set(a.times) & set(b.times)
+    if not shared:
+        return False
+    d = est_a[0] - est_b[0]
+    if float(d @ np.linalg.solve(est_a[1] + est_b[1], d)) > params.association_gate_chi2:
+        return False
+    items_b = dict(zip(b.times, b.items))
+    for t, ia in zip(a.times, a.items):
+        ib = items_b.get(t)
+        if ib is None:
+            continue
+        za, zb = ia.placement.contact_world[:2], ib.placement.contact_world[:2]
+        u = 0.5 * (za + zb) - ia.observations[0].camera_ground
+        u = u / max(float(np.linalg.norm(u)), 1e-9)
+        across = abs(float((za - zb) @ np.array([-u[1], u[0]])))
+        if across >= _footprint_radius(ia.placement) + _footprint_radius(ib.placement):
+            return False
+    return True
 
 
 def _joined_overlapping(a: _Track, b: _Track, params: ViewsParams) -> _Track:

@@ -193,6 +193,10 @@ class _Track:
     def add(self, t: float, item: FusedObject) -> None:
         self.times.append(t)
         self.items.append(item)
+        self.refit()
+
+    def refit(self) -> None:
+        """Fit the motion of the frames held now (:func:`fit_motion`)."""
         pos = np.array([o.placement.contact_world[:2] for o in self.items])
         cov = np.array([o.covariance for o in self.items])
         self.fit = fit_motion(self.times, pos, cov, self.sigma_speed)
@@ -653,12 +657,7 @@ def _joined_overlapping(a: _Track, b: _Track, params: ViewsParams) -> _Track:
         by_time[t] = _merged_item(by_time[t], item, params) if t in by_time else item
     times = sorted(by_time)
     out = _Track(a.class_name, a.sigma_speed, times, [by_time[t] for t in times])
-    out.fit = fit_motion(
-        out.times,
-        np.array([item.placement.contact_world[:2] for item in out.items]),
-        np.array([item.covariance for item in out.items]),
-        out.sigma_speed,
-    )
+    out.refit()
     return out
 
 
@@ -675,12 +674,7 @@ def _joined(a: _Track, b: _Track) -> _Track:
     """One track of two that share no frame: their frames in time order, the fit redone."""
     pairs = sorted(zip(a.times + b.times, a.items + b.items), key=lambda p: p[0])
     out = _Track(a.class_name, a.sigma_speed, [t for t, _ in pairs], [item for _, item in pairs])
-    out.fit = fit_motion(
-        out.times,
-        np.array([item.placement.contact_world[:2] for item in out.items]),
-        np.array([item.covariance for item in out.items]),
-        out.sigma_speed,
-    )
+    out.refit()
     return out
 
 

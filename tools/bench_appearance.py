@@ -24,6 +24,7 @@ import time
 from pathlib import Path
 
 from usdworld import pipeline
+from usdworld.appearance_stage import PhotoColours
 from usdworld.resources import evaluation_data_dir
 
 
@@ -52,15 +53,15 @@ def _frames(data: Path) -> dict[str, dict[str, Path]]:
 
 
 def _build_seconds(inputs: dict[str, Path], out: Path, with_colours: bool) -> float:
-    real = pipeline.photo_appearances
-    if not with_colours:
-        pipeline.photo_appearances = lambda *args, **kwargs: ()  # type: ignore[assignment]
+    real = pipeline.photo_colours
+    if not with_colours:  # nothing measured: no appearance is made
+        pipeline.photo_colours = lambda *args, **kwargs: PhotoColours((), ())  # type: ignore[assignment]
     try:
         t0 = time.perf_counter()
         pipeline.build(pipeline.BuildRequest(output=out, **inputs))  # type: ignore[arg-type]
         return time.perf_counter() - t0
     finally:
-        pipeline.photo_appearances = real  # type: ignore[assignment]
+        pipeline.photo_colours = real  # type: ignore[assignment]
 
 
 def main(argv: list[str] | None = None) -> int:

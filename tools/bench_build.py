@@ -92,8 +92,7 @@ STAGES = (
     ("light (sun from the shadows, sky)", [("usdworld/light_stage.py", "estimate_scene_light"), ("usdworld/light_stage.py", "world_lighting"), ("usdworld/light_stage.py", "light_rig")]),
     (
         "appearance (colours from the photo)",
-        [("usdworld/appearance_stage.py", "photo_appearances"), ("usdworld/appearance_stage.py", "photo_colours"),
-         ("usdworld/appearance_stage.py", "appearances_for")],
+        [("usdworld/appearance_stage.py", "photo_colours"), ("usdworld/appearance_stage.py", "appearances_for")],
     ),
     ("report (make_report)", [("usdworld/report.py", "make_report")]),
     ("authoring: write_world (the layers, assets)", [("authoring/world.py", "write_world")]),

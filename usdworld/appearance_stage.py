@@ -116,29 +116,6 @@ def appearances_for(
     return tuple(out)
 
 
-def photo_appearances(
-    image: SourceImage,
-    seg: Segmentation | None,
-    placements: Sequence[Placement],
-    surfaces: Sequence[SurfaceMesh],
-    surface_label_ids: dict[str, list[int]],
-    camera: PinholeCamera,
-    params: PerceptionParams,
-    lighting: Lighting | None = None,
-    labels_inferred: bool = False,
-) -> tuple[Appearance, ...]:
-    """The measured colour and its albedo for every placed object and ground surface that has one:
-    :func:`appearances_for` of :func:`photo_colours` (the arguments are theirs).
-
-    Returns:
-        Objects first (in placement order), then surfaces.
-    """
-    colours = photo_colours(
-        image, seg, placements, surfaces, surface_label_ids, camera, params, labels_inferred
-    )
-    return appearances_for(colours, placements, camera, lighting)
-
-
 def _appearance(
     target: str, kind: str, colour: MeasuredColour, normal_world: np.ndarray, light: Lighting
 ) -> Appearance:

@@ -294,7 +294,12 @@ def build_rig_model(request: ViewsRequest) -> RigModel:
     for i, (v, m, pose) in enumerate(zip(views, view_models, poses)):
         cam = m.camera.camera
         row = ContactRow(cam.fy, cam.height_m, row_error)
-        obs.extend(observations(i, v.name, m.image_name, m.placements, pose, request.views_params, row))
+        obs.extend(
+            observations(
+                i, v.name, m.image_name, m.placements, pose, request.views_params, row,
+                request.parameters.placement.curb_height_m,
+            )
+        )
     times = frame_times([v.timestamp for v in views], request.views_params)
     drive = None
     if times is not None:  # a drive: frames tracked in time order

@@ -20,6 +20,9 @@ frames are tracked in time order, so the work grows with the number of frames:
    have velocity 0; vehicles and people have a zero-mean velocity prior of standard
    deviation ``vehicle_speed_max_mps`` / ``person_speed_max_mps``, which is what lets a
    track follow a car before its own observations fix its speed.
+   A frame that places a walker from the top of its head (its feet hidden) weighs in with
+   the spread of the surface it may stand on, road or kerb, added along its ray
+   (:func:`usdworld.views.hidden_contact.fit_covariance`): frames that see the feet fix it.
 3. The frame's objects join tracks by one global assignment (Hungarian) that maximises
    the summed ``association_gate_chi2 - m2`` of the pairs it makes, ``m2`` a pair's
    squared Mahalanobis distance (prediction and observation covariances summed), so only
@@ -92,6 +95,7 @@ from usdworld.views.fusion import (
     fusion_method,
     sized_by_a_whole_view,
 )
+from usdworld.views.hidden_contact import fit_covariance
 
 #: Classes that can move in a drive, with the parameter that bounds their speed.
 VEHICLE_CLASSES = ("car", "truck", "bus", "motorcycle", "bicycle")
@@ -198,7 +202,7 @@ class _Track:
     def refit(self) -> None:
         """Fit the motion of the frames held now (:func:`fit_motion`)."""
         pos = np.array([o.placement.contact_world[:2] for o in self.items])
-        cov = np.array([o.covariance for o in self.items])
+        cov = np.array([fit_covariance(o) for o in self.items])
         self.fit = fit_motion(self.times, pos, cov, self.sigma_speed)
 
 

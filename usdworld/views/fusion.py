@@ -25,6 +25,7 @@ import numpy as np
 from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
 from usdworld.perception.depth.fusion import DepthCue
+from usdworld.views.hidden_contact import surface_sigma
 
 
 @dataclass(frozen=True)
@@ -55,6 +56,9 @@ class Observation:
         camera_ground: (2,) float64 the view camera's centre on the ground (x, y), metres.
         sigma_range_m: standard deviation along the viewing ray, metres.
         sigma_lateral_m: standard deviation across it, metres.
+        surface_sigma_m: along-ray standard deviation of a hidden contact's unknown surface,
+            metres (:func:`usdworld.views.hidden_contact.surface_sigma`; 0 when the contact is
+            seen). Not part of :meth:`covariance`: only a drive's motion fit adds it.
     """
 
     view: int
@@ -64,6 +68,7 @@ class Observation:
     camera_ground: np.ndarray
     sigma_range_m: float
     sigma_lateral_m: float
+    surface_sigma_m: float = 0.0
 
     def covariance(self) -> np.ndarray:
         """(2, 2) float64 ground-plane covariance of the position, metres squared."""
@@ -144,6 +149,7 @@ def observations(
     world_from_ground: np.ndarray,
     params: ViewsParams,
     row: ContactRow | None = None,
+    curb_height_m: float = 0.0,
 ) -> list[Observation]:
     """The placements of one view as observations in the world.
 
@@ -155,6 +161,8 @@ def observations(
         world_from_ground: (4, 4) float64 its ground frame in the world (:func:`usdworld.views.rig.world_from_ground`).
         params: the fusion's thresholds.
         row: the view's contact rows (:func:`gate_sigma`); None keeps the cues' spreads.
+        curb_height_m: the kerb's height, metres, for a hidden contact's surface spread
+            (:func:`~usdworld.views.hidden_contact.surface_sigma`; needs ``row``'s camera height).
     """
     camera = world_from_ground[:2, 3].copy()
     out = []
@@ -163,9 +171,10 @@ def observations(
         rng = float(np.linalg.norm(moved.contact_world[:2] - camera))
         cut = params.cut_sigma_share * float(max(p.size_m[0], p.size_m[1])) if p.obj.cut_sides else 0.0
         lateral = max(params.lateral_sigma_min_m, params.lateral_sigma_rel * rng) + cut
+        surface = 0.0 if row is None else surface_sigma(p, rng, row.camera_height_m, curb_height_m)
         out.append(
             Observation(
-                view, view_name, image_name, moved, camera, depth_sigma(p, params, row) + cut, lateral
+                view, view_name, image_name, moved, camera, depth_sigma(p, params, row) + cut, lateral, surface
             )
         )
     return out

@@ -5,6 +5,7 @@ Needs headless OpenGL for the render commands (as ``test_render_cmd``; they fail
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import cv2
@@ -18,20 +19,37 @@ from usdworld.authoring.rig import visibility_samples
 from usdworld.cli.main import main
 from usdworld.render import RenderScene
 
-#: A drive whose walker (``person_0004`` of the world) enters the view at the second of five frames.
-SEED = 7
-LATE = "/World/Objects/person_0004"
+#: A drive (seed 6, five frames 0.5 s apart) with a car overtaking the ego (``synth --overtaking``):
+#: out of view at the first frame, it drives into view by the second and is seen to the last.
+SEED = 6
+OVERTAKE_MPS = 6.0
 
 
 @pytest.fixture(scope="module")
 def drive(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("drive_time")
     args = ["synth", "-o", str(folder), "--seed", str(SEED), "--sequence", "5", "--interval", "0.5"]
-    assert main([*args, "--size", "320x160"]) == 0
+    assert main([*args, "--size", "320x160", "--overtaking", str(OVERTAKE_MPS)]) == 0
     world = folder / "world"
     views = folder / f"drive_{SEED:06d}_views.json"
     assert main(["build", "--views", str(views), "-o", str(world), "--jobs", "1"]) == 0
     return world
+
+
+@pytest.fixture(scope="module")
+def late(drive: Path) -> str:
+    """The world's moving object nearest the overtaking car at the last frame (ground truth), by path."""
+    truth = json.loads((drive.parent / f"drive_{SEED:06d}_drive_gt.json").read_text())
+    (car,) = [o for o in truth["objects"] if o["role"] == "overtaking"]
+    assert car["visible_pixels"][0] == 0 and min(car["visible_pixels"][1:]) > 0  # out of view, then in it
+    stage = Usd.Stage.Open(str(drive / "world.usda"))
+    last = 2.0 * truth["times"][-1]  # time codes are frames: two per second
+    objects = stage.GetPrimAtPath("/World/Objects").GetChildren()
+    movers = [p for p in objects if p.GetAttribute("usdworld:moving").Get()]
+    where = {str(p.GetPath()): np.array(p.GetAttribute("xformOp:translate").Get(last))[:2] for p in movers}
+    path = min(where, key=lambda k: float(np.linalg.norm(where[k] - car["track"][-1][:2])))
+    assert np.linalg.norm(where[path] - car["track"][-1][:2]) < 2.0, where
+    return path
 
 
 def test_visibility_samples_known_answers() -> None:
@@ -61,9 +79,9 @@ def test_held_visibility_shows_a_mover_exactly_from_its_first_to_its_last_frame(
         assert (held[-1] == "inherited") == (first <= k <= last), (samples, k)
 
 
-def test_a_mover_first_seen_in_the_second_frame_is_invisible_before_it(drive: Path) -> None:
+def test_a_mover_first_seen_in_the_second_frame_is_invisible_before_it(drive: Path, late: str) -> None:
     stage = Usd.Stage.Open(str(drive / "world.usda"))
-    prim = stage.GetPrimAtPath(LATE)
+    prim = stage.GetPrimAtPath(late)
     assert prim.GetAttribute("usdworld:moving").Get()
     assert list(prim.GetAttribute("usdworld:trackTimes").Get()) == [0.5, 1.0, 1.5, 2.0]
     visibility = prim.GetAttribute("visibility")
@@ -74,13 +92,13 @@ def test_a_mover_first_seen_in_the_second_frame_is_invisible_before_it(drive: Pa
     assert standing and all(p.GetAttribute("visibility").GetNumTimeSamples() == 0 for p in standing)
 
 
-def test_the_scene_at_a_time_hides_the_mover_before_it_was_seen_and_moves_it(drive: Path) -> None:
+def test_the_scene_at_a_time_hides_the_mover_before_it_was_seen_and_moves_it(drive: Path, late: str) -> None:
     stage = Usd.Stage.Open(str(drive / "world.usda"))
-    translate = stage.GetPrimAtPath(LATE).GetAttribute("xformOp:translate")
+    translate = stage.GetPrimAtPath(late).GetAttribute("xformOp:translate")
     centres = {}
     for code in (None, 0.0, 1.0, 4.0):
         scene = RenderScene.from_stage(stage, time=None if code is None else Usd.TimeCode(code))
-        obj = scene.object_by_path().get(LATE)
+        obj = scene.object_by_path().get(late)
         assert obj is not None  # a hidden mover keeps its place among the objects
         mine = scene.positions_world[scene.object_ids == obj.index]
         centres[code] = mine.mean(axis=0) if len(mine) else None
@@ -91,17 +109,17 @@ def test_the_scene_at_a_time_hides_the_mover_before_it_was_seen_and_moves_it(dri
     assert centres[None] == pytest.approx(centres[1.0], abs=1e-6)  # the default is its first seen place
 
 
-def test_a_hidden_mover_keeps_its_id_so_ids_agree_over_time(drive: Path) -> None:
+def test_a_hidden_mover_keeps_its_id_so_ids_agree_over_time(drive: Path, late: str) -> None:
     stage = Usd.Stage.Open(str(drive / "world.usda"))
     scenes = {code: RenderScene.from_stage(stage, time=Usd.TimeCode(code)) for code in (0.0, 2.0)}
     ids = {code: {o.path: (o.index, o.instance_id) for o in s.objects} for code, s in scenes.items()}
-    assert ids[0.0] == ids[2.0] and LATE in ids[0.0]
-    hidden = ids[0.0][LATE][0]
+    assert ids[0.0] == ids[2.0] and late in ids[0.0]
+    hidden = ids[0.0][late][0]
     assert hidden not in set(scenes[0.0].object_ids.tolist())  # no triangle of it at time 0
     assert hidden in set(scenes[2.0].object_ids.tolist())
 
 
-def test_a_drive_read_over_time_reads_what_stands_still_once(drive: Path, monkeypatch) -> None:
+def test_a_drive_read_over_time_reads_what_stands_still_once(drive: Path, late: str, monkeypatch) -> None:
     import usdworld.render.scene as scene_module
     from usdworld.render.scene import StaticCache
     from usdworld.render.timing import scene_at
@@ -123,7 +141,7 @@ def test_a_drive_read_over_time_reads_what_stands_still_once(drive: Path, monkey
             assert np.array_equal(getattr(got, name), getattr(want, name)), (code, name)
         if k:  # after the first read only the movers are read again
             assert set(map(str, keys)) == set(map(str, still.moving))
-    assert LATE in {str(p) for p in still.moving}
+    assert late in {str(p) for p in still.moving}
     assert len(still.objects) > 3 * len(still.moving)  # the parked cars, buildings, trees
 
 

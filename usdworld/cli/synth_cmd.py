@@ -28,13 +28,22 @@ def synth(
     interval: float = typer.Option(
         0.1, "--interval", help="With --sequence: seconds between frames (> 0); 0.1 is KITTI's 10 Hz."
     ),
+    overtaking: float | None = typer.Option(
+        None,
+        "--overtaking",
+        help="With --sequence: add a car overtaking the ego this many m/s faster than it (> 0), "
+        "starting out of view beside it (a mover first seen after the first frame).",
+    ),
 ) -> None:
     """Sample street scenes, author them as USD and render Cityscapes-format files + ground truth.
 
     With --sequence N each scene is a drive: the camera moves along the street, driving cars and
     walking people move at constant velocity, and N frames are written with a views manifest
-    (``usdworld build --views``) and the drive's ground truth.
+    (``usdworld build --views``) and the drive's ground truth. --overtaking adds a car that
+    enters the view late; the rest of each drive stays what its seed gives.
     """
+    import math
+
     import numpy as np
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -54,9 +63,13 @@ def synth(
         raise InputError(f"--speed must be >= 0 m/s, got {speed}")
     if not interval > 0:
         raise InputError(f"--interval must be > 0 s, got {interval}")
+    if overtaking is not None and sequence is None:
+        raise InputError("--overtaking needs --sequence (a car overtakes during a drive)")
+    if overtaking is not None and not (overtaking > 0 and math.isfinite(overtaking)):
+        raise InputError(f"--overtaking must be a finite speed > 0 m/s, got {overtaking}")
     width, height = parse_size(size) if size else (1024, 512)
     if sequence is not None:
-        _drives(output, seed, count, width, height, sequence, speed, interval)
+        _drives(output, seed, count, width, height, sequence, speed, interval, overtaking)
         return
     if output.exists() and not output.is_dir():
         raise InputError(f"-o {output}: exists and is not a folder")
@@ -85,7 +98,15 @@ def synth(
 
 
 def _drives(
-    output: Path, seed: int, count: int, width: int, height: int, frames: int, speed: float, interval: float
+    output: Path,
+    seed: int,
+    count: int,
+    width: int,
+    height: int,
+    frames: int,
+    speed: float,
+    interval: float,
+    overtaking: float | None,
 ) -> None:
     import numpy as np
 
@@ -94,7 +115,8 @@ def _drives(
 
     for i in range(count):
         name = DRIVE_NAME_FORMAT.format(seed=seed + i)
-        drive = make_drive(np.random.default_rng(seed + i), width, height, frames, speed, interval)
+        rng = np.random.default_rng(seed + i)
+        drive = make_drive(rng, width, height, frames, speed, interval, overtake_mps=overtaking)
         paths = write_drive(drive, output, name)
         say(str(paths["views"]))
     say(

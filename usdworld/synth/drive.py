@@ -12,7 +12,9 @@ its things and buildings reaching the drive's length farther along the road, plu
 * every ``walking`` person walks along the sidewalk (+X or -X, the sign of their heading's
   x) at 1.0-1.6 m/s (comfortable gait speeds, Bohannon 1997);
 * everything else (buildings, street furniture, trees, parked cars, people at a crossing)
-  stands still.
+  stands still;
+* on request (``overtake_mps``), one more car overtakes the ego, starting out of view
+  beside it: a mover first seen after the first frame (:mod:`usdworld.synth.overtaking`).
 
 The drive's world frame is the first frame's: origin on the ground below the camera at
 ``t = 0``, X along the road. Frame ``i`` is rendered in its own camera's ground frame (the
@@ -50,6 +52,7 @@ from usdworld.errors import UsdWorldError
 from usdworld.synth.assets import AssetSource, ClassAsset, class_asset, default_assets
 from usdworld.synth.cityscapes import json_bytes, output_folder, rounded, write_cityscapes_frame
 from usdworld.synth.placement import SYNTH_CLASSES, SynthObject, place_objects
+from usdworld.synth.overtaking import add_overtaking_car
 from usdworld.synth.scene import SynthScene, sample_camera
 from usdworld.synth.street import STREET_X_RANGE_M, sample_street
 
@@ -156,6 +159,7 @@ def make_drive(
     speed_mps: float = 8.0,
     interval_s: float = 0.1,
     assets: AssetSource | None = None,
+    overtake_mps: float | None = None,
 ) -> SynthDrive:
     """Sample a drive of ``frames`` frames.
 
@@ -167,6 +171,9 @@ def make_drive(
         speed_mps: the ego's speed (>= 0).
         interval_s: time between frames (> 0); 0.1 s is KITTI's 10 Hz.
         assets: where class assets come from (default: the built-in library).
+        overtake_mps: when given (> 0), add a car that overtakes the ego this much faster
+            than it (:func:`~usdworld.synth.overtaking.add_overtaking_car`); it draws
+            nothing from ``rng``, so the rest of the drive is the one the seed gives.
     """
     if frames < 1 or speed_mps < 0 or interval_s <= 0:
         raise UsdWorldError(
@@ -192,7 +199,13 @@ def make_drive(
         asset_paths={c: a.path for c, a in library.items()},
     )
     times = np.arange(frames, dtype=np.float64) * interval_s
-    return SynthDrive(scene, _velocities(rng, scene, speed_mps), speed_mps, times)
+    velocities = _velocities(rng, scene, speed_mps)
+    if overtake_mps is not None:
+        objects, velocities = add_overtaking_car(
+            objects, velocities, street, camera, library["car"], speed_mps, overtake_mps, float(times[-1])
+        )
+        scene = dataclasses.replace(scene, objects=objects)
+    return SynthDrive(scene, velocities, speed_mps, times)
 
 
 def _matrix(T: np.ndarray) -> list[list[float]]:

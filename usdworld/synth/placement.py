@@ -47,7 +47,8 @@ class SynthObject:
         yaw: radians about world +Z, in (-pi, pi].
         scale: (3,) float64 scale along the asset's axes.
         size_m: (3,) float64 (length, width, height) after scaling, metres.
-        role: ``parked``, ``driving``, ``walking``, ``crossing`` or ``street`` (furniture, buildings).
+        role: ``parked``, ``driving``, ``walking``, ``crossing``, ``street`` (furniture, buildings)
+            or ``overtaking`` (:mod:`usdworld.synth.overtaking`).
     """
 
     name: str

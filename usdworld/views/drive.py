@@ -636,6 +636,22 @@ def merge_standing_trunks(tracks: list[_Track], params: ViewsParams) -> list[_Tr
         del cand[b], est[b], radius[b]
 
 
+def arm_across(items: Sequence[FusedObject], ray: np.ndarray) -> float:
+    """How far a track's footprint reaches across a viewing ray beyond its inscribed disc, metres.
+
+    The median over its frames of :func:`footprint_reach_across` less the disc's radius: 0 for a
+    square footprint (a tree, a plain pole), for a street lamp the share of its arm across the
+    ray, so the most a view of its head alone can place its contact beside the mast.
+
+    Args:
+        items: the track's frames' objects.
+        ray: (2,) float64 the unit viewing direction on the ground.
+    """
+    return float(
+        np.median([footprint_reach_across(o.placement, ray) - _footprint_radius(o.placement) for o in items])
+    )
+
+
 def seen_as_one_trunk(
     a: _Track,
     b: _Track,
@@ -646,7 +662,9 @@ def seen_as_one_trunk(
     """Whether two standing trunk tracks that share frames are one object by their triangulations.
 
     Their triangulated positions (:func:`_merge_estimate`) agree within
-    ``association_gate_chi2`` (covariances summed), and in every frame that saw both the two
+    ``association_gate_chi2`` (covariances summed) once their distance across the pair's mean
+    viewing ray is shortened by the longer arm of the two (:func:`arm_across`: a track of a
+    lamp's head triangulates to a point under the head, beside the mast), and in every frame that saw both the two
     placements overlap across the viewing ray (nearer than the sum of their footprints' reaches
     across it, :func:`footprint_reach_across`): the halves of one crown cut by what stands in
     front of it share their bearing, and so do a lamp's mast and its head over the road, two
@@ -665,6 +683,14 @@ def seen_as_one_trunk(
     if not shared:
         return False
     d = est_a[0] - est_b[0]
+    cameras = np.array([item.observations[0].camera_ground for tr in (a, b) for item in tr.items])
+    rays = 0.5 * (est_a[0] + est_b[0]) - cameras
+    u = (rays / np.maximum(np.linalg.norm(rays, axis=1, keepdims=True), 1e-9)).mean(axis=0)
+    u = u / max(float(np.linalg.norm(u)), 1e-9)
+    n = np.array([-u[1], u[0]])
+    across = float(d @ n)
+    arm = max(arm_across(a.items, u), arm_across(b.items, u))
+    d = d - math.copysign(min(abs(across), arm), across) * n
     if float(d @ np.linalg.solve(est_a[1] + est_b[1], d)) > params.association_gate_chi2:
         return False
     items_b = dict(zip(b.times, b.items))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -14,7 +15,14 @@ from usdworld.layout.draft import DepthMethod
 from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
 from usdworld.perception.depth.fusion import DepthCue
-from usdworld.views.drive import DriveObject, frame_scatter, merge_overlapping, one_object_cut_in_two, track_drive
+from usdworld.views.drive import (
+    DriveObject,
+    footprint_reach_across,
+    frame_scatter,
+    merge_overlapping,
+    one_object_cut_in_two,
+    track_drive,
+)
 from usdworld.views.fusion import combine, fuse
 from usdworld.views.fusion import Observation
 
@@ -196,3 +204,51 @@ def test_objects_apart_across_the_ray_beyond_their_footprints_are_never_one(
     assert not one_object_cut_in_two(pair[0], pair[1], PARAMS)
     same = fuse([_obs(0, (40.0, 0.0), sigma, 0.3, 1, "tree", footprint), _obs(0, (40.0, 0.0), sigma, 0.3, 2, "tree", footprint)], PARAMS)
     assert one_object_cut_in_two(same[0], same[1], PARAMS)
+
+
+def test_footprint_reach_across_known_answers() -> None:
+    """A lamp's 2.0 x 0.3 m footprint with its arm along y: seen along x the arm spans the view
+    (1.0 m each side), seen along y only its width (0.15 m); at 30 degrees, 0.15 + 0.85 cos 30."""
+    lamp = _obs(0, (30.0, 0.0), 1.0, 0.3).placement
+    lamp = dataclasses.replace(lamp, size_m=np.array([2.0, 0.3, 8.0]), yaw=0.5 * math.pi)
+    assert footprint_reach_across(lamp, np.array([1.0, 0.0])) == pytest.approx(1.0)
+    assert footprint_reach_across(lamp, np.array([0.0, -1.0])) == pytest.approx(0.15)
+    ray = np.array([math.cos(math.pi / 6), math.sin(math.pi / 6)])
+    assert footprint_reach_across(lamp, ray) == pytest.approx(0.15 + 0.85 * math.cos(math.pi / 6))
+
+
+@given(st.floats(0.1, 4.0), st.floats(0.1, 4.0), st.floats(-math.pi, math.pi), st.floats(-math.pi, math.pi))
+def test_footprint_reach_across_lies_between_the_inscribed_disc_and_the_long_side(
+    length: float, width: float, yaw: float, bearing: float
+) -> None:
+    """Whatever the yaw and the ray: at least the inscribed disc's radius, at most half the long
+    side; a square footprint reaches exactly its disc's radius."""
+    base = _obs(0, (30.0, 0.0), 1.0, 0.3).placement
+    ray = np.array([math.cos(bearing), math.sin(bearing)])
+    placement = dataclasses.replace(base, size_m=np.array([length, width, 6.0]), yaw=yaw)
+    reach = footprint_reach_across(placement, ray)
+    assert 0.5 * min(length, width) - 1e-9 <= reach <= 0.5 * max(length, width) + 1e-9
+    square = dataclasses.replace(base, size_m=np.array([width, width, 6.0]), yaw=yaw)
+    assert footprint_reach_across(square, ray) == pytest.approx(0.5 * width)
+
+
+def test_a_street_lamps_mast_and_head_in_one_frame_are_one_lamp() -> None:
+    """One frame places a street lamp (2.0 x 0.3 m, its arm across the ray) twice, 0.8 m apart
+    across a 30 m ray at one depth: its mast and its head, which the arm holds up to 1 m to the
+    side. One lamp; two plain poles (0.3 x 0.3 m) as far apart stay two."""
+
+    def frame(length: float) -> list:
+        pair = [_obs(0, (30.0, 0.0), 1.0, 0.3, 1), _obs(0, (30.0, 0.8), 1.0, 0.3, 2)]
+        out = []
+        for o in pair:
+            size = np.array([length, 0.3, 8.0])
+            placement = dataclasses.replace(o.placement, size_m=size, yaw=0.5 * math.pi)
+            out.append(dataclasses.replace(o, placement=placement))
+        return fuse(out, PARAMS)
+
+    lamp = frame(2.0)
+    assert one_object_cut_in_two(lamp[0], lamp[1], PARAMS)
+    assert len(merge_overlapping(lamp, PARAMS)) == 1
+    poles = frame(0.3)
+    assert not one_object_cut_in_two(poles[0], poles[1], PARAMS)
+    assert len(merge_overlapping(poles, PARAMS)) == 2

@@ -12,7 +12,8 @@ frames are tracked in time order, so the work grows with the number of frames:
    two objects of a trunk class (trees, poles, signs) whose footprints overlap are made one
    (:func:`merge_overlapping`): two trunks cannot stand in one place, so they are one
    object the single view cut in two (a tree's crown split by what stands in front of it).
-   Across the viewing ray, where a bearing is precise, the footprints must overlap; along
+   Across the viewing ray, where a bearing is precise, the footprints must overlap (a
+   street lamp's by its arm's width across the ray: a view may see its head apart); along
    it, where a depth is not, within ``split_depth_sigmas`` of the depth difference's spread.
 2. Each track of one class predicts its ground position at the frame's time with a
    constant-velocity fit of its observations (information form, each weighted by its
@@ -265,13 +266,41 @@ def _footprint_radius(placement: Placement) -> float:
     return 0.5 * float(min(placement.size_m[0], placement.size_m[1]))
 
 
+def footprint_reach_across(placement: Placement, ray: np.ndarray) -> float:
+    """Half the width across a viewing ray of a placement's footprint taken as a capsule, metres.
+
+    The capsule is the disc inscribed in the footprint swept along its long side: a tree's or a
+    plain pole's square footprint is its disc (the reach is the disc's radius whatever the ray),
+    a street lamp's long one (its arm) reaches ``0.5 (long - short) |sin a|`` farther, ``a`` the
+    angle between its long side and the ray. One view's mask of a part of the object (a lamp's
+    head and arm cut from its mast by what stands in front) places that part's column anywhere
+    across that width.
+
+    Args:
+        placement: the placement (``size_m`` length along its yaw, then width; ``yaw``).
+        ray: (2,) float64 the unit viewing direction on the ground.
+
+    Example:
+        >>> from types import SimpleNamespace
+        >>> lamp = SimpleNamespace(size_m=np.array([2.0, 0.3, 8.0]), yaw=math.pi / 2)
+        >>> [round(footprint_reach_across(lamp, np.array(ray)), 3) for ray in ([1.0, 0.0], [0.0, 1.0])]
+        [1.0, 0.15]
+    """
+    length, width = float(placement.size_m[0]), float(placement.size_m[1])
+    yaw = placement.yaw if length >= width else placement.yaw + 0.5 * math.pi
+    sin = abs(math.cos(yaw) * float(ray[1]) - math.sin(yaw) * float(ray[0]))
+    return 0.5 * min(length, width) + 0.5 * abs(length - width) * sin
+
+
 def one_object_cut_in_two(a: FusedObject, b: FusedObject, params: ViewsParams) -> bool:
     """Whether two standing objects of one frame overlap: one object its single view cut in two.
 
-    Across the viewing ray (a bearing is precise) their contacts are nearer than the sum
-    ``f`` of the radii of the discs inscribed in their footprints; along it (a depth is not)
-    their distance exceeds ``f`` by at most ``split_depth_sigmas`` standard deviations of
-    their depth difference (their covariances summed, along the ray).
+    Across the viewing ray (a bearing is precise) their contacts are nearer than the sum of
+    their footprints' reaches across it (:func:`footprint_reach_across`: a square footprint's
+    inscribed radius, more for a lamp's arm across the ray); along it (a depth is not) their
+    distance exceeds the sum ``f`` of the radii of the discs inscribed in their footprints by at
+    most ``split_depth_sigmas`` standard deviations of their depth difference (their
+    covariances summed, along the ray).
 
     Args:
         a: one object of the frame.
@@ -284,9 +313,10 @@ def one_object_cut_in_two(a: FusedObject, b: FusedObject, params: ViewsParams) -
     u = u / max(float(np.linalg.norm(u)), 1e-9)
     d = za - zb
     reach = _footprint_radius(a.placement) + _footprint_radius(b.placement)
+    wide = footprint_reach_across(a.placement, u) + footprint_reach_across(b.placement, u)
     sigma = math.sqrt(float(u @ (a.covariance + b.covariance) @ u))
     across = abs(float(d @ np.array([-u[1], u[0]])))
-    return across < reach and abs(float(d @ u)) - reach <= params.split_depth_sigmas * sigma
+    return across < wide and abs(float(d @ u)) - reach <= params.split_depth_sigmas * sigma
 
 
 def merge_overlapping(items: list[FusedObject], params: ViewsParams) -> list[FusedObject]:
@@ -610,6 +640,22 @@ def merge_standing_trunks(tracks: list[_Track], params: ViewsParams) -> list[_Tr
         del cand[b], est[b], radius[b]
 
 
+def arm_across(items: Sequence[FusedObject], ray: np.ndarray) -> float:
+    """How far a track's footprint reaches across a viewing ray beyond its inscribed disc, metres.
+
+    The median over its frames of :func:`footprint_reach_across` less the disc's radius: 0 for a
+    square footprint (a tree, a plain pole), for a street lamp the share of its arm across the
+    ray, so the most a view of its head alone can place its contact beside the mast.
+
+    Args:
+        items: the track's frames' objects.
+        ray: (2,) float64 the unit viewing direction on the ground.
+    """
+    return float(
+        np.median([footprint_reach_across(o.placement, ray) - _footprint_radius(o.placement) for o in items])
+    )
+
+
 def seen_as_one_trunk(
     a: _Track,
     b: _Track,
@@ -620,10 +666,13 @@ def seen_as_one_trunk(
     """Whether two standing trunk tracks that share frames are one object by their triangulations.
 
     Their triangulated positions (:func:`_merge_estimate`) agree within
-    ``association_gate_chi2`` (covariances summed), and in every frame that saw both the two
-    placements overlap across the viewing ray (nearer than the sum of the radii of the discs
-    inscribed in their footprints): the halves of one crown cut by what stands in front of it
-    share their bearing, two trunks seen side by side do not. Their depths in such a frame
+    ``association_gate_chi2`` (covariances summed) once their distance across the pair's mean
+    viewing ray is shortened by the longer arm of the two (:func:`arm_across`: a track of a
+    lamp's head triangulates to a point under the head, beside the mast), and in every frame that saw both the two
+    placements overlap across the viewing ray (nearer than the sum of their footprints' reaches
+    across it, :func:`footprint_reach_across`): the halves of one crown cut by what stands in
+    front of it share their bearing, and so do a lamp's mast and its head over the road, two
+    trunks seen side by side do not. Their depths in such a frame
     are not compared (a half's contact can lie metres off along the ray); the triangulations
     compare them. Pairs that share no frame are :func:`merge_fragments`' to join.
 
@@ -638,6 +687,14 @@ def seen_as_one_trunk(
     if not shared:
         return False
     d = est_a[0] - est_b[0]
+    cameras = np.array([item.observations[0].camera_ground for tr in (a, b) for item in tr.items])
+    rays = 0.5 * (est_a[0] + est_b[0]) - cameras
+    u = (rays / np.maximum(np.linalg.norm(rays, axis=1, keepdims=True), 1e-9)).mean(axis=0)
+    u = u / max(float(np.linalg.norm(u)), 1e-9)
+    n = np.array([-u[1], u[0]])
+    across = float(d @ n)
+    arm = max(arm_across(a.items, u), arm_across(b.items, u))
+    d = d - math.copysign(min(abs(across), arm), across) * n
     if float(d @ np.linalg.solve(est_a[1] + est_b[1], d)) > params.association_gate_chi2:
         return False
     items_b = dict(zip(b.times, b.items))
@@ -649,7 +706,7 @@ def seen_as_one_trunk(
         u = 0.5 * (za + zb) - ia.observations[0].camera_ground
         u = u / max(float(np.linalg.norm(u)), 1e-9)
         across = abs(float((za - zb) @ np.array([-u[1], u[0]])))
-        if across >= _footprint_radius(ia.placement) + _footprint_radius(ib.placement):
+        if across >= footprint_reach_across(ia.placement, u) + footprint_reach_across(ib.placement, u):
             return False
     return True
 

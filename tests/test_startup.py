@@ -111,3 +111,51 @@ def test_an_edit_loads_no_shading_schemas_and_no_build_layout() -> None:
     loaded = _loaded_after("import usdworld.cli.edit_cmd, usdworld.authoring.edits", whole_names=True)
     assert "usdworld.geometry.rotation" in loaded
     assert not loaded & {"pxr.UsdShade", "pxr.Sdr", "usdworld.layout.draft"}
+
+
+#: Libraries ``usdworld build`` (labels and a camera file) never needs: the other commands'
+#: extras (renderer, validators, CNN backends, servers, Dask), the ones a build left behind
+#: (scipy, trimesh, rich) and numpy's masked arrays' sibling packages it does not use.
+NOT_IN_A_BUILD = {
+    "scipy", "trimesh", "torch", "transformers", "PIL", "rich", "pygments", "jsonschema", "pydantic", "tqdm",
+    "matplotlib", "networkx", "moderngl", "glcontext", "imageio", "imageio_ffmpeg", "omni", "dask",
+    "distributed", "starlette", "uvicorn", "filelock", "pandas", "sklearn",
+}
+#: usdworld's own packages and modules that only other commands use.
+NOT_IN_A_BUILD_USDWORLD = {
+    "usdworld.render.renderer", "usdworld.render.scene", "usdworld.render.camera", "usdworld.render.batches",
+    "usdworld.evaluation", "usdworld.export", "usdworld.synth", "usdworld.serve", "usdworld.batch",
+    "usdworld.views", "usdworld.report_html", "usdworld.authoring.validate", "usdworld.authoring.user_assets",
+}
+
+
+def test_the_whole_build_command_loads_no_heavy_extra_and_runs_without_the_cyclic_collector(tmp_path) -> None:
+    """``usdworld build`` as a user runs it (the console entry point, a fresh process): what it has
+    loaded and how it collects garbage when it exits (read by an exit handler)."""
+    from usdworld.synth import make_street_scene, write_cityscapes_frame
+
+    files = write_cityscapes_frame(make_street_scene(np.random.default_rng(3), 512, 256), tmp_path / "in", "t_000000_000001")
+    argv = ["usdworld", "-q", "build", str(files["image"]), "--labels", str(files["labels"])]
+    argv += ["--instances", str(files["instances"]), "--camera", str(files["camera"]), "-o", str(tmp_path / "world")]
+    probe = (
+        "import atexit, gc, json, sys\n"
+        "def report():\n"
+        "    state = {'modules': sorted(sys.modules), 'collecting': gc.isenabled(), 'frozen': gc.get_freeze_count()}\n"
+        "    print(json.dumps(state))\n"
+        "atexit.register(report)\n"
+        "from usdworld.cli.main import run\n"
+        f"sys.argv = {argv!r}\n"
+        "run()\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe], cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "world" / "world.usda").is_file()
+    state = json.loads(done.stdout.splitlines()[-1])
+    loaded = set(state["modules"])
+    assert not {m.split(".")[0] for m in loaded} & NOT_IN_A_BUILD
+    assert not {m for m in loaded if m.startswith(tuple(NOT_IN_A_BUILD_USDWORLD))}
+    assert {"usdworld.pipeline", "usdworld.authoring.world", "pxr.UsdGeom", "cv2"} <= loaded  # it did build
+    assert not state["collecting"]  # usdworld.cli.main.run: no cyclic collection in a build
+    assert state["frozen"] > 10_000  # ... and the teardown's collection skips the start-up's objects

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from usdworld.authoring import asset_library
 
@@ -111,3 +112,83 @@ def test_an_edit_loads_no_shading_schemas_and_no_build_layout() -> None:
     loaded = _loaded_after("import usdworld.cli.edit_cmd, usdworld.authoring.edits", whole_names=True)
     assert "usdworld.geometry.rotation" in loaded
     assert not loaded & {"pxr.UsdShade", "pxr.Sdr", "usdworld.layout.draft"}
+
+
+#: Libraries ``usdworld build`` (labels and a camera file) never needs: the other commands'
+#: extras (renderer, validators, CNN backends, servers, Dask), the ones a build left behind
+#: (scipy, trimesh, rich) and numpy's masked arrays' sibling packages it does not use.
+NOT_IN_A_BUILD = {
+    "scipy", "trimesh", "torch", "transformers", "PIL", "rich", "pygments", "jsonschema", "pydantic", "tqdm",
+    "matplotlib", "networkx", "moderngl", "glcontext", "imageio", "imageio_ffmpeg", "omni", "dask",
+    "distributed", "starlette", "uvicorn", "filelock", "pandas", "sklearn",
+}
+#: usdworld's own packages and modules that only other commands use.
+NOT_IN_A_BUILD_USDWORLD = {
+    "usdworld.render.renderer", "usdworld.render.scene", "usdworld.render.camera", "usdworld.render.batches",
+    "usdworld.evaluation", "usdworld.export", "usdworld.synth", "usdworld.serve", "usdworld.batch",
+    "usdworld.views", "usdworld.report_html", "usdworld.authoring.validate", "usdworld.authoring.user_assets",
+}
+
+
+def _command_state(argv: list[str], cwd: Path) -> dict:
+    """Run ``usdworld ARGV`` as a user does (the console entry point, a fresh process) and return
+    what an exit handler of that process read: its modules, whether the cyclic collector was on
+    and how many objects were frozen."""
+    probe = (
+        "import atexit, gc, json, sys\n"
+        "def report():\n"
+        "    state = {'modules': sorted(sys.modules), 'collecting': gc.isenabled(), 'frozen': gc.get_freeze_count()}\n"
+        "    print(json.dumps(state))\n"
+        "atexit.register(report)\n"
+        "from usdworld.cli.main import run\n"
+        f"sys.argv = {['usdworld', *argv]!r}\n"
+        "run()\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe], cwd=cwd, env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def small_frame(tmp_path_factory) -> dict[str, Path]:
+    """A 512x256 synthetic Cityscapes-format frame (labels, instances, camera)."""
+    from usdworld.synth import make_street_scene, write_cityscapes_frame
+
+    scene = make_street_scene(np.random.default_rng(3), 512, 256)
+    return write_cityscapes_frame(scene, tmp_path_factory.mktemp("frame"), "t_000000_000001")
+
+
+def test_the_whole_build_command_loads_no_heavy_extra_and_runs_without_the_cyclic_collector(small_frame, tmp_path) -> None:
+    """``usdworld build``: what it has loaded and how it collects garbage when it exits."""
+    files = small_frame
+    argv = ["-q", "build", str(files["image"]), "--labels", str(files["labels"])]
+    argv += ["--instances", str(files["instances"]), "--camera", str(files["camera"]), "-o", str(tmp_path / "world")]
+    state = _command_state(argv, tmp_path)
+    assert (tmp_path / "world" / "world.usda").is_file()
+    loaded = set(state["modules"])
+    assert not {m.split(".")[0] for m in loaded} & NOT_IN_A_BUILD
+    assert not {m for m in loaded if m.startswith(tuple(NOT_IN_A_BUILD_USDWORLD))}
+    assert {"usdworld.pipeline", "usdworld.authoring.world", "pxr.UsdGeom", "cv2"} <= loaded  # it did build
+    assert not state["collecting"]  # usdworld.cli.main.run: no cyclic collection in a build
+    assert state["frozen"] > 10_000  # ... and the teardown's collection skips the start-up's objects
+
+
+def test_the_whole_render_command_loads_neither_the_build_nor_usdlux(small_frame, tmp_path) -> None:
+    """``usdworld render --write all``: it reads the world's lights without the UsdLux module and,
+    looking for the photo of the comparisons (not beside this world), searches the demo folder
+    without loading the build's pipeline; it runs without the cyclic collector."""
+    from usdworld.cli.main import main
+
+    files = small_frame
+    world = tmp_path / "world"
+    args = ["-q", "build", str(files["image"]), "--labels", str(files["labels"]), "--instances", str(files["instances"])]
+    assert main([*args, "--camera", str(files["camera"]), "-o", str(world)]) == 0
+    state = _command_state(["-q", "render", str(world), "-o", str(tmp_path / "out"), "--write", "all"], tmp_path)
+    assert (tmp_path / "out" / "class.png").is_file()
+    loaded = set(state["modules"])
+    assert "usdworld.render.renderer" in loaded and "pxr.UsdGeom" in loaded  # it did render
+    assert not loaded & {"pxr.UsdLux", "usdworld.pipeline", "usdworld.authoring.world"}
+    assert not {m.split(".")[0] for m in loaded} & {"scipy", "trimesh", "torch", "PIL", "rich", "omni"}
+    assert not state["collecting"]

@@ -21,6 +21,14 @@ on a shared machine). Both run with byte-compiled modules (``PYTHONPYCACHEPREFIX
 temporary folder, filled by a warm-up run), as an installed package does: without them every
 command compiles usdworld's modules again.
 
+With ``--command`` it also splits the whole command's time (``--runs`` more fresh processes of each
+checkout, in the same turns, median of each part, wall / CPU): the interpreter's start (Python and
+``site``), the start-up (imports and the command line, until ``usdworld.pipeline.build`` is
+called), the build itself (the first of the process), what follows until ``main`` returns (the
+summary), and the teardown (after the exit handlers). The command runs through its console entry
+point (``usdworld.cli.main.run``), as ``python -m usdworld`` does; a probe around it records the
+process's CPU time and the clock at those marks (:data:`_PHASES_PROBE`).
+
 With ``--compare CHECKOUT`` (another checkout of usdworld, e.g. main's) the same frame is
 built in process by this checkout and by the other one, each in a fresh process, taking turns
 ``--rounds`` times, and the other's whole command joins the turns of ``--command``: before and
@@ -188,7 +196,7 @@ def main(argv: list[str] | None = None) -> int:
         shares = _profile(lambda: build(sequential), args.runs)
         stage_cpu = _stage_cpu(lambda: build(sequential), args.runs)
         pairs = _compare_in_process(files, args.compare, args.runs, args.rounds) if args.compare else None
-        command = _command_vs_floor(files, tmp, args.runs, args.compare) if args.command or args.compare else None
+        command, phases = _command_vs_floor(files, tmp, args.runs, args.compare) if args.command or args.compare else (None, None)
     threads = getattr(request, "threads", 1)
     print(
         f"{datetime.datetime.now():%Y-%m-%d %H:%M}, {platform.machine()}, {os.cpu_count()} cores, "
@@ -222,6 +230,11 @@ def main(argv: list[str] | None = None) -> int:
         (fw, fc) = next(iter(command.values()))
         for name, (wall, cpu) in command.items():
             print(f"| {name} | {wall:.2f} s | {cpu:.2f} s | {wall / fw:.2f}x | {cpu / fc:.2f}x |")
+        print(f"\nWhere the whole command's time goes (fresh processes in the same turns, median of {args.runs}, wall / CPU ms):\n")
+        print("| checkout | " + " | ".join(PHASES) + " |")
+        print("|---|" + "---|" * len(PHASES))
+        for name, parts in phases.items():
+            print(f"| {name} | " + " | ".join(f"{w * 1000:.0f} / {c * 1000:.0f}" for w, c in (parts[p] for p in PHASES)) + " |")
     _print_targets(timings, command, width, height, args)
     return 0
 
@@ -358,8 +371,67 @@ def _profile(fn, runs: int) -> list[tuple[str, float]]:
     return shares
 
 
-def _command_vs_floor(files: dict, tmp: Path, runs: int, other: Path | None = None) -> dict[str, tuple[float, float]]:
-    """Median (wall, CPU) seconds of the floor process and of the whole ``usdworld build`` (and ``other``'s), in turns."""
+#: The parts of a whole command that :data:`_PHASES_PROBE` tells apart, in order.
+PHASES = ("interpreter start", "start-up: imports, command line", "the build", "summary", "teardown", "whole process")
+
+#: Runs ``usdworld build`` (``sys.argv[1:]``) through the console entry point, as ``python -m usdworld``
+#: does, and prints as JSON on stderr the process's CPU seconds and the clock (``time.time``) at its
+#: marks: this probe's first line (the interpreter started), ``usdworld.pipeline.build`` called and
+#: returned (wrapped when the command imports the module), and the exit handlers (``main`` returned;
+#: the handlers registered first run last, so the teardown alone is left after this one).
+_PHASES_PROBE = """
+import atexit, importlib.machinery, json, resource, sys, time
+
+def _mark():
+    used = resource.getrusage(resource.RUSAGE_SELF)
+    return [time.time(), used.ru_utime + used.ru_stime]
+
+marks = {"started": _mark()}
+
+class _WrapBuild:
+    def find_spec(self, name, path, target=None):
+        if name != "usdworld.pipeline":
+            return None
+        spec = importlib.machinery.PathFinder.find_spec(name, path)
+        run = spec.loader.exec_module
+
+        def exec_module(module):
+            run(module)
+            inner = module.build
+
+            def build(*args, **kwargs):
+                marks["build"] = _mark()
+                try:
+                    return inner(*args, **kwargs)
+                finally:
+                    marks["built"] = _mark()
+
+            module.build = build
+
+        spec.loader.exec_module = exec_module
+        return spec
+
+sys.meta_path.insert(0, _WrapBuild())
+atexit.register(lambda: print(json.dumps({**marks, "exit": _mark()}), file=sys.stderr))
+sys.argv = ["usdworld", *sys.argv[1:]]
+from usdworld.cli.main import run
+run()
+"""
+
+
+def _phases(marks: dict[str, list[float]], t0: float, wall: float, cpu: float) -> dict[str, tuple[float, float]]:
+    """The (wall, CPU) seconds of each of :data:`PHASES` from a probe's marks, the clock at the
+    process's start ``t0`` and the whole process's wall and CPU seconds."""
+    points = [(t0, 0.0), *(tuple(marks[k]) for k in ("started", "build", "built", "exit")), (t0 + wall, cpu)]
+    parts = [(b[0] - a[0], b[1] - a[1]) for a, b in zip(points, points[1:])]
+    return dict(zip(PHASES, [*parts, (wall, cpu)]))
+
+
+def _command_vs_floor(
+    files: dict, tmp: Path, runs: int, other: Path | None = None
+) -> tuple[dict[str, tuple[float, float]], dict[str, dict[str, tuple[float, float]]]]:
+    """Median (wall, CPU) seconds of the floor process and of the whole ``usdworld build`` (and ``other``'s),
+    in turns; and per checkout the median (wall, CPU) seconds of each of :data:`PHASES`."""
     pngs = [str(files[k]) for k in ("image", "labels", "instances")]
     floor = [
         sys.executable,
@@ -374,22 +446,35 @@ def _command_vs_floor(files: dict, tmp: Path, runs: int, other: Path | None = No
     procs[f"`usdworld build`, whole command ({REPO.name})"] = (command, _env(REPO, tmp))
     if other is not None:
         procs[f"`usdworld build`, whole command ({Path(other).resolve().name})"] = (command, _env(Path(other).resolve(), tmp))
+    probed = {REPO.name: _env(REPO, tmp)}
+    if other is not None:
+        probed[Path(other).resolve().name] = _env(Path(other).resolve(), tmp)
+    probe = [sys.executable, "-c", _PHASES_PROBE, *command[3:]]
 
-    def timed(args: list[str], env: dict[str, str]) -> tuple[float, float]:
+    def timed(args: list[str], env: dict[str, str]) -> tuple[float, float, float, str]:
         usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-        t0 = time.perf_counter()
-        subprocess.run(args, check=True, env=env, stdout=subprocess.DEVNULL, cwd=tmp)  # not the checkout: -m would import it
-        wall = time.perf_counter() - t0
+        t0, clock = time.perf_counter(), time.time()
+        done = subprocess.run(args, check=True, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=tmp)
+        wall = time.perf_counter() - t0  # cwd: not the checkout, -m would import it from there
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        return wall, (after.ru_utime - usage.ru_utime) + (after.ru_stime - usage.ru_stime)
+        return wall, (after.ru_utime - usage.ru_utime) + (after.ru_stime - usage.ru_stime), clock, done.stderr
 
-    for args, env in procs.values():  # warm-up: byte-compile into the cache, warm the file cache
+    for args, env in [*procs.values(), *((probe, env) for env in probed.values())]:  # warm-up: byte-compile, file cache
         timed(args, env)
     results: dict[str, list[tuple[float, float]]] = {name: [] for name in procs}
+    split: dict[str, list[dict[str, tuple[float, float]]]] = {name: [] for name in probed}
     for _ in range(runs):
         for name, (args, env) in procs.items():
-            results[name].append(timed(args, env))
-    return {name: (statistics.median(w for w, _ in r), statistics.median(c for _, c in r)) for name, r in results.items()}
+            results[name].append(timed(args, env)[:2])
+        for name, env in probed.items():
+            wall, cpu, clock, err = timed(probe, env)
+            split[name].append(_phases(json.loads(err.strip().splitlines()[-1]), clock, wall, cpu))
+    medians = {name: (statistics.median(w for w, _ in r), statistics.median(c for _, c in r)) for name, r in results.items()}
+    phases = {
+        name: {p: (statistics.median(r[p][0] for r in rows), statistics.median(r[p][1] for r in rows)) for p in PHASES}
+        for name, rows in split.items()
+    }
+    return medians, phases
 
 
 if __name__ == "__main__":

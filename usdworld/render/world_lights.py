@@ -7,6 +7,10 @@ ambient light from below and the sky's colours from ``UsdWorldLightAPI`` on
 ``/World/Lights`` (see :mod:`usdworld.authoring.lights`). Edits in the edits layer count:
 the stage is read composed. A world without lights (built before they were authored), or
 a light deactivated, falls back to the default :class:`Lighting` for what is missing.
+
+The lights are read through the generic prim API (their schema's type names and attribute
+names), not the ``UsdLux`` classes: ``usdworld render`` then does not load the UsdLux Python
+module (its wrappers cost more than the few reads here).
 """
 
 from __future__ import annotations
@@ -14,17 +18,18 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from pxr import Usd, UsdGeom, UsdLux
+from pxr import Usd, UsdGeom
 
 from usdworld.render.lighting import Lighting
 from usdworld.world_files import LIGHTS_PATH, SKY_PATH, SUN_PATH
 
 
-def _light_rgb(light: UsdLux.LightAPI) -> np.ndarray:
-    """(3,) float64 linear RGB of a UsdLux light: intensity * 2**exposure * color."""
-    colour = np.array(light.GetColorAttr().Get() or (1.0, 1.0, 1.0), dtype=np.float64)
-    intensity = float(light.GetIntensityAttr().Get() or 0.0)
-    exposure = float(light.GetExposureAttr().Get() or 0.0)
+def _light_rgb(light: Usd.Prim) -> np.ndarray:
+    """(3,) float64 linear RGB of a UsdLux light: intensity * 2**exposure * color (``UsdLux.LightAPI``'s
+    ``inputs:`` attributes; their schema's fallbacks where not authored)."""
+    colour = np.array(light.GetAttribute("inputs:color").Get() or (1.0, 1.0, 1.0), dtype=np.float64)
+    intensity = float(light.GetAttribute("inputs:intensity").Get() or 0.0)
+    exposure = float(light.GetAttribute("inputs:exposure").Get() or 0.0)
     return colour * intensity * 2.0**exposure
 
 
@@ -47,15 +52,15 @@ def lighting_from_stage(stage: Usd.Stage, base: Lighting | None = None) -> Light
     light = base if base is not None else Lighting()
     changes: dict[str, object] = {}
     sun = stage.GetPrimAtPath(SUN_PATH)
-    if sun and sun.IsActive() and sun.IsA(UsdLux.DistantLight):
+    if sun and sun.IsActive() and sun.IsA("DistantLight"):  # UsdLux.DistantLight, by its schema's name
         world_from_light = np.array(UsdGeom.Xformable(sun).ComputeLocalToWorldTransform(Usd.TimeCode.Default()))
         towards_sun = world_from_light[2, :3]  # row-vector convention: row 2 is the image of +Z
         if towards_sun[2] > 1e-3 * np.linalg.norm(towards_sun):
             changes["sun_direction_world"] = towards_sun
-        changes["sun_color"] = _light_rgb(UsdLux.LightAPI(sun))
+        changes["sun_color"] = _light_rgb(sun)
     sky = stage.GetPrimAtPath(SKY_PATH)
-    if sky and sky.IsActive() and sky.IsA(UsdLux.DomeLight):
-        up = _light_rgb(UsdLux.LightAPI(sky))
+    if sky and sky.IsActive() and sky.IsA("DomeLight"):  # UsdLux.DomeLight
+        up = _light_rgb(sky)
         changes["sky_ambient"] = up
     lights = stage.GetPrimAtPath(LIGHTS_PATH)
     if lights:

@@ -39,6 +39,7 @@ Everything is in pixel and ground coordinates; nothing here reads files or knows
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -318,10 +319,16 @@ class ConvexEdges:
         return ConvexEdges(edges[keep], hull[keep], lengths[keep])
 
     def inside(self, points: np.ndarray, margin: float = 0.0) -> np.ndarray:
-        """(N,) bool: the (N, 2) points within ``margin`` metres inside (:func:`inside_convex`)."""
-        rel = points[:, None, :] - self.starts[None, :, :]
-        cross = self.edges[None, :, 0] * rel[:, :, 1] - self.edges[None, :, 1] * rel[:, :, 0]
-        return np.all(cross >= -margin * self.lengths[None, :], axis=1)
+        """(N,) bool: the (N, 2) points within ``margin`` metres inside (:func:`inside_convex`).
+
+        Edge by edge on the points' two columns: the same products and differences as the
+        (N, K, 2) broadcast, without its temporaries (a footprint has a few edges).
+        """
+        u, v = points[:, 0], points[:, 1]
+        out = np.ones(len(points), dtype=bool)
+        for (ex, ey), (sx, sy), length in zip(self.edges.tolist(), self.starts.tolist(), self.lengths.tolist()):
+            out &= ex * (v - sy) - ey * (u - sx) >= -margin * length
+        return out
 
 
 def _grown_reach(hull: np.ndarray, margin: float) -> float:
@@ -501,6 +508,16 @@ class _Pairs:
     offset: np.ndarray  # (P, 2) the sample's position from the footprint's centre, m
     radius: np.ndarray  # (P,) the footprint's radius about that centre, m
 
+    @functools.cached_property
+    def margin(self) -> np.ndarray:
+        """(P,) float64 the half-width of a caster's shadow strip, m: its radius and a hair."""
+        return self.radius + 1e-9
+
+    @functools.cached_property
+    def slack_by_plane(self) -> np.ndarray:
+        """(K, P) float64 ``slack`` half-plane by half-plane (each row contiguous)."""
+        return np.ascontiguousarray(self.slack.T)
+
 
 def _footprint_hull(caster: ShadowCaster) -> np.ndarray:
     """(M, 2) the footprint's convex hull; a footprint of fewer than 3 corners counts as a 10 cm square."""
@@ -560,17 +577,18 @@ class _Strip:
 def _strip(pairs: _Pairs, azimuth: float) -> _Strip:
     """The pairs within the bounding strip of every shadow cast away from a sun at ``azimuth``."""
     away = -np.array([math.cos(azimuth), math.sin(azimuth)])
-    margin = pairs.radius + 1e-9
+    margin = pairs.margin
     along = pairs.offset @ away
     across = pairs.offset @ np.array([-away[1], away[0]])
     band = np.flatnonzero((np.abs(across) <= margin) & (along >= -margin))
     height, height_max = pairs.height[band], pairs.height_max[band]
-    # each caster's (K, 2) @ (2,) once: the unit shadow direction along each half-plane's normal
-    rate = (pairs.normals @ away)[pairs.caster[band]]
+    # each caster's (K, 2) @ (2,) once: the unit shadow direction along each half-plane's normal;
+    # both gathered half-plane by half-plane, so sweep_entry reads contiguous columns
+    rate = (pairs.normals @ away).T[:, pairs.caster[band]]
     return _Strip(
         band,
         pairs.sample[band],
-        sweep_entry(pairs.slack[band], rate),
+        sweep_entry(pairs.slack_by_plane[:, band].T, rate.T),
         height,
         height_max,
         height_max > height,
@@ -595,15 +613,32 @@ def _predicted(
     Returns:
         Per elevation, (N,) bool surely shadowed samples and (N,) bool samples that may or may not be.
     """
+    sure, unsure = _predicted_sets(strip, n_samples, elevations, reach_max_m)
+    return list(zip(sure, unsure))
+
+
+def _predicted_sets(
+    strip: _Strip, n_samples: int, elevations: Sequence[float], reach_max_m: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_predicted` as two (E, N) bool arrays: sure and unsure samples per elevation (row)."""
     sure = np.zeros((len(elevations), n_samples), dtype=bool)
-    for e, hits in enumerate(_strip_in_shadow(strip, elevations, reach_max_m, strip.height)):
-        sure[e, strip.sample[hits]] = True
+    rows, cols = np.nonzero(_covered(strip, elevations, reach_max_m, strip.height))
+    sure[rows, strip.sample[cols]] = True
     unsure = np.zeros_like(sure)
     if np.any(strip.unknown_top):
-        for e, hits in enumerate(_strip_in_shadow(strip, elevations, reach_max_m, strip.height_max, strip.unknown_top)):
-            unsure[e, strip.sample[hits]] = True
+        covered = _covered(strip, elevations, reach_max_m, strip.height_max)
+        covered &= strip.unknown_top
+        rows, cols = np.nonzero(covered)
+        unsure[rows, strip.sample[cols]] = True
         unsure &= ~sure
-    return list(zip(sure, unsure))
+    return sure, unsure
+
+
+def _covered(strip: _Strip, elevations: Sequence[float], reach_max_m: float, height: np.ndarray) -> np.ndarray:
+    """(E, S) bool: the strip's pairs whose sample lies in the shadow of a caster of ``height``
+    for each elevation (row): :func:`_strip_in_shadow`'s test, every elevation at once."""
+    tangent = np.array([math.tan(e) for e in elevations])
+    return strip.entry <= np.minimum(height / tangent[:, None], reach_max_m)
 
 
 def _strip_in_shadow(
@@ -635,6 +670,19 @@ def _overlap(
         weight = np.where(unsure, 0.0, weight)
     union = float(weight[pred | observed].sum())
     return float(weight[pred & observed].sum()) / union if union > 0 else 0.0
+
+
+def _overlaps(pred: np.ndarray, observed: np.ndarray, weight: np.ndarray, unsure: np.ndarray) -> list[float]:
+    """:func:`_overlap` of each row of (E, N) bool ``pred`` and ``unsure`` with (N,) ``observed``:
+    the element-wise steps for all rows at once, each row's sums as :func:`_overlap` adds them."""
+    weights = np.where(unsure, 0.0, weight)
+    union_sets = pred | observed
+    inter_sets = pred & observed
+    out = []
+    for w, union_set, inter_set in zip(weights, union_sets, inter_sets):
+        union = float(w[union_set].sum())
+        out.append(float(w[inter_set].sum()) / union if union > 0 else 0.0)
+    return out
 
 
 def sample_weights(samples: _Samples) -> np.ndarray:
@@ -680,20 +728,24 @@ def fit_sun(
     strips: dict[float, _Strip] = {}
     scores: dict[tuple[float, float], float] = {}  # the refining grids meet cells already scored
 
+    def clip(el: float) -> float:
+        return float(min(max(float(el), lo), hi))  # np.clip's value for a finite scalar
+
     def score_all(az: float, els: Sequence[float]) -> None:
         """Score a sun at ``az`` and each of ``els`` (clipped to the range) not scored yet, in one batch."""
-        todo = list(dict.fromkeys(e for e in (float(np.clip(el, lo, hi)) for el in els) if (float(az), e) not in scores))
+        az = float(az)
+        todo = list(dict.fromkeys(e for e in map(clip, els) if (az, e) not in scores))
         if not todo:
             return
         azimuth = math.radians(az)
         if azimuth not in strips:
             strips[azimuth] = _strip(pairs, azimuth)
-        predicted = _predicted(strips[azimuth], n, [math.radians(e) for e in todo], params.reach_max_m)
-        for e, (pred, unsure) in zip(todo, predicted, strict=True):
-            scores[(float(az), e)] = _overlap(pred, observed, weight, unsure)
+        sure, unsure = _predicted_sets(strips[azimuth], n, [math.radians(e) for e in todo], params.reach_max_m)
+        for e, overlap in zip(todo, _overlaps(sure, observed, weight, unsure), strict=True):
+            scores[(az, e)] = overlap
 
     def score(az: float, el: float) -> tuple[float, float, float]:
-        el = float(np.clip(el, lo, hi))
+        el = clip(el)
         score_all(az, [el])
         return scores[(float(az), el)], az % 360.0, el
 

@@ -23,6 +23,7 @@ from usdworld.perception.light import (
     _Samples,
     _strip,
     _strip_in_shadow,
+    _strips,
     estimate_light,
     half_planes,
     in_swept,
@@ -33,6 +34,7 @@ from usdworld.perception.light import (
     present_ids,
     reference_stride,
     sky_colours,
+    sweep_entry,
 )
 
 PARAMS = LightParams()
@@ -350,23 +352,40 @@ def test_convex_inside_edge_by_edge_is_the_broadcast_test_bit_for_bit(seed: int,
 
 @settings(max_examples=40, deadline=None)
 @given(
-    st.floats(0.0, 2 * math.pi),
+    st.lists(st.floats(0.0, 2 * math.pi), min_size=1, max_size=5),
     st.lists(st.floats(0.05, 1.5), min_size=1, max_size=8),
     st.integers(0, 2**31 - 1),
 )
-def test_all_elevations_at_once_are_each_elevation_alone(azimuth: float, elevations: list[float], seed: int) -> None:
-    # the sure and unsure sets and their overlaps, as the fit found them one elevation at a time;
-    # the poles' tops unseen (2 to 12 m): the unsure band
+def test_all_azimuths_and_elevations_at_once_are_each_alone(
+    azimuths: list[float], elevations: list[float], seed: int
+) -> None:
+    # the strips, the sure and unsure sets and their overlaps, as the fit found them one azimuth
+    # and one elevation at a time; the poles' tops unseen (2 to 12 m): the unsure band
     rng = np.random.default_rng(seed)
     cut = [ShadowCaster(c.name, c.footprint_ground, 2.0, 12.0) for c in CASTERS if c.name.startswith("pole")]
     casters = [c for c in CASTERS + cut if rng.random() < 0.7] or cut
     points = rng.uniform([-5.0, -12.0], [35.0, 12.0], size=(400, 2))
     samples = _Samples(points, np.ones(len(points)), tuple(np.arange(len(points)) for _ in casters))
-    strip = _strip(_pairs(casters, samples), azimuth)
+    pairs = _pairs(casters, samples)
+    strips = _strips(pairs, azimuths)
     n = len(points)
-    sure, unsure = _predicted_sets(strip, n, elevations, PARAMS.reach_max_m)
+    sure, unsure = _predicted_sets(strips, n, elevations, PARAMS.reach_max_m)
     observed = rng.random(n) < 0.3
     weight = rng.random(n)
+    for a, azimuth in enumerate(azimuths):
+        _one_azimuth(pairs, azimuth, strips[a], elevations, sure[a], unsure[a], observed, weight)
+
+
+def _one_azimuth(pairs, azimuth, strip, elevations, sure, unsure, observed, weight) -> None:  # type: ignore[no-untyped-def]
+    """The batch's answers for one azimuth against that azimuth alone, elevation by elevation."""
+    away = -np.array([math.cos(azimuth), math.sin(azimuth)])
+    band = np.flatnonzero(
+        (np.abs(pairs.offset @ np.array([-away[1], away[0]])) <= pairs.radius + 1e-9) & (pairs.offset @ away >= -pairs.radius - 1e-9)
+    )
+    assert np.array_equal(strip.pair, band)
+    alone = sweep_entry(pairs.slack[band], (pairs.normals @ away)[pairs.caster[band]])
+    assert np.array_equal(strip.entry, alone)  # bit for bit, inf where never
+    n = len(observed)
     overlaps = _overlaps(sure, observed, weight, unsure)
     for e, elevation in enumerate(elevations):
         one_sure = np.zeros(n, dtype=bool)

@@ -39,6 +39,7 @@ Everything is in pixel and ground coordinates; nothing here reads files or knows
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Sequence
@@ -576,60 +577,67 @@ class _Strip:
 
 def _strip(pairs: _Pairs, azimuth: float) -> _Strip:
     """The pairs within the bounding strip of every shadow cast away from a sun at ``azimuth``."""
-    away = -np.array([math.cos(azimuth), math.sin(azimuth)])
-    margin = pairs.margin
-    along = pairs.offset @ away
-    across = pairs.offset @ np.array([-away[1], away[0]])
-    band = np.flatnonzero((np.abs(across) <= margin) & (along >= -margin))
-    height, height_max = pairs.height[band], pairs.height_max[band]
-    # each caster's (K, 2) @ (2,) once: the unit shadow direction along each half-plane's normal;
-    # both gathered half-plane by half-plane, so sweep_entry reads contiguous columns
-    rate = (pairs.normals @ away).T[:, pairs.caster[band]]
-    return _Strip(
-        band,
-        pairs.sample[band],
-        sweep_entry(pairs.slack_by_plane[:, band].T, rate.T),
-        height,
-        height_max,
-        height_max > height,
-    )
+    return _strips(pairs, [azimuth])[0]
 
 
-def _predicted(
-    strip: _Strip, n_samples: int, elevations: Sequence[float], reach_max_m: float
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Samples in some caster's shadow for a sun at one azimuth and each of some elevations, and those that may be.
+def _strips(pairs: _Pairs, azimuths: Sequence[float]) -> list[_Strip]:
+    """:func:`_strip` of each azimuth: each strip's pairs found alone, the sweep entries of all
+    of them in one batch (element by element, so each the same number)."""
+    if not azimuths:
+        return []
+    bands, rates = [], []
+    for azimuth in azimuths:
+        away = -np.array([math.cos(azimuth), math.sin(azimuth)])
+        margin = pairs.margin
+        along = pairs.offset @ away
+        across = pairs.offset @ np.array([-away[1], away[0]])
+        band = np.flatnonzero((np.abs(across) <= margin) & (along >= -margin))
+        bands.append(band)
+        # each caster's (K, 2) @ (2,) once: the unit shadow direction along each half-plane's normal;
+        # both gathered half-plane by half-plane, so sweep_entry reads contiguous columns
+        rates.append((pairs.normals @ away).T[:, pairs.caster[band]])
+    slack = np.concatenate([pairs.slack_by_plane[:, band] for band in bands], axis=1)
+    entries = np.split(sweep_entry(slack.T, np.concatenate(rates, axis=1).T), np.cumsum([len(b) for b in bands])[:-1])
+    out = []
+    for band, entry in zip(bands, entries, strict=True):
+        height, height_max = pairs.height[band], pairs.height_max[band]
+        out.append(_Strip(band, pairs.sample[band], entry, height, height_max, height_max > height))
+    return out
+
+
+def _predicted_sets(
+    strips: Sequence[_Strip], n_samples: int, elevations: Sequence[float], reach_max_m: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Samples in some caster's shadow for a sun at each strip's azimuth and each of some
+    elevations, and those that may be.
 
     A caster whose top is not seen casts at least the shadow of its least height and at
     most that of its greatest: the ground between is unknown unless another caster's
     shadow surely covers it.
 
     Args:
-        strip: the pairs of the sun's azimuth (:func:`_strip`, the same for every elevation).
+        strips: the pairs of each azimuth (:func:`_strip`, the same for every elevation).
         n_samples: N, the number of ground samples.
         elevations: the sun's elevations, radians.
         reach_max_m: the longest shadow, metres.
 
     Returns:
-        Per elevation, (N,) bool surely shadowed samples and (N,) bool samples that may or may not be.
+        (A, E, N) bool surely shadowed samples per azimuth and elevation, and (A, E, N) bool
+        samples that may or may not be.
     """
-    sure, unsure = _predicted_sets(strip, n_samples, elevations, reach_max_m)
-    return list(zip(sure, unsure))
-
-
-def _predicted_sets(
-    strip: _Strip, n_samples: int, elevations: Sequence[float], reach_max_m: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_predicted` as two (E, N) bool arrays: sure and unsure samples per elevation (row)."""
-    sure = np.zeros((len(elevations), n_samples), dtype=bool)
-    rows, cols = np.nonzero(_covered(strip, elevations, reach_max_m, strip.height))
-    sure[rows, strip.sample[cols]] = True
+    owner = np.repeat(np.arange(len(strips)), [len(s.pair) for s in strips])
+    joined = _Strip(
+        *(np.concatenate([getattr(s, f.name) for s in strips]) for f in dataclasses.fields(_Strip))
+    )
+    sure = np.zeros((len(strips), len(elevations), n_samples), dtype=bool)
+    rows, cols = np.nonzero(_covered(joined, elevations, reach_max_m, joined.height))
+    sure[owner[cols], rows, joined.sample[cols]] = True
     unsure = np.zeros_like(sure)
-    if np.any(strip.unknown_top):
-        covered = _covered(strip, elevations, reach_max_m, strip.height_max)
-        covered &= strip.unknown_top
+    if np.any(joined.unknown_top):
+        covered = _covered(joined, elevations, reach_max_m, joined.height_max)
+        covered &= joined.unknown_top
         rows, cols = np.nonzero(covered)
-        unsure[rows, strip.sample[cols]] = True
+        unsure[owner[cols], rows, joined.sample[cols]] = True
         unsure &= ~sure
     return sure, unsure
 
@@ -731,34 +739,38 @@ def fit_sun(
     def clip(el: float) -> float:
         return float(min(max(float(el), lo), hi))  # np.clip's value for a finite scalar
 
-    def score_all(az: float, els: Sequence[float]) -> None:
-        """Score a sun at ``az`` and each of ``els`` (clipped to the range) not scored yet, in one batch."""
-        az = float(az)
-        todo = list(dict.fromkeys(e for e in map(clip, els) if (az, e) not in scores))
-        if not todo:
-            return
-        azimuth = math.radians(az)
-        if azimuth not in strips:
-            strips[azimuth] = _strip(pairs, azimuth)
-        sure, unsure = _predicted_sets(strips[azimuth], n, [math.radians(e) for e in todo], params.reach_max_m)
-        for e, overlap in zip(todo, _overlaps(sure, observed, weight, unsure), strict=True):
-            scores[(az, e)] = overlap
+    def score_all(azs: Sequence[float], els: Sequence[float]) -> None:
+        """Score a sun at each of ``azs`` and each of ``els`` (clipped to the range) not scored yet,
+        in one batch: the azimuths' strips together, then the sets of those with the same cells to score."""
+        clipped = list(dict.fromkeys(map(clip, els)))
+        groups: dict[tuple[float, ...], list[float]] = {}
+        for az in map(float, azs):
+            todo = tuple(e for e in clipped if (az, e) not in scores)
+            if todo:
+                groups.setdefault(todo, []).append(az)
+        new = list(dict.fromkeys(math.radians(az) for group in groups.values() for az in group if math.radians(az) not in strips))
+        strips.update(zip(new, _strips(pairs, new), strict=True))
+        for todo, group in groups.items():
+            sure, unsure = _predicted_sets(
+                [strips[math.radians(az)] for az in group], n, [math.radians(e) for e in todo], params.reach_max_m
+            )
+            for az, az_sure, az_unsure in zip(group, sure, unsure, strict=True):
+                for e, overlap in zip(todo, _overlaps(az_sure, observed, weight, az_unsure), strict=True):
+                    scores[(az, e)] = overlap
 
     def score(az: float, el: float) -> tuple[float, float, float]:
         el = clip(el)
-        score_all(az, [el])
+        score_all([az], [el])
         return scores[(float(az), el)], az % 360.0, el
 
     step = params.coarse_step_deg
     coarse = np.arange(lo, hi + 1e-9, step)
-    for az in np.arange(0.0, 360.0, step):
-        score_all(az, coarse)
+    score_all(np.arange(0.0, 360.0, step), coarse)
     best = max(score(az, el) for az in np.arange(0.0, 360.0, step) for el in coarse)
     for fine in (step / 3.0, 1.0):
         _, az0, el0 = best
         offsets = np.arange(-3, 4) * fine
-        for da in offsets:
-            score_all(az0 + da, [el0 + de for de in offsets])
+        score_all([az0 + da for da in offsets], [el0 + de for de in offsets])
         best = max([best] + [score(az0 + da, el0 + de) for da in offsets for de in offsets])
     _, az, el = best
     strip = _strip(pairs, math.radians(az))

@@ -804,7 +804,8 @@ def sky_colours(
     rows, cols = np.nonzero(sky_mask[: first + 1])
     top = rgb[rows[:k], cols[:k]]  # only the pixels measured
     last = int(np.searchsorted(seen, total - k, side="right"))
-    rows, cols = np.nonzero(sky_mask[last:])
+    end = int(np.searchsorted(seen, total)) + 1  # the rows below the sky's last hold none of it
+    rows, cols = np.nonzero(sky_mask[last:end])
     bottom = rgb[rows[-k:] + last, cols[-k:]]
     return median_linear(top), median_linear(bottom)
 

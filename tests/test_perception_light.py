@@ -18,9 +18,11 @@ from usdworld.perception.light import (
     _hull,
     _overlap,
     _overlaps,
+    _Pairs,
     _pairs,
     _predicted_sets,
     _Samples,
+    _Strip,
     _strip,
     _strip_in_shadow,
     _strips,
@@ -376,7 +378,16 @@ def test_all_azimuths_and_elevations_at_once_are_each_alone(
         _one_azimuth(pairs, azimuth, strips[a], elevations, sure[a], unsure[a], observed, weight)
 
 
-def _one_azimuth(pairs, azimuth, strip, elevations, sure, unsure, observed, weight) -> None:  # type: ignore[no-untyped-def]
+def _one_azimuth(
+    pairs: _Pairs,
+    azimuth: float,
+    strip: _Strip,
+    elevations: list[float],
+    sure: np.ndarray,
+    unsure: np.ndarray,
+    observed: np.ndarray,
+    weight: np.ndarray,
+) -> None:
     """The batch's answers for one azimuth against that azimuth alone, elevation by elevation."""
     away = -np.array([math.cos(azimuth), math.sin(azimuth)])
     band = np.flatnonzero(

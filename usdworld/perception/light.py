@@ -327,7 +327,8 @@ class ConvexEdges:
         """
         u, v = points[:, 0], points[:, 1]
         out = np.ones(len(points), dtype=bool)
-        for (ex, ey), (sx, sy), length in zip(self.edges.tolist(), self.starts.tolist(), self.lengths.tolist()):
+        edges = zip(self.edges.tolist(), self.starts.tolist(), self.lengths.tolist())
+        for (ex, ey), (sx, sy), length in edges:
             out &= ex * (v - sy) - ey * (u - sx) >= -margin * length
         return out
 
@@ -597,7 +598,8 @@ def _strips(pairs: _Pairs, azimuths: Sequence[float]) -> list[_Strip]:
         # both gathered half-plane by half-plane, so sweep_entry reads contiguous columns
         rates.append((pairs.normals @ away).T[:, pairs.caster[band]])
     slack = np.concatenate([pairs.slack_by_plane[:, band] for band in bands], axis=1)
-    entries = np.split(sweep_entry(slack.T, np.concatenate(rates, axis=1).T), np.cumsum([len(b) for b in bands])[:-1])
+    entry = sweep_entry(slack.T, np.concatenate(rates, axis=1).T)
+    entries = np.split(entry, np.cumsum([len(b) for b in bands])[:-1])
     out = []
     for band, entry in zip(bands, entries, strict=True):
         height, height_max = pairs.height[band], pairs.height_max[band]
@@ -642,7 +644,9 @@ def _predicted_sets(
     return sure, unsure
 
 
-def _covered(strip: _Strip, elevations: Sequence[float], reach_max_m: float, height: np.ndarray) -> np.ndarray:
+def _covered(
+    strip: _Strip, elevations: Sequence[float], reach_max_m: float, height: np.ndarray
+) -> np.ndarray:
     """(E, S) bool: the strip's pairs whose sample lies in the shadow of a caster of ``height``
     for each elevation (row): :func:`_strip_in_shadow`'s test, every elevation at once."""
     tangent = np.array([math.tan(e) for e in elevations])
@@ -748,12 +752,13 @@ def fit_sun(
             todo = tuple(e for e in clipped if (az, e) not in scores)
             if todo:
                 groups.setdefault(todo, []).append(az)
-        new = list(dict.fromkeys(math.radians(az) for group in groups.values() for az in group if math.radians(az) not in strips))
+        azimuths = (math.radians(az) for group in groups.values() for az in group)
+        new = list(dict.fromkeys(a for a in azimuths if a not in strips))
         strips.update(zip(new, _strips(pairs, new), strict=True))
         for todo, group in groups.items():
-            sure, unsure = _predicted_sets(
-                [strips[math.radians(az)] for az in group], n, [math.radians(e) for e in todo], params.reach_max_m
-            )
+            elevations = [math.radians(e) for e in todo]
+            batch = [strips[math.radians(az)] for az in group]
+            sure, unsure = _predicted_sets(batch, n, elevations, params.reach_max_m)
             for az, az_sure, az_unsure in zip(group, sure, unsure, strict=True):
                 for e, overlap in zip(todo, _overlaps(az_sure, observed, weight, az_unsure), strict=True):
                     scores[(az, e)] = overlap

@@ -15,7 +15,7 @@ from conftest import SHARED_DATA
 from usdworld.errors import InputError
 from usdworld.io.images import read_image
 from usdworld.io.label_table import LabelClass, by_id, by_name, label_mask, label_table, label_values
-from usdworld.io.labels import read_polygons, read_segmentation
+from usdworld.io.labels import decode_segmentation, read_polygons, read_segmentation
 from usdworld.io.types import InputFile, SourceImage
 
 SHARED = SHARED_DATA  # $USDWORLD_DATA or ../shared/data
@@ -95,6 +95,24 @@ def test_labels_size_differs_from_image(tmp_path: Path) -> None:
         InputError, match=r"^frame_labelIds\.png: 20x10 but the image frame\.png is 40x20; pass the labels"
     ):
         read_segmentation(path, image=_image(20, 40))
+
+
+@pytest.mark.parametrize("instances", ["8-bit", "missing", "other size", "other frame"])
+def test_decoded_before_the_photo_the_labels_size_error_still_comes_first(tmp_path: Path, instances: str) -> None:
+    """Decoded without the photo, checked against it after: the errors in read_segmentation's order."""
+    labels, inst = _labels_and_instances()
+    lp = _write(tmp_path / "frame_labelIds.png", labels)
+    other = inst.copy()
+    other[other >= 1000] = SKY * 1000
+    bad = {"8-bit": labels, "other size": inst[:5], "other frame": other}
+    ip = tmp_path / "i.png" if instances == "missing" else _write(tmp_path / "i.png", bad[instances])
+    decoded = decode_segmentation(lp, ip)  # the instance map's error waits
+    with pytest.raises(InputError, match=r"^frame_labelIds\.png: 20x10 but the image frame\.png is 40x20"):
+        decoded.checked(_image(20, 40))
+    with pytest.raises(InputError, match=r"i\.png: "):
+        decoded.checked(_image(10, 20))
+    with pytest.raises(InputError, match=r"i\.png: "):
+        read_segmentation(lp, ip, _image(10, 20))
 
 
 def test_colour_labels_rejected(tmp_path: Path) -> None:

@@ -194,6 +194,38 @@ def test_libpng_messages_do_not_reach_stderr(tmp_path: Path) -> None:
     assert len(out.stderr.strip().splitlines()) == 1, out.stderr
 
 
+def test_a_decode_on_another_thread_does_not_wait_for_one_in_progress() -> None:
+    """The capture is shared, not held: a second block enters while the first is inside."""
+    import threading
+
+    from usdworld.io.images import native_stderr_captured
+
+    inside, release = threading.Event(), threading.Event()
+
+    def first() -> None:
+        with native_stderr_captured("first"):
+            inside.set()
+            release.wait(10)
+
+    entered = threading.Event()
+
+    def second() -> None:
+        with native_stderr_captured("second"):
+            entered.set()
+
+    a = threading.Thread(target=first)
+    a.start()
+    assert inside.wait(10)
+    b = threading.Thread(target=second)
+    b.start()
+    b.join(2)
+    got = entered.is_set()
+    release.set()
+    a.join(10)
+    b.join(10)
+    assert got
+
+
 def test_max_range_capped() -> None:
     from usdworld.pipeline import BuildRequest
 

@@ -13,12 +13,19 @@ from usdworld.geometry.camera import PinholeCamera
 from usdworld.parameters.light import LightParams
 from usdworld.perception.colour_space import linear_to_srgb, uint8_to_linear
 from usdworld.perception.light import (
+    ConvexEdges,
     ShadowCaster,
     _hull,
+    _overlap,
+    _overlaps,
+    _Pairs,
     _pairs,
+    _predicted_sets,
     _Samples,
+    _Strip,
     _strip,
     _strip_in_shadow,
+    _strips,
     estimate_light,
     half_planes,
     in_swept,
@@ -29,6 +36,7 @@ from usdworld.perception.light import (
     present_ids,
     reference_stride,
     sky_colours,
+    sweep_entry,
 )
 
 PARAMS = LightParams()
@@ -325,3 +333,77 @@ def test_a_wide_photos_lit_references_are_measured_on_every_kth_row_and_column()
         sky = np.zeros(ids.shape, bool)
         est = estimate_light(wide, ids, sky, "labels", CASTERS, wide_from_px, 0.5, 0.6, params)
         assert est.shadow_contrast == pytest.approx(lit / lin[2], rel=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(3, 9), st.floats(0.0, 2.0))
+def test_convex_inside_edge_by_edge_is_the_broadcast_test_bit_for_bit(seed: int, corners: int, margin: float) -> None:
+    # the (N, K, 2) broadcast the edge-by-edge test replaced: the same products and differences
+    rng = np.random.default_rng(seed)
+    hull = _hull(rng.uniform(-3.0, 3.0, size=(corners, 2)))
+    if len(hull) < 3:
+        return
+    edges = ConvexEdges.of(hull)
+    points = rng.uniform(-5.0, 5.0, size=(300, 2))
+    points[:20] = hull[rng.integers(0, len(hull), 20)]  # on the outline: the test's edge
+    rel = points[:, None, :] - edges.starts[None, :, :]
+    cross = edges.edges[None, :, 0] * rel[:, :, 1] - edges.edges[None, :, 1] * rel[:, :, 0]
+    expected = np.all(cross >= -margin * edges.lengths[None, :], axis=1)
+    assert np.array_equal(edges.inside(points, margin), expected)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.lists(st.floats(0.0, 2 * math.pi), min_size=1, max_size=5),
+    st.lists(st.floats(0.05, 1.5), min_size=1, max_size=8),
+    st.integers(0, 2**31 - 1),
+)
+def test_all_azimuths_and_elevations_at_once_are_each_alone(
+    azimuths: list[float], elevations: list[float], seed: int
+) -> None:
+    # the strips, the sure and unsure sets and their overlaps, as the fit found them one azimuth
+    # and one elevation at a time; the poles' tops unseen (2 to 12 m): the unsure band
+    rng = np.random.default_rng(seed)
+    cut = [ShadowCaster(c.name, c.footprint_ground, 2.0, 12.0) for c in CASTERS if c.name.startswith("pole")]
+    casters = [c for c in CASTERS + cut if rng.random() < 0.7] or cut
+    points = rng.uniform([-5.0, -12.0], [35.0, 12.0], size=(400, 2))
+    samples = _Samples(points, np.ones(len(points)), tuple(np.arange(len(points)) for _ in casters))
+    pairs = _pairs(casters, samples)
+    strips = _strips(pairs, azimuths)
+    n = len(points)
+    sure, unsure = _predicted_sets(strips, n, elevations, PARAMS.reach_max_m)
+    observed = rng.random(n) < 0.3
+    weight = rng.random(n)
+    for a, azimuth in enumerate(azimuths):
+        _one_azimuth(pairs, azimuth, strips[a], elevations, sure[a], unsure[a], observed, weight)
+
+
+def _one_azimuth(
+    pairs: _Pairs,
+    azimuth: float,
+    strip: _Strip,
+    elevations: list[float],
+    sure: np.ndarray,
+    unsure: np.ndarray,
+    observed: np.ndarray,
+    weight: np.ndarray,
+) -> None:
+    """The batch's answers for one azimuth against that azimuth alone, elevation by elevation."""
+    away = -np.array([math.cos(azimuth), math.sin(azimuth)])
+    band = np.flatnonzero(
+        (np.abs(pairs.offset @ np.array([-away[1], away[0]])) <= pairs.radius + 1e-9) & (pairs.offset @ away >= -pairs.radius - 1e-9)
+    )
+    assert np.array_equal(strip.pair, band)
+    alone = sweep_entry(pairs.slack[band], (pairs.normals @ away)[pairs.caster[band]])
+    assert np.array_equal(strip.entry, alone)  # bit for bit, inf where never
+    n = len(observed)
+    overlaps = _overlaps(sure, observed, weight, unsure)
+    for e, elevation in enumerate(elevations):
+        one_sure = np.zeros(n, dtype=bool)
+        one_sure[strip.sample[_strip_in_shadow(strip, [elevation], PARAMS.reach_max_m, strip.height)[0]]] = True
+        one_unsure = np.zeros(n, dtype=bool)
+        hits = _strip_in_shadow(strip, [elevation], PARAMS.reach_max_m, strip.height_max, strip.unknown_top)[0]
+        one_unsure[strip.sample[hits]] = True
+        one_unsure &= ~one_sure
+        assert np.array_equal(sure[e], one_sure) and np.array_equal(unsure[e], one_unsure)
+        assert overlaps[e] == _overlap(one_sure, observed, weight, one_unsure)  # the same sums, bit for bit

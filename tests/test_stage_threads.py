@@ -55,7 +55,7 @@ def sequential(street: dict[str, Path], tmp_path_factory: pytest.TempPathFactory
 
 
 @pytest.mark.parametrize(
-    "late", [None, "_street_lines", "_read_segmentation", "estimate_scene_light", "_surfaces"]
+    "late", [None, "read_image", "_street_lines", "_read_segmentation", "estimate_scene_light", "_surfaces"]
 )
 def test_threaded_build_writes_the_sequential_world_byte_for_byte(
     street: dict[str, Path],
@@ -93,6 +93,31 @@ def test_two_threads_run_the_light_beside_the_colours(
     seen.clear()
     build(BuildRequest(output=tmp_path / "one", threads=1, **street))
     assert set(seen.values()) == {main_thread}
+
+
+def test_two_threads_decode_the_label_maps_while_the_photo_is_decoded(
+    street: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The photo on the helper thread, the label maps meanwhile on the calling one."""
+    events: dict[str, tuple[str, float]] = {}
+    read_image, decode = usdworld.pipeline.read_image, usdworld.pipeline.decode_segmentation
+
+    def slow_photo(*args, **kwargs):
+        time.sleep(0.3)
+        out = read_image(*args, **kwargs)
+        events["photo decoded"] = (threading.current_thread().name, time.perf_counter())
+        return out
+
+    def labels(*args, **kwargs):
+        events["labels started"] = (threading.current_thread().name, time.perf_counter())
+        return decode(*args, **kwargs)
+
+    monkeypatch.setattr(usdworld.pipeline, "read_image", slow_photo)
+    monkeypatch.setattr(usdworld.pipeline, "decode_segmentation", labels)
+    build(BuildRequest(output=tmp_path / "world", threads=2, **street))
+    (photo_thread, photo_done), (labels_thread, labels_start) = events["photo decoded"], events["labels started"]
+    assert labels_thread == threading.current_thread().name != photo_thread
+    assert labels_start < photo_done
 
 
 @pytest.mark.parametrize("threads", [1, 2])

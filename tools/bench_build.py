@@ -346,11 +346,17 @@ def _stage_cpu(fn, runs: int) -> dict[str, float]:
     return {name: statistics.median(values) for name, values in per_build.items()}
 
 
+#: Where a stage's calls are made: pipeline.py, or StageThreads.submit for the stages pipeline.py
+#: hands it (the photo's decoding; on one thread submit calls them at once).
+_CALLERS = ("usdworld/pipeline.py", "usdworld/stage_threads.py")
+
+
 def _profile(fn, runs: int) -> list[tuple[str, float]]:
     """Each stage's share of the build's time, from cProfile over ``runs`` builds.
 
-    A stage's time is that of its functions' calls from ``usdworld/pipeline.py`` (the
-    caller-callee edges), so nested calls are not counted twice.
+    A stage's time is that of its functions' calls from ``usdworld/pipeline.py`` or from
+    :class:`~usdworld.stage_threads.StageThreads` (the caller-callee edges), so nested calls are
+    not counted twice.
     """
     profile = cProfile.Profile()
     profile.enable()
@@ -364,7 +370,7 @@ def _profile(fn, runs: int) -> list[tuple[str, float]]:
         spent = 0.0
         for (file, _, func), (_, _, _, _, callers) in stats.items():
             if any(file.endswith(f) and func == fn_name for f, fn_name in functions):
-                spent += sum(edge[3] for (caller, _, _), edge in callers.items() if caller.endswith("usdworld/pipeline.py"))
+                spent += sum(edge[3] for (caller, _, _), edge in callers.items() if caller.endswith(_CALLERS))
         shares.append((name, spent / total))
     shares.append(("everything else (pipeline.py's own lines)", 1.0 - sum(share for _, share in shares)))
     shares.append(("the whole build", 1.0))

@@ -14,9 +14,9 @@ colours of objects and surfaces measured in the photo (appearance, for that ligh
 world's layers and ``report.json``.
 
 Stages that need nothing from each other run side by side on ``BuildRequest.threads`` threads
-(:mod:`usdworld.stage_threads`): the street's lines while the labels and the camera are read and
-the label map's regions found; the light while the ground surfaces are built and the colours
-measured. Each result is taken where the sequential build used it, so the world is the same for
+(:mod:`usdworld.stage_threads`): the photo's decoding and the street's lines while the label maps are
+decoded, the camera read and the label map's regions found; the light while the ground surfaces are
+built and the colours measured. Each result is taken where the sequential build used it, so the world is the same for
 any thread count.
 
 :func:`build_model` runs them in three typed steps, so a photo can be placed again with other
@@ -68,7 +68,7 @@ from usdworld.io.exif import read_exif_focal
 from usdworld.io.hashing import read_input
 from usdworld.io.images import read_image
 from usdworld.io.label_table import label_lookups
-from usdworld.io.labels import read_polygons, read_segmentation
+from usdworld.io.labels import decode_segmentation, read_polygons
 from usdworld.io.limits import MAX_RANGE_CAP_M
 from usdworld.io.types import CameraSpec, Detections, InputFile, Segmentation, SourceImage
 from usdworld.layout.camera_cues import height_observations, road_top_row, street_view, vanishing_yaw
@@ -149,8 +149,8 @@ class BuildRequest:
             vegetation and sky from the photo (:mod:`usdworld.perception.streets`; ``--no-infer-streets``
             turns it off).
         threads: threads the build runs its independent stages on, the calling one included
-            (:mod:`usdworld.stage_threads`): the street's lines beside the labels' decoding and
-            regions, the light beside the ground surfaces and the colours. 1 runs them one after the other (batch
+            (:mod:`usdworld.stage_threads`): the photo's decoding and the street's lines beside the
+            labels' decoding and regions, the light beside the ground surfaces and the colours. 1 runs them one after the other (batch
             workers and a rig's views do: their processes are the parallelism). The world is the
             same for any count.
     """
@@ -268,11 +268,13 @@ def _read_detections(request: BuildRequest, image: SourceImage) -> Detections | 
     return read_kitti_labels(request.detections, image)
 
 
-def _read_segmentation(request: BuildRequest, image: SourceImage) -> Segmentation | None:
+def _read_segmentation(request: BuildRequest, image: Future[SourceImage]) -> Segmentation | None:
+    """The given labels; ``image``: the photo, decoded meanwhile (label maps are decoded before
+    it is waited for, and checked against it after; polygons need it to be drawn)."""
     if request.polygons is not None:
-        return read_polygons(request.polygons, image)
+        return read_polygons(request.polygons, image.result())
     if request.labels is not None:
-        return read_segmentation(request.labels, request.instances, image)
+        return decode_segmentation(request.labels, request.instances).checked(image.result())
     return None
 
 
@@ -420,11 +422,14 @@ def read_scene_head(
         table: the class table.
         params: the parameters used.
     """
-    image = read_image(request.image)
     with StageThreads(request.threads) as stages:
-        # The street's lines need the photo only: found while the other inputs are read.
-        lines = stages.submit(_street_lines, image, params.camera)
-        seg = _read_segmentation(request, image)
+        # The photo is decoded and its street lines found (they need the photo only) while the
+        # label maps are decoded and the other inputs read.
+        image_done = stages.submit(read_image, request.image)
+        lines = stages.submit(_image_lines, image_done, params.camera)
+        with earlier_errors_first(image_done):
+            seg = _read_segmentation(request, image_done)
+        image = image_done.result()
         spec = request.camera_spec
         if spec is None and request.camera is not None:
             spec = read_camera(request.camera, image, request.ground_plane)
@@ -483,6 +488,13 @@ def _street_lines(
     """The photo's line segments (``detect_segments``) and the street's vanishing point from them."""
     segments = detect_segments(image.rgb, params)
     return segments, find_vanishing_point(segments, image.width, image.height, params)
+
+
+def _image_lines(
+    image: Future[SourceImage], params: CameraParams
+) -> tuple[np.ndarray, VanishingPoint | None]:
+    """:func:`_street_lines` of the photo, once it is decoded."""
+    return _street_lines(image.result(), params)
 
 
 def depth_for_image(request: BuildRequest) -> tuple[DepthOutcome, PinholeCamera]:

@@ -22,6 +22,7 @@ import sys
 import tempfile
 import threading
 from collections.abc import Iterator
+from typing import IO
 
 import cv2
 import numpy as np
@@ -90,37 +91,77 @@ def png_header(data: bytes) -> tuple[int, int, int, int]:
     return (width, height, data[24], data[25])
 
 
+class _SharedCapture:
+    """The one swap of descriptor 2 that the blocks of :func:`native_stderr_captured` running at
+    the same time share (guarded by ``_STDERR_LOCK``): the first to enter swaps it, the last to
+    leave restores it.
+
+    Attributes:
+        users: blocks inside now.
+        saved: the duplicate of the process's own descriptor 2 while swapped, else None.
+        sink: the temporary file descriptor 2 points at while swapped.
+        names: what each block of this swap decodes, in the order they entered.
+    """
+
+    def __init__(self) -> None:
+        self.users = 0
+        self.saved: int | None = None
+        self.sink: IO[bytes] | None = None
+        self.names: list[str] = []
+
+
+_CAPTURE = _SharedCapture()
+
+
 @contextlib.contextmanager
 def native_stderr_captured(what: str) -> Iterator[None]:
     """Send what C libraries write to file descriptor 2 to the debug log instead.
 
     libpng (``libpng warning: iCCP: ...``, ``libpng error: IDAT: CRC error``) and OpenCV's
     decoders print straight to the process's stderr, below Python's ``sys.stderr``. The
-    descriptor is pointed at a temporary file for the duration and restored after; a lock
-    serialises the swap between threads. Where descriptor 2 cannot be swapped (no such
-    descriptor), the block runs unchanged.
+    descriptor is pointed at a temporary file for the duration and restored after. Blocks on
+    several threads at once share one swap (a build decodes the photo and its labels side by
+    side, :mod:`usdworld.stage_threads`): the first to enter swaps the descriptor, the last to
+    leave restores it and logs what was written, under the names of every block that shared it.
+    Where descriptor 2 cannot be swapped (no such descriptor), the block runs unchanged.
 
     Args:
         what: name for the debug log line (the file being decoded).
     """
     with _STDERR_LOCK:
-        try:
-            sys.stderr.flush()
-            saved = os.dup(2)
-        except (OSError, ValueError, AttributeError):
-            yield
-            return
-        with tempfile.TemporaryFile() as sink:
-            os.dup2(sink.fileno(), 2)
+        if _CAPTURE.users == 0:
             try:
-                yield
-            finally:
-                os.dup2(saved, 2)
-                os.close(saved)
-                sink.seek(0)
-                text = sink.read(4096).decode("utf-8", "replace").strip()
+                sys.stderr.flush()
+                saved = os.dup(2)
+            except (OSError, ValueError, AttributeError):
+                saved = None
+            if saved is not None:
+                sink = tempfile.TemporaryFile()
+                os.dup2(sink.fileno(), 2)
+                _CAPTURE.saved, _CAPTURE.sink = saved, sink
+        swapped = _CAPTURE.saved is not None
+        if swapped:
+            _CAPTURE.users += 1
+            _CAPTURE.names.append(what)
+    if not swapped:
+        yield
+        return
+    try:
+        yield
+    finally:
+        text, names = "", ""
+        with _STDERR_LOCK:
+            _CAPTURE.users -= 1
+            if _CAPTURE.users == 0 and _CAPTURE.saved is not None and _CAPTURE.sink is not None:
+                os.dup2(_CAPTURE.saved, 2)
+                os.close(_CAPTURE.saved)
+                _CAPTURE.sink.seek(0)
+                text = _CAPTURE.sink.read(4096).decode("utf-8", "replace").strip()
+                _CAPTURE.sink.close()
+                names = ", ".join(_CAPTURE.names)
+                _CAPTURE.saved, _CAPTURE.sink, _CAPTURE.names = None, None, []
         if text:
-            logger.debug("%s: the decoder said: %s", what, text.replace("\n", " | "))
+            logger.debug("%s: the decoder said: %s", names, text.replace("\n", " | "))
 
 
 def decode_unchanged(data: bytes, name: str, what: str) -> np.ndarray:

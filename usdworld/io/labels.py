@@ -15,6 +15,7 @@ Label ids are checked against the shipped class table (:mod:`usdworld.io.label_t
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from typing import Any
 
 import cv2
@@ -34,7 +35,7 @@ from usdworld.io.hashing import (
 from usdworld.io.images import PNG_COLOR_TYPES, decode_unchanged, png_header, sniff_format
 from usdworld.io.label_table import TABLE_NAME, LabelClass, known_ids, label_table
 from usdworld.io.limits import MAX_PIXELS, check_pixels
-from usdworld.io.types import Segmentation, SourceImage
+from usdworld.io.types import InputFile, Segmentation, SourceImage
 
 logger = logging.getLogger(__name__)
 
@@ -122,6 +123,109 @@ def _read_instance_ids(data: bytes, name: str) -> np.ndarray:
     return arr.astype(np.int32)
 
 
+@dataclass(frozen=True)
+class DecodedSegmentation:
+    """A labelIds PNG and its instanceIds PNG decoded, not yet checked against the photo
+    (:func:`decode_segmentation`; :meth:`checked` gives the :class:`Segmentation`).
+
+    The photo is not needed to decode them, so a build decodes them while it decodes the photo
+    (:mod:`usdworld.stage_threads`). What the instance map gives, its arrays or its error, waits
+    here for :meth:`checked`, which raises the errors in :func:`read_segmentation`'s order: the
+    labels' size against the photo first.
+
+    Attributes:
+        label_ids: (H, W) uint8 label ids, read-only.
+        labels_file: the labels' identity (role ``labels``).
+        instance_ids: (H, W) int32 instance ids, read-only, or None (none given, or unreadable).
+        instances_file: the instances' identity (role ``instances``), or None.
+        instances_error: the error reading the instance map gave, or None.
+        mismatch: instance pixels whose class (``id // 1000``) differs from the labels, and the
+            instance pixels (``id >= 1000``); (0, 0) without an instance map of the labels' size.
+    """
+
+    label_ids: np.ndarray
+    labels_file: InputFile
+    instance_ids: np.ndarray | None = None
+    instances_file: InputFile | None = None
+    instances_error: InputError | None = None
+    mismatch: tuple[int, int] = (0, 0)
+
+    def checked(self, image: SourceImage | None) -> Segmentation:
+        """The segmentation, once the maps are checked against the photo and each other.
+
+        Args:
+            image: the photo; when given, the maps must have its size.
+
+        Raises:
+            InputError: as :func:`read_segmentation`, in its order.
+        """
+        labels_file, label_ids = self.labels_file, self.label_ids
+        _check_image_size(labels_file.name, label_ids.shape, image, "labels")
+        if self.instances_error is not None:
+            raise self.instances_error
+        if self.instance_ids is None or self.instances_file is None:
+            return Segmentation(label_ids=label_ids, instance_ids=None, files=(labels_file,))
+        instance_ids, inst_file = self.instance_ids, self.instances_file
+        if instance_ids.shape != label_ids.shape:
+            raise InputError(
+                f"{inst_file.name}: {_size_text(instance_ids.shape)} but the labels {labels_file.name} are "
+                f"{_size_text(label_ids.shape)}; pass the instance map of the same frame"
+            )
+        mismatch, n_things = self.mismatch
+        if n_things:
+            if mismatch > MAX_MISMATCH_FRACTION * n_things:
+                raise InputError(
+                    f"{inst_file.name}: at {mismatch} of {n_things} instance pixels "
+                    f"({100.0 * mismatch / n_things:.1f} %) the class (id // 1000) differs from "
+                    f"{labels_file.name}; pass the labels and instances of the same frame"
+                )
+            if mismatch:
+                logger.warning(
+                    "%s: at %d of %d instance pixels the class differs from %s (below %.0f %%, accepted)",
+                    inst_file.name,
+                    mismatch,
+                    n_things,
+                    labels_file.name,
+                    100 * MAX_MISMATCH_FRACTION,
+                )
+        return Segmentation(label_ids=label_ids, instance_ids=instance_ids, files=(labels_file, inst_file))
+
+
+def decode_segmentation(labels_path: PathLike, instances_path: PathLike | None = None) -> DecodedSegmentation:
+    """Decode a Cityscapes labelIds PNG and, optionally, its instanceIds PNG, without the photo.
+
+    Args:
+        labels_path: ``*_gtFine_labelIds.png``, (H, W) 8-bit greyscale label ids.
+        instances_path: ``*_gtFine_instanceIds.png``, (H, W) 16-bit greyscale, or None.
+
+    Returns:
+        The decoded maps; :meth:`DecodedSegmentation.checked` checks them and raises the
+        instance map's errors.
+
+    Raises:
+        InputError: the labels file is missing, not a PNG of the right kind or holds ids
+            outside the class table (the instance map's errors wait for ``checked``).
+    """
+    data, labels_file = read_input(labels_path, "labels")
+    label_ids = np.ascontiguousarray(_read_label_ids(data, labels_file.name))
+    label_ids.setflags(write=False)  # this reader's own arrays: Segmentation keeps them without a copy
+    if instances_path is None:
+        return DecodedSegmentation(label_ids, labels_file)
+    try:
+        data, inst_file = read_input(instances_path, "instances")
+        instance_ids = _read_instance_ids(data, inst_file.name)
+    except InputError as exc:
+        return DecodedSegmentation(label_ids, labels_file, instances_error=exc)
+    instance_ids.setflags(write=False)
+    mismatch = (0, 0)
+    if instance_ids.shape == label_ids.shape:
+        things = instance_ids >= 1000
+        n_things = int(things.sum())
+        if n_things:
+            mismatch = (int(np.count_nonzero(instance_ids[things] // 1000 != label_ids[things])), n_things)
+    return DecodedSegmentation(label_ids, labels_file, instance_ids, inst_file, None, mismatch)
+
+
 def read_segmentation(
     labels_path: PathLike,
     instances_path: PathLike | None = None,
@@ -143,41 +247,7 @@ def read_segmentation(
             depth), of another size, holds ids outside the class table, or more than
             :data:`MAX_MISMATCH_FRACTION` of the instance pixels disagree with the labels.
     """
-    data, labels_file = read_input(labels_path, "labels")
-    label_ids = np.ascontiguousarray(_read_label_ids(data, labels_file.name))
-    label_ids.setflags(write=False)  # this reader's own arrays: Segmentation keeps them without a copy
-    _check_image_size(labels_file.name, label_ids.shape, image, "labels")
-    if instances_path is None:
-        return Segmentation(label_ids=label_ids, instance_ids=None, files=(labels_file,))
-
-    data, inst_file = read_input(instances_path, "instances")
-    instance_ids = _read_instance_ids(data, inst_file.name)
-    instance_ids.setflags(write=False)
-    if instance_ids.shape != label_ids.shape:
-        raise InputError(
-            f"{inst_file.name}: {_size_text(instance_ids.shape)} but the labels {labels_file.name} are "
-            f"{_size_text(label_ids.shape)}; pass the instance map of the same frame"
-        )
-    things = instance_ids >= 1000
-    n_things = int(things.sum())
-    if n_things:
-        mismatch = int(np.count_nonzero(instance_ids[things] // 1000 != label_ids[things]))
-        if mismatch > MAX_MISMATCH_FRACTION * n_things:
-            raise InputError(
-                f"{inst_file.name}: at {mismatch} of {n_things} instance pixels "
-                f"({100.0 * mismatch / n_things:.1f} %) the class (id // 1000) differs from "
-                f"{labels_file.name}; pass the labels and instances of the same frame"
-            )
-        if mismatch:
-            logger.warning(
-                "%s: at %d of %d instance pixels the class differs from %s (below %.0f %%, accepted)",
-                inst_file.name,
-                mismatch,
-                n_things,
-                labels_file.name,
-                100 * MAX_MISMATCH_FRACTION,
-            )
-    return Segmentation(label_ids=label_ids, instance_ids=instance_ids, files=(labels_file, inst_file))
+    return decode_segmentation(labels_path, instances_path).checked(image)
 
 
 def _as_size(value: Any, where: str) -> int:

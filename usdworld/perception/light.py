@@ -39,6 +39,8 @@ Everything is in pixel and ground coordinates; nothing here reads files or knows
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -318,10 +320,17 @@ class ConvexEdges:
         return ConvexEdges(edges[keep], hull[keep], lengths[keep])
 
     def inside(self, points: np.ndarray, margin: float = 0.0) -> np.ndarray:
-        """(N,) bool: the (N, 2) points within ``margin`` metres inside (:func:`inside_convex`)."""
-        rel = points[:, None, :] - self.starts[None, :, :]
-        cross = self.edges[None, :, 0] * rel[:, :, 1] - self.edges[None, :, 1] * rel[:, :, 0]
-        return np.all(cross >= -margin * self.lengths[None, :], axis=1)
+        """(N,) bool: the (N, 2) points within ``margin`` metres inside (:func:`inside_convex`).
+
+        Edge by edge on the points' two columns: the same products and differences as the
+        (N, K, 2) broadcast, without its temporaries (a footprint has a few edges).
+        """
+        u, v = points[:, 0], points[:, 1]
+        out = np.ones(len(points), dtype=bool)
+        edges = zip(self.edges.tolist(), self.starts.tolist(), self.lengths.tolist())
+        for (ex, ey), (sx, sy), length in edges:
+            out &= ex * (v - sy) - ey * (u - sx) >= -margin * length
+        return out
 
 
 def _grown_reach(hull: np.ndarray, margin: float) -> float:
@@ -501,6 +510,16 @@ class _Pairs:
     offset: np.ndarray  # (P, 2) the sample's position from the footprint's centre, m
     radius: np.ndarray  # (P,) the footprint's radius about that centre, m
 
+    @functools.cached_property
+    def margin(self) -> np.ndarray:
+        """(P,) float64 the half-width of a caster's shadow strip, m: its radius and a hair."""
+        return self.radius + 1e-9
+
+    @functools.cached_property
+    def slack_by_plane(self) -> np.ndarray:
+        """(K, P) float64 ``slack`` half-plane by half-plane (each row contiguous)."""
+        return np.ascontiguousarray(self.slack.T)
+
 
 def _footprint_hull(caster: ShadowCaster) -> np.ndarray:
     """(M, 2) the footprint's convex hull; a footprint of fewer than 3 corners counts as a 10 cm square."""
@@ -559,51 +578,79 @@ class _Strip:
 
 def _strip(pairs: _Pairs, azimuth: float) -> _Strip:
     """The pairs within the bounding strip of every shadow cast away from a sun at ``azimuth``."""
-    away = -np.array([math.cos(azimuth), math.sin(azimuth)])
-    margin = pairs.radius + 1e-9
-    along = pairs.offset @ away
-    across = pairs.offset @ np.array([-away[1], away[0]])
-    band = np.flatnonzero((np.abs(across) <= margin) & (along >= -margin))
-    height, height_max = pairs.height[band], pairs.height_max[band]
-    # each caster's (K, 2) @ (2,) once: the unit shadow direction along each half-plane's normal
-    rate = (pairs.normals @ away)[pairs.caster[band]]
-    return _Strip(
-        band,
-        pairs.sample[band],
-        sweep_entry(pairs.slack[band], rate),
-        height,
-        height_max,
-        height_max > height,
-    )
+    return _strips(pairs, [azimuth])[0]
 
 
-def _predicted(
-    strip: _Strip, n_samples: int, elevations: Sequence[float], reach_max_m: float
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Samples in some caster's shadow for a sun at one azimuth and each of some elevations, and those that may be.
+def _strips(pairs: _Pairs, azimuths: Sequence[float]) -> list[_Strip]:
+    """:func:`_strip` of each azimuth: each strip's pairs found alone, the sweep entries of all
+    of them in one batch (element by element, so each the same number)."""
+    if not azimuths:
+        return []
+    bands, rates = [], []
+    for azimuth in azimuths:
+        away = -np.array([math.cos(azimuth), math.sin(azimuth)])
+        margin = pairs.margin
+        along = pairs.offset @ away
+        across = pairs.offset @ np.array([-away[1], away[0]])
+        band = np.flatnonzero((np.abs(across) <= margin) & (along >= -margin))
+        bands.append(band)
+        # each caster's (K, 2) @ (2,) once: the unit shadow direction along each half-plane's normal;
+        # both gathered half-plane by half-plane, so sweep_entry reads contiguous columns
+        rates.append((pairs.normals @ away).T[:, pairs.caster[band]])
+    slack = np.concatenate([pairs.slack_by_plane[:, band] for band in bands], axis=1)
+    entry = sweep_entry(slack.T, np.concatenate(rates, axis=1).T)
+    entries = np.split(entry, np.cumsum([len(b) for b in bands])[:-1])
+    out = []
+    for band, entry in zip(bands, entries, strict=True):
+        height, height_max = pairs.height[band], pairs.height_max[band]
+        out.append(_Strip(band, pairs.sample[band], entry, height, height_max, height_max > height))
+    return out
+
+
+def _predicted_sets(
+    strips: Sequence[_Strip], n_samples: int, elevations: Sequence[float], reach_max_m: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Samples in some caster's shadow for a sun at each strip's azimuth and each of some
+    elevations, and those that may be.
 
     A caster whose top is not seen casts at least the shadow of its least height and at
     most that of its greatest: the ground between is unknown unless another caster's
     shadow surely covers it.
 
     Args:
-        strip: the pairs of the sun's azimuth (:func:`_strip`, the same for every elevation).
+        strips: the pairs of each azimuth (:func:`_strip`, the same for every elevation).
         n_samples: N, the number of ground samples.
         elevations: the sun's elevations, radians.
         reach_max_m: the longest shadow, metres.
 
     Returns:
-        Per elevation, (N,) bool surely shadowed samples and (N,) bool samples that may or may not be.
+        (A, E, N) bool surely shadowed samples per azimuth and elevation, and (A, E, N) bool
+        samples that may or may not be.
     """
-    sure = np.zeros((len(elevations), n_samples), dtype=bool)
-    for e, hits in enumerate(_strip_in_shadow(strip, elevations, reach_max_m, strip.height)):
-        sure[e, strip.sample[hits]] = True
+    owner = np.repeat(np.arange(len(strips)), [len(s.pair) for s in strips])
+    joined = _Strip(
+        *(np.concatenate([getattr(s, f.name) for s in strips]) for f in dataclasses.fields(_Strip))
+    )
+    sure = np.zeros((len(strips), len(elevations), n_samples), dtype=bool)
+    rows, cols = np.nonzero(_covered(joined, elevations, reach_max_m, joined.height))
+    sure[owner[cols], rows, joined.sample[cols]] = True
     unsure = np.zeros_like(sure)
-    if np.any(strip.unknown_top):
-        for e, hits in enumerate(_strip_in_shadow(strip, elevations, reach_max_m, strip.height_max, strip.unknown_top)):
-            unsure[e, strip.sample[hits]] = True
+    if np.any(joined.unknown_top):
+        covered = _covered(joined, elevations, reach_max_m, joined.height_max)
+        covered &= joined.unknown_top
+        rows, cols = np.nonzero(covered)
+        unsure[owner[cols], rows, joined.sample[cols]] = True
         unsure &= ~sure
-    return list(zip(sure, unsure))
+    return sure, unsure
+
+
+def _covered(
+    strip: _Strip, elevations: Sequence[float], reach_max_m: float, height: np.ndarray
+) -> np.ndarray:
+    """(E, S) bool: the strip's pairs whose sample lies in the shadow of a caster of ``height``
+    for each elevation (row): :func:`_strip_in_shadow`'s test, every elevation at once."""
+    tangent = np.array([math.tan(e) for e in elevations])
+    return strip.entry <= np.minimum(height / tangent[:, None], reach_max_m)
 
 
 def _strip_in_shadow(
@@ -635,6 +682,19 @@ def _overlap(
         weight = np.where(unsure, 0.0, weight)
     union = float(weight[pred | observed].sum())
     return float(weight[pred & observed].sum()) / union if union > 0 else 0.0
+
+
+def _overlaps(pred: np.ndarray, observed: np.ndarray, weight: np.ndarray, unsure: np.ndarray) -> list[float]:
+    """:func:`_overlap` of each row of (E, N) bool ``pred`` and ``unsure`` with (N,) ``observed``:
+    the element-wise steps for all rows at once, each row's sums as :func:`_overlap` adds them."""
+    weights = np.where(unsure, 0.0, weight)
+    union_sets = pred | observed
+    inter_sets = pred & observed
+    out = []
+    for w, union_set, inter_set in zip(weights, union_sets, inter_sets):
+        union = float(w[union_set].sum())
+        out.append(float(w[inter_set].sum()) / union if union > 0 else 0.0)
+    return out
 
 
 def sample_weights(samples: _Samples) -> np.ndarray:
@@ -680,33 +740,42 @@ def fit_sun(
     strips: dict[float, _Strip] = {}
     scores: dict[tuple[float, float], float] = {}  # the refining grids meet cells already scored
 
-    def score_all(az: float, els: Sequence[float]) -> None:
-        """Score a sun at ``az`` and each of ``els`` (clipped to the range) not scored yet, in one batch."""
-        todo = list(dict.fromkeys(e for e in (float(np.clip(el, lo, hi)) for el in els) if (float(az), e) not in scores))
-        if not todo:
-            return
-        azimuth = math.radians(az)
-        if azimuth not in strips:
-            strips[azimuth] = _strip(pairs, azimuth)
-        predicted = _predicted(strips[azimuth], n, [math.radians(e) for e in todo], params.reach_max_m)
-        for e, (pred, unsure) in zip(todo, predicted, strict=True):
-            scores[(float(az), e)] = _overlap(pred, observed, weight, unsure)
+    def clip(el: float) -> float:
+        return float(min(max(float(el), lo), hi))  # np.clip's value for a finite scalar
+
+    def score_all(azs: Sequence[float], els: Sequence[float]) -> None:
+        """Score a sun at each of ``azs`` and each of ``els`` (clipped to the range) not scored yet,
+        in one batch: the azimuths' strips together, then the sets of those with the same cells to score."""
+        clipped = list(dict.fromkeys(map(clip, els)))
+        groups: dict[tuple[float, ...], list[float]] = {}
+        for az in map(float, azs):
+            todo = tuple(e for e in clipped if (az, e) not in scores)
+            if todo:
+                groups.setdefault(todo, []).append(az)
+        azimuths = (math.radians(az) for group in groups.values() for az in group)
+        new = list(dict.fromkeys(a for a in azimuths if a not in strips))
+        strips.update(zip(new, _strips(pairs, new), strict=True))
+        for todo, group in groups.items():
+            elevations = [math.radians(e) for e in todo]
+            batch = [strips[math.radians(az)] for az in group]
+            sure, unsure = _predicted_sets(batch, n, elevations, params.reach_max_m)
+            for az, az_sure, az_unsure in zip(group, sure, unsure, strict=True):
+                for e, overlap in zip(todo, _overlaps(az_sure, observed, weight, az_unsure), strict=True):
+                    scores[(az, e)] = overlap
 
     def score(az: float, el: float) -> tuple[float, float, float]:
-        el = float(np.clip(el, lo, hi))
-        score_all(az, [el])
+        el = clip(el)
+        score_all([az], [el])
         return scores[(float(az), el)], az % 360.0, el
 
     step = params.coarse_step_deg
     coarse = np.arange(lo, hi + 1e-9, step)
-    for az in np.arange(0.0, 360.0, step):
-        score_all(az, coarse)
+    score_all(np.arange(0.0, 360.0, step), coarse)
     best = max(score(az, el) for az in np.arange(0.0, 360.0, step) for el in coarse)
     for fine in (step / 3.0, 1.0):
         _, az0, el0 = best
         offsets = np.arange(-3, 4) * fine
-        for da in offsets:
-            score_all(az0 + da, [el0 + de for de in offsets])
+        score_all([az0 + da for da in offsets], [el0 + de for de in offsets])
         best = max([best] + [score(az0 + da, el0 + de) for da in offsets for de in offsets])
     _, az, el = best
     strip = _strip(pairs, math.radians(az))
@@ -740,7 +809,8 @@ def sky_colours(
     rows, cols = np.nonzero(sky_mask[: first + 1])
     top = rgb[rows[:k], cols[:k]]  # only the pixels measured
     last = int(np.searchsorted(seen, total - k, side="right"))
-    rows, cols = np.nonzero(sky_mask[last:])
+    end = int(np.searchsorted(seen, total)) + 1  # the rows below the sky's last hold none of it
+    rows, cols = np.nonzero(sky_mask[last:end])
     bottom = rgb[rows[-k:] + last, cols[-k:]]
     return median_linear(top), median_linear(bottom)
 

@@ -83,8 +83,8 @@ class VideoParams:
         "uses it). The cheaper filter hardens shadow edges slightly; the frames differ from the 3x3 "
         "filter's far less than the encoder changes them (origin).",
         "tuned: tools/bench_flythrough.py --quality on the fly-through of synthetic seed 3 (120 frames "
-        "at 1280x640, session 13): 1 tap against 4: 8-13 ms less CPU per frame (of 90-100); the frames "
-        "against the 3x3 filter's: PSNR 45.6 dB (worst frame 43.3 dB), luma SSIM 0.996 (worst 0.992), "
+        "at 1280x640, session 13): 1 tap against 4: 8-13 ms less CPU per frame (of 95-105); the frames "
+        "against the 3x3 filter's: PSNR 45.5 dB (worst frame 43.2 dB), luma SSIM 0.996 (worst 0.992), "
         "0.8 % of pixels off by more than 8 levels, all on shadow edges; the encoder (crf 20) alone is at "
         "36.9 dB against the rendered frames",
     )

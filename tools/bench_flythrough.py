@@ -17,9 +17,15 @@ the machine and a markdown table for BENCHMARKS.md.
 with this checkout, the whole command and the rendering alone (a fresh process that renders
 the N frames after one warm-up frame, wall and CPU) with that checkout's code.
 
+``--quality`` also compares the video's frames (rendered with the fly-through's shading,
+:class:`~usdworld.parameters.video.VideoParams`) with the same frames under the still's full
+shading (``Renderer(shadow_taps=4)``, as ``usdworld render``): PSNR over RGB of all frames and
+of the worst frame, luma SSIM (mean and worst frame), and the share of pixels off by more than
+8 levels. ``--repeat 0`` prints that alone.
+
 Usage::
 
-    python tools/bench_flythrough.py [--frames 120] [--size 1280x640] [--repeat 3] [--baseline /work/main]
+    python tools/bench_flythrough.py [--frames 120] [--size 1280x640] [--repeat 3] [--baseline /work/main] [--quality]
 """
 
 from __future__ import annotations
@@ -42,6 +48,7 @@ sys.path.insert(0, str(REPO))
 from bench_common import run_timed, synth_world
 
 from usdworld.authoring.inspect import open_world
+from usdworld.parameters.video import VideoParams
 from usdworld.render import flythrough as fly
 from usdworld.render.outputs import view_camera, world_image_size
 from usdworld.render.renderer import Renderer
@@ -62,6 +69,11 @@ from usdworld.render.outputs import view_camera, world_image_size
 from usdworld.render.renderer import Renderer
 from usdworld.render.scene import RenderScene
 from usdworld.render.world_lights import lighting_from_stage
+try:  # the fly-through's shading where the checkout has one (render_flythrough uses it)
+    from usdworld.parameters.video import VideoParams
+    shading = {"shadow_taps": VideoParams().shadow_taps} if hasattr(VideoParams(), "shadow_taps") else {}
+except ImportError:
+    shading = {}
 world, frames = Path(sys.argv[1]), int(sys.argv[2])
 width, height = (int(v) for v in sys.argv[3].split("x"))
 stage = open_world(world)
@@ -71,7 +83,7 @@ K = fly.video_intrinsics(source.K, size, (width, height))
 fly.add_source_vehicle(stage, fly.car_asset_for(world))
 scene = RenderScene.from_stage(stage)
 poses = fly.flythrough_poses(source.world_from_cam, frames, fly.clear_path(fly.FlythroughPath(), scene, source.world_from_cam))
-with Renderer(width, height, lighting=lighting_from_stage(stage)) as renderer:
+with Renderer(width, height, lighting=lighting_from_stage(stage), **shading) as renderer:
     renderer.fix_shadow_box(scene, K, poses)
     renderer.render_rgb(scene, K, poses[0])
     t0, c0 = time.perf_counter(), time.process_time()
@@ -103,8 +115,11 @@ def _render_alone_process(world: Path, frames: int, width: int, height: int, che
     return wall, cpu
 
 
-def _frames_alone(world: Path, frames: int, width: int, height: int) -> tuple[float, list[np.ndarray]]:
-    """Seconds to render the fly-through's frames with no encoding, and the frames."""
+def _frames_alone(
+    world: Path, frames: int, width: int, height: int, shadow_taps: int | None = None
+) -> tuple[float, list[np.ndarray]]:
+    """Seconds to render the fly-through's frames with no encoding, and the frames (with the
+    fly-through's shading, or ``shadow_taps`` when given)."""
     stage = open_world(world)
     size = world_image_size(stage)
     source = view_camera(stage, *size)
@@ -113,7 +128,8 @@ def _frames_alone(world: Path, frames: int, width: int, height: int) -> tuple[fl
     scene = RenderScene.from_stage(stage)
     poses = fly.flythrough_poses(source.world_from_cam, frames, fly.clear_path(fly.FlythroughPath(), scene, source.world_from_cam))
     # the world's own sun and sky, as render_flythrough and the command use
-    with Renderer(width, height, lighting=lighting_from_stage(stage)) as renderer:
+    taps = VideoParams().shadow_taps if shadow_taps is None else shadow_taps
+    with Renderer(width, height, lighting=lighting_from_stage(stage), shadow_taps=taps) as renderer:
         renderer.fix_shadow_box(scene, K, poses)  # one shadow map for the path, as render_flythrough
         renderer.render_rgb(scene, K, poses[0])  # context, upload and shadow map, as the first frame
         t0 = time.perf_counter()
@@ -136,18 +152,46 @@ def _in_process(world: Path, out: Path, frames: int, width: int, height: int) ->
     return time.perf_counter() - t0
 
 
+def _quality(world: Path, frames: int, width: int, height: int) -> None:
+    """Print how far the video's frames are from the still's full shading (see the module docstring)."""
+    from bench_video import _luma, ssim
+
+    _, video = _frames_alone(world, frames, width, height)
+    _, full = _frames_alone(world, frames, width, height, shadow_taps=4)
+    mse = np.array([np.mean((v.astype(np.float64) - f) ** 2) for v, f in zip(video, full)])
+    psnr = 10 * np.log10(255.0**2 / np.maximum(mse, 1e-12))
+    s = np.array([ssim(_luma(v), _luma(f)) for v, f in zip(video, full)])
+    off = np.mean([np.mean(np.abs(v.astype(int) - f).max(axis=2) > 8) for v, f in zip(video, full)])
+    taps = VideoParams().shadow_taps
+    print(
+        f"\nThe video's frames (shadow_taps={taps}) against the still's shading (shadow_taps=4), "
+        f"{frames} frames at {width}x{height}:\n"
+    )
+    print("| PSNR dB (RGB, all) | worst frame dB (frame) | SSIM (luma, mean) | worst frame SSIM (frame) | pixels off by > 8 |")
+    print("|---|---|---|---|---|")
+    print(
+        f"| {10 * np.log10(255.0**2 / max(mse.mean(), 1e-12)):.2f} | {psnr.min():.2f} ({int(psnr.argmin())}) | "
+        f"{s.mean():.5f} | {s.min():.5f} ({int(s.argmin())}) | {100 * off:.3f} % |"
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=120)
     parser.add_argument("--size", default="1280x640")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--baseline", type=Path, default=None, help="another checkout timed in the same rounds")
+    parser.add_argument("--quality", action="store_true", help="compare the frames with the still's shading")
     args = parser.parse_args(argv)
     checkouts = {"this": REPO} if args.baseline is None else {"baseline": args.baseline.resolve(), "this": REPO}
     width, height = (int(v) for v in args.size.lower().split("x"))
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         world = synth_world(tmp)
+        if args.quality:
+            _quality(world, args.frames, width, height)
+        if args.repeat < 1:
+            return 0
         _in_process(world, tmp / "warm.mp4", 2, width, height)  # warm-up: imports, shaders
         runs: dict[str, list[float]] = {k: [] for k in ("cmd", "cmd_cpu", "inproc", "render", "encode")}
         compared: dict[tuple[str, str], list[float]] = {}

@@ -93,8 +93,9 @@ def render(params: Parameters) -> str:
         "",
         "## video",
         "",
-        "How videos (the fly-through) are encoded with libx264 (a section of its own, not recorded in "
-        "`report.json`: it trades the encoder's time against the file's size).",
+        "How the fly-through's frames are shaded and encoded with libx264 (a section of its own, not "
+        "recorded in `report.json`: it trades the renderer's and the encoder's time against the frames' "
+        "fidelity and the file's size; `usdworld render` keeps the full shading).",
         "",
         *_table(section_rows(VideoParams())),
     ]

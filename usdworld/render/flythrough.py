@@ -6,7 +6,9 @@ down at it (:func:`flythrough_poses`). The source vehicle (the car the photo was
 from) is part of the scene, all in red: the car asset is referenced at the world origin
 (the ground point below the camera) with a red material bound over it, in the stage's
 **session layer** (:func:`add_source_vehicle`), so the world's files are never changed.
-Frames stream into an H.264 MP4 (:mod:`usdworld.render.video`) as they are rendered.
+Frames stream into an H.264 MP4 (:mod:`usdworld.render.video`) as they are rendered. They
+are shaded with :class:`~usdworld.parameters.video.VideoParams`' cheaper shadow filter (one
+bilinear depth comparison instead of the still's four; ``usdworld render`` keeps four).
 
 Example:
     >>> stage = Usd.Stage.Open("world/world.usda")                          # doctest: +SKIP
@@ -26,6 +28,7 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
 from usdworld.errors import InputError
+from usdworld.parameters.video import VideoParams
 from usdworld.render.lighting import Lighting
 from usdworld.render.world_lights import lighting_from_stage
 from usdworld.render.outputs import view_camera, world_image_size
@@ -345,6 +348,7 @@ def render_flythrough(
     car_asset: str | Path | None = None,
     progress: ProgressCallback | None = None,
     follow_ego: bool = False,
+    video: VideoParams | None = None,
 ) -> FlythroughResult:
     """Render the fly-through of a world to an H.264 MP4.
 
@@ -365,6 +369,7 @@ def render_flythrough(
             Each frame draws the scene at its time code (:func:`usdworld.render.timing.scene_at`,
             as ``render --time`` does): moving objects where they are then, hidden where
             they were not seen.
+        video: the frames' shadow filter and the encoder's settings (default :class:`VideoParams`).
 
     Raises:
         InputError: bad size, frame count, camera path or car asset.
@@ -392,9 +397,10 @@ def render_flythrough(
     if lighting is None:
         lighting = lighting_from_stage(stage)
     render_s = 0.0
+    params = video or VideoParams()
     with (
-        Renderer(width, height, lighting=lighting) as renderer,
-        Mp4Writer(output, width, height, fps=fps) as video,
+        Renderer(width, height, lighting=lighting, shadow_taps=params.shadow_taps) as renderer,
+        Mp4Writer(output, width, height, fps=fps, params=params) as writer,
     ):
         prototypes: dict = {}
         still = StaticCache()  # a drive's parked cars, buildings and trees: read at the first frame only
@@ -408,7 +414,7 @@ def render_flythrough(
             t0 = time.perf_counter()
             frame = renderer.render_rgb(scene, K, pose)
             render_s += time.perf_counter() - t0
-            video.write(frame)
+            writer.write(frame)
             if progress is not None:
                 progress(i + 1, n_frames)
     return FlythroughResult(Path(output), n_frames, width, height, render_s, time.perf_counter() - t_start)

@@ -17,10 +17,10 @@ Passes (one draw call per mesh batch each; no multisampling anywhere, so every i
 2. labels: class id, instance id and object index as int32 and the OpenCV camera depth
    ``z`` in metres as float32 (0 where no surface was hit) in one multi-target pass;
 3. colour: Blinn-Phong + hemisphere ambient with a 3x3 PCF shadow lookup (normal offset +
-   small bias; four bilinear depth comparisons), gamma-encoded to 8 bits, shading only the
-   nearest surface of each pixel against a depth pre-pass (in :meth:`Renderer.render`, the
-   label pass's depth; :meth:`Renderer.render_rgb` draws its own), then the sky gradient
-   where no surface was drawn.
+   small bias; four bilinear depth comparisons; ``shadow_taps=1``: one, a 2x2 PCF, which the
+   fly-through uses), gamma-encoded to 8 bits, shading only the nearest surface of each pixel
+   against a depth pre-pass (in :meth:`Renderer.render`, the label pass's depth;
+   :meth:`Renderer.render_rgb` draws its own), then the sky gradient where no surface was drawn.
 """
 
 from __future__ import annotations
@@ -53,6 +53,9 @@ log = logging.getLogger(__name__)
 
 #: Largest image side the renderer accepts (llvmpipe's framebuffer limit is 16384).
 MAX_SIZE = 8192
+
+#: Shadow filters: bilinear depth comparisons per shaded pixel -> the lit program's source.
+_SHADOW_FILTERS = {4: "LIT_FS", 1: "LIT_BILINEAR_FS"}
 
 
 @dataclass(frozen=True)
@@ -249,6 +252,9 @@ class Renderer:
             scene of many triangles (``rendering.occlusion_min_triangles_per_px``); False draws
             every instance in every pass.
         rendering: the renderer's speed settings (default :class:`RenderingParams`).
+        shadow_taps: the colour pass's shadow filter: 4 bilinear depth comparisons (a 3x3 PCF)
+            or 1 (a 2x2 PCF, cheaper, with slightly harder shadow edges: the fly-through's,
+            :attr:`~usdworld.parameters.video.VideoParams.shadow_taps`).
 
     Raises:
         RenderError: no usable headless OpenGL (the message names the packages to install).
@@ -262,11 +268,15 @@ class Renderer:
         near_m: float = 0.1,
         occlusion_cull: bool = True,
         rendering: RenderingParams | None = None,
+        shadow_taps: int = 4,
     ) -> None:
         if not (0 < int(width) <= MAX_SIZE and 0 < int(height) <= MAX_SIZE):
             raise UsdWorldError(f"render size must be 1..{MAX_SIZE} pixels per side, got {width}x{height}")
         if not near_m > 0:
             raise UsdWorldError(f"near_m must be > 0, got {near_m}")
+        if shadow_taps not in _SHADOW_FILTERS:
+            raise UsdWorldError(f"shadow_taps must be one of {sorted(_SHADOW_FILTERS)}, got {shadow_taps}")
+        self.shadow_taps = int(shadow_taps)
         self.width, self.height = int(width), int(height)
         self.occlusion_cull = bool(occlusion_cull)
         self.rendering = rendering or RenderingParams()
@@ -278,12 +288,13 @@ class Renderer:
         self.near_m = float(near_m)
         self._ctx = create_context()
         ctx = self._ctx
+        lit_fs = getattr(shaders, _SHADOW_FILTERS[self.shadow_taps])
         try:
             self._programs = {
                 "shadow": ctx.program(vertex_shader=shaders.SHADOW_VS, fragment_shader=shaders.SHADOW_FS),
                 "sky": ctx.program(vertex_shader=shaders.SKY_VS, fragment_shader=shaders.SKY_FS),
                 "depth": ctx.program(vertex_shader=shaders.DEPTH_VS, fragment_shader=shaders.DEPTH_FS),
-                "lit": ctx.program(vertex_shader=shaders.LIT_VS, fragment_shader=shaders.LIT_FS),
+                "lit": ctx.program(vertex_shader=shaders.LIT_VS, fragment_shader=lit_fs),
                 "lit_ambient": ctx.program(vertex_shader=shaders.LIT_VS, fragment_shader=shaders.LIT_AMBIENT_FS),
                 "label": ctx.program(vertex_shader=shaders.LABEL_VS, fragment_shader=shaders.LABEL_FS),
             }

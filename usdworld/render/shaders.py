@@ -114,7 +114,7 @@ void main() {
 """
 )
 
-LIT_FS = """
+_LIT_HEAD = """
 #version 410
 #ifndef SUNLIT
 #define SUNLIT 1
@@ -136,7 +136,10 @@ in vec3 v_normal;
 in vec3 v_color;
 out vec4 f_color;
 
-float sun_visibility(vec3 n) {
+"""
+
+#: The still's shadow filter: a 3x3 PCF in four bilinear depth comparisons.
+_SUN_VISIBILITY_PCF3 = """float sun_visibility(vec3 n) {
     vec4 p = u_sun_vp * vec4(v_pos + n * u_normal_offset, 1.0);
     vec3 s = p.xyz / p.w * 0.5 + 0.5;
     if (s.x < 0.0 || s.x > 1.0 || s.y < 0.0 || s.y > 1.0) return 1.0;
@@ -159,7 +162,21 @@ float sun_visibility(vec3 n) {
     return sum / 9.0;
 }
 
-void main() {
+"""
+
+#: The fly-through's shadow filter (``video.shadow_taps`` = 1): one bilinear depth comparison,
+#: the 2x2 texels around the point weighed by their distance (a 2x2 PCF; its penumbra is one
+#: texel wide instead of two, so shadow edges are a little harder).
+_SUN_VISIBILITY_BILINEAR = """float sun_visibility(vec3 n) {
+    vec4 p = u_sun_vp * vec4(v_pos + n * u_normal_offset, 1.0);
+    vec3 s = p.xyz / p.w * 0.5 + 0.5;
+    if (s.x < 0.0 || s.x > 1.0 || s.y < 0.0 || s.y > 1.0) return 1.0;
+    return texture(u_shadow_map, vec3(s.xy, s.z - 5e-4));
+}
+
+"""
+
+_LIT_MAIN = """void main() {
     vec3 n = normalize(v_normal);
     vec3 v = normalize(u_eye - v_pos);
     if (dot(n, v) < 0.0) n = -n;   // two-sided
@@ -176,6 +193,11 @@ void main() {
     f_color = vec4(pow(clamp(linear, 0.0, 1.0), vec3(u_inv_gamma)), 1.0);
 }
 """
+
+LIT_FS = _LIT_HEAD + _SUN_VISIBILITY_PCF3 + _LIT_MAIN
+
+#: The lit pass with the one-tap shadow filter (the fly-through's: ``VideoParams.shadow_taps``).
+LIT_BILINEAR_FS = _LIT_HEAD + _SUN_VISIBILITY_BILINEAR + _LIT_MAIN
 
 LABEL_VS = (
     """

@@ -132,9 +132,10 @@ class ViewsParams:
         "1",
         "Within one frame of a drive, two placements of a class that cannot move are one object cut in "
         "two by its single view (a tree's crown split by what stands in front of it) when their "
-        "footprints overlap across the viewing ray (their contacts nearer across it than the sum of "
-        "the radii of the discs inscribed in their footprints) and along it within this many standard "
-        "deviations of their depth difference beyond that sum.",
+        "footprints overlap across the viewing ray (their contacts nearer across it than their "
+        "footprints reach: the radii of the discs inscribed in them, a street lamp's arm as far as it "
+        "lies across the ray) and along it within this many standard deviations of their depth "
+        "difference beyond the sum of the discs' radii.",
         "tuned: on the synthetic drives (synth --sequence 100, seeds 11-13; 0, 0.5, 1, 1.5 and 2.58 "
         "compared): larger values place more trees once but at the mean of a precise and a far-off "
         "fragment",

@@ -13,7 +13,6 @@ from usdworld.geometry.camera import PinholeCamera
 from usdworld.parameters.light import LightParams
 from usdworld.perception.colour_space import linear_to_srgb, uint8_to_linear
 from usdworld.perception.light import (
-    ConvexEdges,
     ShadowCaster,
     _hull,
     _overlap,
@@ -333,23 +332,6 @@ def test_a_wide_photos_lit_references_are_measured_on_every_kth_row_and_column()
         sky = np.zeros(ids.shape, bool)
         est = estimate_light(wide, ids, sky, "labels", CASTERS, wide_from_px, 0.5, 0.6, params)
         assert est.shadow_contrast == pytest.approx(lit / lin[2], rel=1e-9)
-
-
-@settings(max_examples=60, deadline=None)
-@given(st.integers(0, 2**31 - 1), st.integers(3, 9), st.floats(0.0, 2.0))
-def test_convex_inside_edge_by_edge_is_the_broadcast_test_bit_for_bit(seed: int, corners: int, margin: float) -> None:
-    # the (N, K, 2) broadcast the edge-by-edge test replaced: the same products and differences
-    rng = np.random.default_rng(seed)
-    hull = _hull(rng.uniform(-3.0, 3.0, size=(corners, 2)))
-    if len(hull) < 3:
-        return
-    edges = ConvexEdges.of(hull)
-    points = rng.uniform(-5.0, 5.0, size=(300, 2))
-    points[:20] = hull[rng.integers(0, len(hull), 20)]  # on the outline: the test's edge
-    rel = points[:, None, :] - edges.starts[None, :, :]
-    cross = edges.edges[None, :, 0] * rel[:, :, 1] - edges.edges[None, :, 1] * rel[:, :, 0]
-    expected = np.all(cross >= -margin * edges.lengths[None, :], axis=1)
-    assert np.array_equal(edges.inside(points, margin), expected)
 
 
 @settings(max_examples=40, deadline=None)

@@ -19,7 +19,7 @@ def _loop_fit_view_angle(
     camera: PinholeCamera, ground: np.ndarray, size_lwh: np.ndarray, obj: ImageObject, params: PlacementParams
 ) -> float:
     """The fit as it was: one ``camera.project`` per turn tried (the reference)."""
-    x0, y0, x1, y1 = (float(b) for b in obj.box_px)
+    x0, y0, x1, y1 = (float(b) for b in obj.edges_px)
     observed = (x1 - x0) / (y1 - y0)
     bearing = float(np.arctan2(ground[1], ground[0]))
     angles_deg = params.view_angles_deg

@@ -100,8 +100,11 @@ def _faces_camera(yaw: float) -> bool:
 
 def test_a_wide_road_read_from_its_vehicles_keeps_the_left_lane_with_the_camera():
     # Two lanes each way, the camera in the right one: a car one lane to its left moves
-    # with it, an oncoming car three lanes over and a car on the right kerb.
-    objects = _cars([((30.0, LANE), 0.0), ((45.0, 3.0 * LANE), np.pi), ((25.0, -LANE), 0.0)])
+    # with it, an oncoming car three lanes over and a car parked at the right kerb (its
+    # centre 0.8 lane right of the camera's). A car a whole lane right would put the span's
+    # middle, (-LANE + 3 LANE) / 2, exactly on the left-lane car, whose side millimetres
+    # of placement error would then decide.
+    objects = _cars([((30.0, LANE), 0.0), ((45.0, 3.0 * LANE), np.pi), ((25.0, -0.8 * LANE), 0.0)])
     placed = _place(objects, "camera")
     left_lane, oncoming, right = (placed[i] for i in range(3))
     assert _faces_away(left_lane.yaw) and "vehicle_span_traffic_right_same_side" in left_lane.yaw_source

@@ -118,7 +118,7 @@ def _objects(world: Path) -> list[tuple[str, str, np.ndarray]]:
 
 
 def test_the_real_sample_world(sample_world: Sample) -> None:
-    """The six-camera sample as measured (BENCHMARKS.md, issue 19): no box placed twice, 88 % exactly once."""
+    """The six-camera sample as measured (BENCHMARKS.md, issue 19): no box placed twice, 88 % exactly once, median within 1.5 m."""
     world, boxes, _ = sample_world
     assert len(boxes) == 43 and all(b.seen_by for b in boxes)  # 69 boxes, 43 of placed classes, all seen
     r = evaluate_bev(_objects(world), boxes)["overall"]
@@ -126,7 +126,9 @@ def test_the_real_sample_world(sample_world: Sample) -> None:
     # under every object: the pedestrians 60-68 m ahead (ground 0.5-0.8 m up) and 18-29 m to the
     # left (0.6-0.8 m up) were placed 10-22 m too far, beyond the gate.
     assert r["placed_more"] == 0 and r["placed_once"] == 38
-    assert r["median_bev_error_m"] < 1.55
+    # Issue 19's target, 1.5 m: 1.506 m while a box's height was read off its whole-pixel
+    # rounding (a pedestrian 35 px tall 3 % near by its class height), 1.32 m on its own edges.
+    assert r["median_bev_error_m"] <= 1.5
 
 
 def test_the_rig_measures_the_samples_ground_spread(shared_data: Path, sample_world: Sample) -> None:
@@ -174,6 +176,7 @@ def test_no_box_is_placed_twice_by_identity(sample_world: Sample) -> None:
     assert identity["pairs_two_boxes"] == evaluate_bev(objects, boxes)["duplicate_pairs"] > 0
     # Read off the boxes, not matched: 38 placed once within the gate (28 before the ground spread,
     # where the matching found 30 by pairing pedestrians of a group crosswise); the median over all
-    # 43 boxes, the 5 missed included, 1.84 m (3.84 m before).
+    # 43 boxes, the 5 missed included, 1.63 m (3.84 m before; 1.84 m with the boxes' heights
+    # read off their whole-pixel rounding).
     assert identity["placed_once_within_gate"] == 38
-    assert identity["median_error_m"] == pytest.approx(1.84, abs=0.1)
+    assert identity["median_error_m"] == pytest.approx(1.63, abs=0.1)

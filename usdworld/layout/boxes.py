@@ -84,7 +84,7 @@ def box_aspect_usable(obj: ImageObject, prior: ClassPrior, image_width: int) -> 
         or obj.top_truncated
     ):
         return False
-    x0, y0, x1, y1 = (float(b) for b in obj.box_px)
+    x0, y0, x1, y1 = (float(b) for b in obj.edges_px)
     return x0 > 0.5 and x1 < image_width - 0.5 and x1 > x0 and y1 > y0
 
 
@@ -93,7 +93,7 @@ def box_view_angle(obj: ImageObject, prior: ClassPrior, image_width: int) -> flo
     for when the camera is not known yet; None when the box is not usable."""
     if not box_aspect_usable(obj, prior, image_width):
         return None
-    x0, y0, x1, y1 = (float(b) for b in obj.box_px)
+    x0, y0, x1, y1 = (float(b) for b in obj.edges_px)
     return view_angle_from_box(x1 - x0, y1 - y0, prior.size_m)
 
 
@@ -149,7 +149,7 @@ def _fit_turns(
     camera: PinholeCamera, ground: np.ndarray, size_lwh: np.ndarray, obj: ImageObject, params: PlacementParams
 ) -> tuple[tuple[float, ...], float]:
     """(:func:`fit_view_angles`'s turns, the turn of the aspect's peak in radians)."""
-    x0, y0, x1, y1 = (float(b) for b in obj.box_px)
+    x0, y0, x1, y1 = (float(b) for b in obj.edges_px)
     observed = (x1 - x0) / (y1 - y0)
     angles_deg, curve = _aspect_curve(camera, ground, size_lwh, params.view_angle_step_deg)
     if curve is None:
@@ -260,7 +260,7 @@ def align_box_columns(
     Returns:
         (2,) float64 corrected footprint centre.
     """
-    x0, _, x1, _ = (float(b) for b in obj.box_px)
+    x0, _, x1, _ = (float(b) for b in obj.edges_px)
     if x0 <= 0.5 or x1 >= camera.width - 0.5:
         return ground
     start = np.asarray(ground, dtype=np.float64)

@@ -97,7 +97,7 @@ def height_observations(
         v = s.default_variant
         near, far = top_offsets(s.contact_half(v), s.top_half(v), s.footprint(v), angle or 0.0, o.box_only)
         rows.append(
-            (o.contact_px[0], o.contact_px[1], float(o.box_px[1]), prior.size_m[2], prior.height_std_m, near, far)
+            (o.contact_px[0], o.contact_px[1], float(o.edges_px[1]), prior.size_m[2], prior.height_std_m, near, far)
         )
     arr = np.array(rows, dtype=np.float64).reshape(-1, 7)
     return HeightObservations(*(arr[:, k].copy() for k in range(7)))

@@ -213,7 +213,7 @@ def partial_front_depth(
         bounds.append((camera.fy * prior.size_m[2] / obj.height_px, DepthMethod.HEIGHT_PARTIAL.value))
     top = None
     if not obj.top_truncated:
-        x0, y0, x1, _ = (float(b) for b in obj.box_px)
+        x0, y0, x1, _ = (float(b) for b in obj.edges_px)
         v_top = y0 if obj.box_only else y0 - 0.5
         top = depth_from_top_row(
             camera, 0.5 * (x0 + x1), v_top, prior.size_m[2], prior.height_std_m, ctx.params
@@ -237,7 +237,7 @@ def _top_row_line(obj: ImageObject, ctx: PlacementContext) -> tuple[float, float
         None when the ray does not go ahead of the camera.
     """
     camera = ctx.camera
-    x0, y0, x1, _ = (float(b) for b in obj.box_px)
+    x0, y0, x1, _ = (float(b) for b in obj.edges_px)
     v_top = y0 if obj.box_only else y0 - 0.5
     ray = camera.rays_world(np.array([[0.5 * (x0 + x1), v_top]], dtype=np.float64))[0]
     along = float(ray @ camera.rotation_world_from_cam[:, 2])
@@ -261,8 +261,9 @@ def _width_cue(
     if obj.sides_cut or prior.yaw != "road" or obj.width_px <= 0:
         return None
     camera = ctx.camera
-    u = 0.5 * float(obj.box_px[0] + obj.box_px[2])
-    v = float(obj.box_px[1])
+    x0, y0, x1, _ = (float(b) for b in obj.edges_px)
+    u = 0.5 * (x0 + x1)
+    v = y0
     guess = point_at_depth(camera, u, v, guess_depth_m)
     yaw = object_yaw(prior, guess, ctx.axis, obj, camera, ctx.params)[0]
     rel = yaw - float(np.arctan2(guess[1], guess[0]))

@@ -137,7 +137,7 @@ def _size(
     if front.method is DepthMethod.STREET_LINE and not obj.top_truncated:
         # Its row gives the depth of an object whose bottom is hidden: its top row there
         # gives its height above the ground.
-        x0, y0, x1, _ = (float(b) for b in obj.box_px)
+        x0, y0, x1, _ = (float(b) for b in obj.edges_px)
         measured_h = height_from_top_row(
             camera, 0.5 * (x0 + x1), y0 if obj.box_only else y0 - 0.5, front.depth_m
         )

@@ -60,6 +60,9 @@ class ImageObject:
         left_truncated: the left side touches the image border (or the input marks the
             object cut there): the box bounds the object only from the right.
         right_truncated: the right side touches the image border (or is marked cut).
+        box_edges_px: (4,) float64 ``xmin, ymin, xmax, ymax`` of a box-only object as its
+            detection gave them, sub-pixel (a projected 3D box's edges are not whole pixels),
+            in the intrinsics' pixel frame; None: ``box_px`` (a mask's pixels). See :attr:`edges_px`.
     """
 
     class_name: str
@@ -78,6 +81,7 @@ class ImageObject:
     box_only: bool = False
     left_truncated: bool = False
     right_truncated: bool = False
+    box_edges_px: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         for name in ("bottom_truncated", "bottom_occluded", "top_truncated", "left_truncated", "right_truncated"):
@@ -90,18 +94,41 @@ class ImageObject:
             raise ValueError(f"mask shape {mask.shape} does not match box {box.tolist()}")
         box.setflags(write=False)
         object.__setattr__(self, "box_px", box)
+        if self.box_edges_px is not None:
+            edges = np.array(self.box_edges_px, dtype=np.float64)
+            if edges.shape != (4,) or not (edges[2] > edges[0] and edges[3] > edges[1]):
+                raise ValueError(f"box edges {edges.tolist()} are not a box")
+            edges.setflags(write=False)
+            object.__setattr__(self, "box_edges_px", edges)
 
     @property
     def mask_area(self) -> int:
         return int(self.mask.sum())
 
     @property
+    def edges_px(self) -> np.ndarray:
+        """(4,) float64 the object's extent in the image, ``xmin, ymin, xmax, ymax``: a box-only
+        object's own sub-pixel edges (:attr:`box_edges_px`), else its whole-pixel ``box_px``.
+
+        ``box_px`` holds the pixels a box touches (its edges rounded outwards, for the mask
+        crop); measuring a box's height on it adds between 0 and 2 pixels, one on average,
+        which is 3 % of a person 35 px tall: its class-height depth 3 % short.
+        """
+        if self.box_edges_px is not None:
+            return self.box_edges_px
+        return self.box_px.astype(np.float64)
+
+    @property
     def height_px(self) -> float:
-        return float(self.box_px[3] - self.box_px[1])
+        """The image height of the object, pixels (:attr:`edges_px`)."""
+        e = self.edges_px
+        return float(e[3] - e[1])
 
     @property
     def width_px(self) -> float:
-        return float(self.box_px[2] - self.box_px[0])
+        """The image width of the object, pixels (:attr:`edges_px`)."""
+        e = self.edges_px
+        return float(e[2] - e[0])
 
     @property
     def is_thing(self) -> bool:
@@ -779,6 +806,8 @@ def objects_from_detections(
                 occluded_by=occluder if occluders >= params.occluded_fraction else -1,
                 ref=index,
                 box_only=det.mask is None,
+                # Clipped to the image as box_px is, so a cut side's edge is the border's.
+                box_edges_px=np.clip(fbox, 0.0, [width, height, width, height]) if det.mask is None else None,
             )
         )
     return sort_objects(objects)

@@ -532,8 +532,8 @@ def _place(
     """The parts in stage order, the culled objects left out; and the culled objects' box corners.
 
     A prototype's part is placed by exactly the products ``UsdGeom.XformCache`` makes (each
-    prim's local transform times its parent's, :func:`gf_product`: for every object of a
-    prototype at once), so it has the same bits as when read on its own.
+    prim's local transform times its parent's, :func:`gf_product`: for every object and part
+    at once, one chain level at a time), so it has the same bits as when read on its own.
     """
     pending = [e for e in entries if isinstance(e, _Pending) and e.proto.parts]
     out: set[int] = set()
@@ -552,32 +552,44 @@ def _place(
             if o:
                 out.add(id(e))
                 culled.append(c)
-    shown: dict[int, list[_Pending]] = {}  # by prototype
-    for e in pending:
-        if id(e) not in out:
-            shown.setdefault(id(e.proto), []).append(e)
-    placed: dict[int, np.ndarray] = {}  # (P, 4, 4) world_from_local of each part, by entry
-    for group in shown.values():
-        l2w = np.stack([e.l2w for e in group])
-        per_part = []
-        for part in group[0].proto.parts:
-            m = l2w
-            for local in part.chain:
-                m = gf_product(gf_rows(local), m)
-            per_part.append(np.matmul(world_T, np.transpose(m, (0, 2, 1))))
-        for e, world_from_local in zip(group, np.stack(per_part, axis=1)):
-            placed[id(e)] = world_from_local
+    shown = [e for e in pending if id(e) not in out]
+    # every (object, part) pair at once: its l2w times the part's chain, one chain level at a
+    # time over the pairs whose chain is that long (a few numpy products, whatever the prototypes)
+    links: list[np.ndarray] = []  # the chains' matrices, as rows
+    chain_at: dict[int, list[list[int]]] = {}  # by prototype: per part, its chain's rows in ``links``
+    pair_object: list[int] = []
+    pair_chain: list[list[int]] = []
+    for k, e in enumerate(shown):
+        chains = chain_at.get(id(e.proto))
+        if chains is None:
+            chains = chain_at[id(e.proto)] = []
+            for part in e.proto.parts:
+                chains.append(list(range(len(links), len(links) + len(part.chain))))
+                links.extend(gf_rows(local) for local in part.chain)
+        pair_object.extend([k] * len(chains))
+        pair_chain.extend(chains)
+    world_from_part = np.zeros((0, 4, 4))
+    if shown:
+        m = np.stack([e.l2w for e in shown])[np.array(pair_object, dtype=np.int64)]
+        table = np.stack(links) if links else np.zeros((0, 4, 4))
+        depth = np.array([len(c) for c in pair_chain], dtype=np.int64)
+        for level in range(int(depth.max(initial=0))):
+            sel = np.flatnonzero(depth > level)
+            rows = np.array([pair_chain[i][level] for i in sel.tolist()], dtype=np.int64)
+            m[sel] = gf_product(table[rows], m[sel])
+        world_from_part = np.matmul(world_T, np.transpose(m, (0, 2, 1)))
+    first = {id(e): n for n, e in zip(np.cumsum([0] + [len(e.proto.parts) for e in shown]).tolist(), shown)}
     parts: list[ScenePart] = []
     for e in entries:
         if isinstance(e, ScenePart):
             parts.append(e)
             continue
-        if id(e) not in placed:
+        n = first.get(id(e))
+        if n is None:
             continue
-        for part, (class_id, instance_id, object_index), world_from_local in zip(
-            e.proto.parts, e.ids, placed[id(e)]
-        ):
-            parts.append(ScenePart(part.mesh, world_from_local, class_id, instance_id, object_index))
+        for part, (class_id, instance_id, object_index) in zip(e.proto.parts, e.ids):
+            parts.append(ScenePart(part.mesh, world_from_part[n], class_id, instance_id, object_index))
+            n += 1
     return parts, culled
 
 

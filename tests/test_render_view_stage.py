@@ -274,7 +274,7 @@ def test_an_objects_transform_from_its_ops_is_the_xform_caches(ops):
         obj.AddScaleOp(UsdGeom.XformOp.PrecisionFloat).Set(Gf.Vec3f(*scale))
         want.append(np.array(cache.GetLocalToWorldTransform(obj.GetPrim())).reshape(4, 4))
     translate = np.array([t for t, _, _ in ops], dtype=np.float64)
-    yaw32 = np.array([y for _, y, _ in ops], dtype=np.float32).astype(np.float64)  # the float attribute's value
+    yaw32 = np.array([y for _, y, _ in ops], dtype=np.float32).astype(np.float64)  # the float attribute
     scale = np.array([s for _, _, s in ops], dtype=np.float32).astype(np.float64)
     got = _local_to_world(translate, yaw32, scale)
     assert got.tobytes() == np.stack(want).tobytes()

@@ -12,10 +12,10 @@ cylinder around the asset's box, any yaw) or its shadow may meet the view
 the objects the edits layer touches (and the scope's first object), and reads the scene
 with the other picks as virtual objects (:class:`~.scene.VirtualObjects`): each asset and
 variant is composed once, on a stage of its own, as the prototype the scene reader would
-read, and each object's transform is made from its ops with UsdGeom's own products (the
-same bits). The scene's objects then get the ids they have in the whole world (class
-counts in stage order). The far plane and the shadow map's box take in the culled objects'
-boxes: the objects that may hold the culled boxes' extreme coordinates are read too, and a
+read, and each object's transform is made from its ops with UsdGeom's products, replicated
+in numpy for all objects at once (the same bits). The scene's objects then get the ids they
+have in the whole world (class counts in stage order). The far plane and the shadow map's
+box take in the culled objects' boxes: the objects that may hold the culled boxes' extreme coordinates are read too, and a
 scene whose bounds another object's box could widen is refused. Whatever the index cannot
 describe (no kept index, another sublayer, an object that is not plain: a child, another
 transform, a visibility or purpose, primvars, a payload; an asset with parts of another
@@ -197,7 +197,8 @@ def _local_to_world(translate: np.ndarray, yaw_deg: np.ndarray, scale: np.ndarra
     move = np.tile(identity, (n, 1, 1))
     move[:, 3, :3] = translate
     angles, which = np.unique(yaw_deg, return_inverse=True)
-    turns = np.stack([gf_rows(Gf.Matrix4d(1.0).SetRotate(Gf.Rotation(Gf.Vec3d.ZAxis(), float(a)))) for a in angles])
+    z = Gf.Vec3d.ZAxis()
+    turns = np.stack([gf_rows(Gf.Matrix4d(1.0).SetRotate(Gf.Rotation(z, float(a)))) for a in angles])
     turn = turns.reshape(-1, 4, 4)[which.reshape(-1)]
     size = np.tile(identity, (n, 1, 1))
     size[:, [0, 1, 2], [0, 1, 2]] = scale

@@ -15,8 +15,8 @@ variant is composed once, on a stage of its own, as the prototype the scene read
 read, and each object's transform is made from its ops with UsdGeom's products, replicated
 in numpy for all objects at once (the same bits). The scene's objects then get the ids they
 have in the whole world (class counts in stage order). The far plane and the shadow map's
-box take in the culled objects' boxes: the objects that may hold the culled boxes' extreme coordinates are read too, and a
-scene whose bounds another object's box could widen is refused. Whatever the index cannot
+box take in the culled objects' boxes: the objects that may hold the culled boxes' extreme
+coordinates are read too, and a scene whose bounds another object's box could widen is refused. Whatever the index cannot
 describe (no kept index, another sublayer, an object that is not plain: a child, another
 transform, a visibility or purpose, primvars, a payload; an asset with parts of another
 thing class, hidden, or not read as a prototype) gives None, and the caller composes the

@@ -4,23 +4,23 @@ Composing every object of a 10,000-object world (a reference and a variant each)
 than drawing the few hundred the camera sees. A world whose object index is kept
 (:mod:`usdworld.authoring.editing.index_file`: the base layer's object opinions, keyed by
 its SHA-256) gives each object's class, ``model`` variant, ``active``, asset, translate,
-rotateZ and scale, and whether its spec holds anything else (plain), without composing it
-or reading its spec. :func:`open_outside` composes everything outside the objects scope
+rotateZ and scale, and whether its spec holds anything else (plain), without composing it or
+reading its spec. :func:`open_outside` composes everything outside the objects scope
 (camera, lights, ground); :func:`scene_for_view` picks the objects whose box (an upright
 cylinder around the asset's box, any yaw) or its shadow may meet the view
 (:class:`~.instancing.ViewCull`, the test the scene reader uses), composes beside the rest
-the objects the edits layer touches (and the scope's first object), and reads the scene
-with the other picks as virtual objects (:class:`~.scene.VirtualObjects`): each asset and
-variant is composed once, on a stage of its own, as the prototype the scene reader would
-read, and each object's transform is made from its ops with UsdGeom's products, replicated
-in numpy for all objects at once (the same bits). The scene's objects then get the ids they
-have in the whole world (class counts in stage order). The far plane and the shadow map's
-box take in the culled objects' boxes: the objects that may hold the culled boxes' extreme
-coordinates are read too, and a scene whose bounds another object's box could widen is refused. Whatever the index cannot
-describe (no kept index, another sublayer, an object that is not plain: a child, another
-transform, a visibility or purpose, primvars, a payload; an asset with parts of another
-thing class, hidden, or not read as a prototype) gives None, and the caller composes the
-whole world; the pixels are the same bits either way.
+the objects the edits layer touches (and the scope's first object), and reads the scene with
+the other picks as virtual objects (:class:`~.scene.VirtualObjects`): each asset and variant
+is composed once, on a stage of its own, as the prototype the scene reader would read, and
+each object's transform is made from its ops with UsdGeom's products, replicated in numpy
+for all objects at once (the same bits). The scene's objects then get the ids they have in
+the whole world (class counts in stage order). The far plane and the shadow map's box take
+in the culled objects' boxes: the objects that may hold the culled boxes' extreme
+coordinates are read too, and a scene whose bounds another object's box could widen is
+refused. Whatever the index cannot describe (no kept index, another sublayer, an object that
+is not plain: a child, another transform, a visibility or purpose, primvars, a payload; an
+asset with parts of another thing class, hidden, or not read as a prototype) gives None, and
+the caller composes the whole world; the pixels are the same bits either way.
 """
 
 from __future__ import annotations

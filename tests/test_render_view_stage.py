@@ -246,14 +246,18 @@ def test_a_culled_object_with_a_child_in_view_takes_the_whole_stage(world):
     assert any(owner.index in b.object_ids for b in full.batches)  # its child is drawn
 
 
-@settings(max_examples=300, deadline=None)
-@given(
-    translate=st.tuples(*[st.floats(-3000.0, 3000.0, allow_nan=False)] * 3),
-    yaw=st.one_of(st.sampled_from([0.0, 90.0, -90.0, 180.0, -180.0, 45.0, 360.0]), st.floats(-720.0, 720.0)),
-    scale=st.tuples(*[st.one_of(st.just(1.0), st.floats(-3.0, 3.0, allow_nan=False, width=32))] * 3),
+_OPS = st.tuples(
+    st.tuples(*[st.one_of(st.just(0.0), st.floats(-3000.0, 3000.0, allow_nan=False))] * 3),
+    st.one_of(st.sampled_from([0.0, 90.0, -90.0, 180.0, -180.0, 45.0, 360.0]), st.floats(-720.0, 720.0)),
+    st.tuples(*[st.one_of(st.just(1.0), st.floats(-3.0, 3.0, allow_nan=False, width=32))] * 3),
 )
-def test_an_objects_transform_from_its_ops_is_the_xform_caches(translate, yaw, scale):
-    """The virtual objects' transforms have the bits UsdGeom gives the composed objects."""
+
+
+@settings(max_examples=300, deadline=None)
+@given(ops=st.lists(_OPS, min_size=1, max_size=6))
+def test_an_objects_transform_from_its_ops_is_the_xform_caches(ops):
+    """The virtual objects' transforms, made for several objects at once, have the bits UsdGeom
+    gives the composed objects (identity ops among others: skipped per object)."""
     from pxr import Gf, UsdGeom
 
     from usdworld.render.view_stage import _local_to_world
@@ -261,14 +265,36 @@ def test_an_objects_transform_from_its_ops_is_the_xform_caches(translate, yaw, s
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.Xform.Define(stage, "/World")
     UsdGeom.Scope.Define(stage, "/World/Objects")
-    obj = UsdGeom.Xform.Define(stage, "/World/Objects/thing")
-    obj.AddTranslateOp().Set(Gf.Vec3d(*translate))
-    obj.AddRotateZOp(UsdGeom.XformOp.PrecisionFloat).Set(yaw)
-    obj.AddScaleOp(UsdGeom.XformOp.PrecisionFloat).Set(Gf.Vec3f(*scale))
-    want = UsdGeom.XformCache().GetLocalToWorldTransform(obj.GetPrim())
-    yaw32 = float(np.float32(yaw))  # the float attribute's value
-    got = _local_to_world(np.array(translate), yaw32, np.array(scale, dtype=np.float32).astype(np.float64))
-    assert np.array(got).tobytes() == np.array(want).tobytes()
+    cache = UsdGeom.XformCache()
+    want = []
+    for k, (translate, yaw, scale) in enumerate(ops):
+        obj = UsdGeom.Xform.Define(stage, f"/World/Objects/thing{k}")
+        obj.AddTranslateOp().Set(Gf.Vec3d(*translate))
+        obj.AddRotateZOp(UsdGeom.XformOp.PrecisionFloat).Set(yaw)
+        obj.AddScaleOp(UsdGeom.XformOp.PrecisionFloat).Set(Gf.Vec3f(*scale))
+        want.append(np.array(cache.GetLocalToWorldTransform(obj.GetPrim())).reshape(4, 4))
+    translate = np.array([t for t, _, _ in ops], dtype=np.float64)
+    yaw32 = np.array([y for _, y, _ in ops], dtype=np.float32).astype(np.float64)  # the float attribute
+    scale = np.array([s for _, _, s in ops], dtype=np.float32).astype(np.float64)
+    got = _local_to_world(translate, yaw32, scale)
+    assert got.tobytes() == np.stack(want).tobytes()
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    a=st.lists(st.floats(-1e4, 1e4, allow_nan=False), min_size=16, max_size=16),
+    b=st.lists(st.floats(-1e4, 1e4, allow_nan=False), min_size=16, max_size=16),
+)
+def test_gf_product_has_gf_bits(a, b):
+    """Matrices multiplied as rows in numpy (a prototype's parts for all its objects at once) give
+    the bits of Gf's product, signed zeros included."""
+    from pxr import Gf
+
+    from usdworld.render.scene import gf_product, gf_rows
+
+    want = gf_rows(Gf.Matrix4d(*a) * Gf.Matrix4d(*b))
+    got = gf_product(np.array(a).reshape(4, 4)[None], np.stack([np.array(b).reshape(4, 4)] * 2))
+    assert got[0].tobytes() == want.tobytes() and got[1].tobytes() == want.tobytes()
 
 
 def test_virtual_objects_are_read_at_the_default_time_only(world):

@@ -137,23 +137,30 @@ class MeshBatch:
             flat arrays (the product place_mesh makes, points @ linear.T + t, done for a chunk
             of instances at once).
         """
+        for placed in self._placed64(max_points):
+            yield placed.astype(np.float32)
+
+    def _placed64(self, max_points: int = 1_000_000) -> Iterator[np.ndarray]:
+        """:meth:`placed_points` before rounding to float32: (n, P, 3) float64."""
         pts = self._used_points
         chunk = max(1, max_points // max(1, len(pts)))
         for s in range(0, self.n_instances, chunk):
             m = self.world_from_local[s : s + chunk]
-            placed = np.matmul(pts[None], np.transpose(m[:, :3, :3], (0, 2, 1))) + m[:, None, :3, 3]
-            yield placed.astype(np.float32)
+            yield np.matmul(pts[None], np.transpose(m[:, :3, :3], (0, 2, 1))) + m[:, None, :3, 3]
 
     def bounds_world(self) -> np.ndarray:
         """(2, 3) float64 ``[min, max]`` of every instance's corners, as float32 positions give
         them (read-only; worked out once)."""
         if self._bounds is None:
-            lo = np.full(3, np.inf, dtype=np.float32)
-            hi = np.full(3, -np.inf, dtype=np.float32)
-            for placed in self.placed_points():
-                lo = np.minimum(lo, placed.min(axis=(0, 1)))
-                hi = np.maximum(hi, placed.max(axis=(0, 1)))
-            bounds = np.stack([lo, hi]).astype(np.float64)
+            # the extremes of the float64 products, rounded: rounding to float32 keeps the order,
+            # so these are the extremes of the float32 points (placed_points) without rounding them all
+            lo = np.full(3, np.inf)
+            hi = np.full(3, -np.inf)
+            for placed in self._placed64():
+                # per coordinate: numpy reduces an (n, P) strided column far faster than over two axes
+                lo = np.minimum(lo, [placed[..., c].min() for c in range(3)])
+                hi = np.maximum(hi, [placed[..., c].max() for c in range(3)])
+            bounds = np.stack([lo, hi]).astype(np.float32).astype(np.float64)
             bounds.setflags(write=False)
             object.__setattr__(self, "_bounds", bounds)
         return self._bounds

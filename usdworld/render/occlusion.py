@@ -62,7 +62,8 @@ def instance_corners(batch: MeshBatch) -> np.ndarray:
     local = _corners(pts.min(axis=0), pts.max(axis=0))
     m = batch.world_from_local
     placed = np.einsum("kj,nij->nki", local, m[:, :3, :3]) + m[:, None, :3, 3]
-    lo, hi = placed.min(axis=1), placed.max(axis=1)
+    corners = [placed[:, k] for k in range(8)]  # corner by corner: numpy's axis-1 reduction is slow here
+    lo, hi = np.minimum.reduce(corners), np.maximum.reduce(corners)
     pad = BOX_MARGIN_REL * np.maximum(np.abs(lo).max(axis=1), np.abs(hi).max(axis=1)) + 1e-6
     return _corners(lo - pad[:, None], hi + pad[:, None])
 

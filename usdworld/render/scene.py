@@ -79,14 +79,15 @@ class VirtualObjects:
         names: the virtual objects, in stage order.
         labels: their ``class`` labels.
         keys: their prototype keys.
-        local_to_world: their ``Gf.Matrix4d`` transforms (row vectors, as USD gives them).
+        local_to_world: (N, 4, 4) float64 their transforms as ``Gf.Matrix4d`` holds them (row
+            vectors, as USD gives them: ``np.array(m).reshape(4, 4)``).
     """
 
     order: dict[str, int]
     names: tuple[str, ...]
     labels: tuple[str, ...]
     keys: tuple[tuple, ...]
-    local_to_world: tuple[Gf.Matrix4d, ...]
+    local_to_world: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -253,6 +254,32 @@ def matrix_from_gf(m: Gf.Matrix4d) -> np.ndarray:
     return np.array(m, dtype=np.float64).reshape(4, 4).T
 
 
+def gf_rows(m: Gf.Matrix4d) -> np.ndarray:
+    """(4, 4) float64 a ``Gf.Matrix4d``'s elements as it holds them (row vectors)."""
+    return np.array(m, dtype=np.float64).reshape(4, 4)
+
+
+def gf_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a * b`` of ``Gf.Matrix4d`` s held as rows (:func:`gf_rows`), with Gf's bits.
+
+    Each element is ``Gf.Matrix4d``'s sum of four products, added in its order (first to
+    last, each rounded): the same bits as the product of the ``Gf.Matrix4d`` s.
+
+    Args:
+        a: (..., 4, 4) float64.
+        b: (..., 4, 4) float64 (broadcast against ``a``).
+
+    Returns:
+        (..., 4, 4) float64.
+    """
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    out = a[..., :, 0, None] * b[..., None, 0, :]
+    for k in range(1, 4):
+        out = out + a[..., :, k, None] * b[..., None, k, :]
+    return out
+
+
 def _default_objects_path(stage: Usd.Stage) -> str:
     default = stage.GetDefaultPrim()
     if default and default.GetChild("Objects"):
@@ -316,7 +343,7 @@ class _Pending:
     """An object drawn as a prototype, waiting for the (vectorised) culling test."""
 
     proto: Prototype
-    l2w: Gf.Matrix4d
+    l2w: np.ndarray  # (4, 4) float64 its local-to-world transform as Gf holds it (gf_rows)
     world_from_object: np.ndarray
     ids: list[tuple[int, int, int]]  # (class, instance, object index) of each part
 
@@ -375,7 +402,7 @@ def _extract(
                 class_id = label_id_for_class(part.label if part.label is not None else label)
                 part_ids.append((class_id, *ids.of_part(owner, class_id)))
             l2w = virtual.local_to_world[k]
-            entries.append(_Pending(proto, l2w, world_T @ matrix_from_gf(l2w), part_ids))
+            entries.append(_Pending(proto, l2w, world_T @ l2w.T, part_ids))
             k += 1
         return k
 
@@ -437,13 +464,13 @@ def _extract(
                 proto = prototypes[key]
                 if proto is not None:
                     it.PruneChildren()
-                    l2w = xf_cache.GetLocalToWorldTransform(prim)
+                    l2w = gf_rows(xf_cache.GetLocalToWorldTransform(prim))
                     part_ids = []
                     for part in proto.parts:
                         own_class = part.label if part.label is not None else owner.class_name
                         class_id = label_id_for_class(own_class)
                         part_ids.append((class_id, *ids.of_part(owner, class_id)))
-                    entries.append(_Pending(proto, l2w, world_T @ matrix_from_gf(l2w), part_ids))
+                    entries.append(_Pending(proto, l2w, world_T @ l2w.T, part_ids))
                     continue
         if not prim.IsA(UsdGeom.Mesh):
             continue
@@ -505,7 +532,8 @@ def _place(
     """The parts in stage order, the culled objects left out; and the culled objects' box corners.
 
     A prototype's part is placed by exactly the products ``UsdGeom.XformCache`` makes (each
-    prim's local transform times its parent's), so it has the same bits as when read on its own.
+    prim's local transform times its parent's, :func:`gf_product`: for every object and part
+    at once, one chain level at a time), so it has the same bits as when read on its own.
     """
     pending = [e for e in entries if isinstance(e, _Pending) and e.proto.parts]
     out: set[int] = set()
@@ -524,19 +552,44 @@ def _place(
             if o:
                 out.add(id(e))
                 culled.append(c)
+    shown = [e for e in pending if id(e) not in out]
+    # every (object, part) pair at once: its l2w times the part's chain, one chain level at a
+    # time over the pairs whose chain is that long (a few numpy products, whatever the prototypes)
+    links: list[np.ndarray] = []  # the chains' matrices, as rows
+    chain_at: dict[int, list[list[int]]] = {}  # by prototype: per part, its chain's rows in ``links``
+    pair_object: list[int] = []
+    pair_chain: list[list[int]] = []
+    for k, e in enumerate(shown):
+        chains = chain_at.get(id(e.proto))
+        if chains is None:
+            chains = chain_at[id(e.proto)] = []
+            for part in e.proto.parts:
+                chains.append(list(range(len(links), len(links) + len(part.chain))))
+                links.extend(gf_rows(local) for local in part.chain)
+        pair_object.extend([k] * len(chains))
+        pair_chain.extend(chains)
+    world_from_part = np.zeros((0, 4, 4))
+    if shown:
+        m = np.stack([e.l2w for e in shown])[np.array(pair_object, dtype=np.int64)]
+        table = np.stack(links) if links else np.zeros((0, 4, 4))
+        depth = np.array([len(c) for c in pair_chain], dtype=np.int64)
+        for level in range(int(depth.max(initial=0))):
+            sel = np.flatnonzero(depth > level)
+            rows = np.array([pair_chain[i][level] for i in sel.tolist()], dtype=np.int64)
+            m[sel] = gf_product(table[rows], m[sel])
+        world_from_part = np.matmul(world_T, np.transpose(m, (0, 2, 1)))
+    first = {id(e): n for n, e in zip(np.cumsum([0] + [len(e.proto.parts) for e in shown]).tolist(), shown)}
     parts: list[ScenePart] = []
     for e in entries:
         if isinstance(e, ScenePart):
             parts.append(e)
             continue
-        if id(e) in out:
+        n = first.get(id(e))
+        if n is None:
             continue
         for part, (class_id, instance_id, object_index) in zip(e.proto.parts, e.ids):
-            m = e.l2w
-            for local in part.chain:
-                m = local * m
-            world_from_local = world_T @ matrix_from_gf(m)
-            parts.append(ScenePart(part.mesh, world_from_local, class_id, instance_id, object_index))
+            parts.append(ScenePart(part.mesh, world_from_part[n], class_id, instance_id, object_index))
+            n += 1
     return parts, culled
 
 

@@ -4,23 +4,23 @@ Composing every object of a 10,000-object world (a reference and a variant each)
 than drawing the few hundred the camera sees. A world whose object index is kept
 (:mod:`usdworld.authoring.editing.index_file`: the base layer's object opinions, keyed by
 its SHA-256) gives each object's class, ``model`` variant, ``active``, asset, translate,
-rotateZ and scale, and whether its spec holds anything else (plain), without composing it
-or reading its spec. :func:`open_outside` composes everything outside the objects scope
+rotateZ and scale, and whether its spec holds anything else (plain), without composing it or
+reading its spec. :func:`open_outside` composes everything outside the objects scope
 (camera, lights, ground); :func:`scene_for_view` picks the objects whose box (an upright
 cylinder around the asset's box, any yaw) or its shadow may meet the view
 (:class:`~.instancing.ViewCull`, the test the scene reader uses), composes beside the rest
-the objects the edits layer touches (and the scope's first object), and reads the scene
-with the other picks as virtual objects (:class:`~.scene.VirtualObjects`): each asset and
-variant is composed once, on a stage of its own, as the prototype the scene reader would
-read, and each object's transform is made from its ops with UsdGeom's own products (the
-same bits). The scene's objects then get the ids they have in the whole world (class
-counts in stage order). The far plane and the shadow map's box take in the culled objects'
-boxes: the objects that may hold the culled boxes' extreme coordinates are read too, and a
-scene whose bounds another object's box could widen is refused. Whatever the index cannot
-describe (no kept index, another sublayer, an object that is not plain: a child, another
-transform, a visibility or purpose, primvars, a payload; an asset with parts of another
-thing class, hidden, or not read as a prototype) gives None, and the caller composes the
-whole world; the pixels are the same bits either way.
+the objects the edits layer touches (and the scope's first object), and reads the scene with
+the other picks as virtual objects (:class:`~.scene.VirtualObjects`): each asset and variant
+is composed once, on a stage of its own, as the prototype the scene reader would read, and
+each object's transform is made from its ops with UsdGeom's products, replicated in numpy
+for all objects at once (the same bits). The scene's objects then get the ids they have in
+the whole world (class counts in stage order). The far plane and the shadow map's box take
+in the culled objects' boxes: the objects that may hold the culled boxes' extreme
+coordinates are read too, and a scene whose bounds another object's box could widen is
+refused. Whatever the index cannot describe (no kept index, another sublayer, an object that
+is not plain: a child, another transform, a visibility or purpose, primvars, a payload; an
+asset with parts of another thing class, hidden, or not read as a prototype) gives None, and
+the caller composes the whole world; the pixels are the same bits either way.
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ from usdworld.render.instancing import (
     pruned,
     read_prototype,
 )
-from usdworld.render.scene import RenderObject, RenderScene, VirtualObjects
+from usdworld.render.scene import RenderObject, RenderScene, VirtualObjects, gf_rows, gf_product
 from usdworld.render.usd_mesh import GeometryCache
 
 OBJECTS = "/World/Objects"
@@ -122,7 +122,7 @@ def _stage_order(layers: list[Sdf.Layer]) -> list[str] | None:
             continue
         if scope.HasInfo("primOrder") or scope.HasInfo("references") or scope.HasInfo("inheritPaths"):
             return None
-        for name in scope.nameChildren.keys():
+        for name in scope.GetInfo("primChildren"):
             if name not in seen:
                 seen.add(name)
                 names.append(name)
@@ -177,28 +177,36 @@ def _asset_kinds(kinds: set[tuple[str, str | None]]) -> _Kinds | None:
     return out
 
 
-def _local_to_world(translate: np.ndarray, yaw_deg: float, scale: np.ndarray) -> Gf.Matrix4d:
-    """The transform ``UsdGeom.XformCache`` gives an object of the objects scope (whose
-    ancestors have no transform) with the ops translate, rotateZ, scale: the same products
-    in the same order (``UsdGeomXformable``: the ops from the last, identity ones skipped;
-    then times the parent's identity), so the same bits.
+def _local_to_world(translate: np.ndarray, yaw_deg: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """The transforms ``UsdGeom.XformCache`` gives objects of the objects scope (whose ancestors
+    have no transform) with the ops translate, rotateZ, scale, as ``Gf.Matrix4d`` holds them:
+    the same products in the same order (``UsdGeomXformable``: the ops from the last, identity
+    ones skipped; then times the parent's identity), with Gf's bits (:func:`~.scene.gf_product`;
+    each distinct angle's rotation is Gf's own).
 
     Args:
-        translate: (3,) float64 the translate op's value.
-        yaw_deg: the rotateZ op's (float) value, degrees.
-        scale: (3,) float64 the scale op's (float3) value.
+        translate: (N, 3) float64 the translate ops' values.
+        yaw_deg: (N,) float64 the rotateZ ops' (float) values, degrees.
+        scale: (N, 3) float64 the scale ops' (float3) values.
+
+    Returns:
+        (N, 4, 4) float64 row-vector matrices (:func:`~.scene.gf_rows`).
     """
-    identity = Gf.Matrix4d(1.0)
-    ops = (
-        Gf.Matrix4d(1.0).SetTranslate(Gf.Vec3d(*translate.tolist())),
-        Gf.Matrix4d(1.0).SetRotate(Gf.Rotation(Gf.Vec3d.ZAxis(), yaw_deg)),
-        Gf.Matrix4d(1.0).SetScale(Gf.Vec3d(*scale.tolist())),
-    )
-    local = Gf.Matrix4d(1.0)
-    for op in reversed(ops):
-        if op != identity:
-            local *= op
-    return local * identity
+    n = len(yaw_deg)
+    identity = np.eye(4)
+    move = np.tile(identity, (n, 1, 1))
+    move[:, 3, :3] = translate
+    angles, which = np.unique(yaw_deg, return_inverse=True)
+    z = Gf.Vec3d.ZAxis()
+    turns = np.stack([gf_rows(Gf.Matrix4d(1.0).SetRotate(Gf.Rotation(z, float(a)))) for a in angles])
+    turn = turns.reshape(-1, 4, 4)[which.reshape(-1)]
+    size = np.tile(identity, (n, 1, 1))
+    size[:, [0, 1, 2], [0, 1, 2]] = scale
+    local = np.tile(identity, (n, 1, 1))
+    for op in (size, turn, move):  # the ops from the last
+        use = ~np.all(op == identity, axis=(1, 2))  # Gf's == (an identity op is skipped)
+        local[use] = gf_product(local[use], op[use])
+    return gf_product(local, identity)
 
 
 @dataclass(frozen=True)
@@ -368,9 +376,7 @@ def view_stage(
         if not prim or pruned(prim) or (xformable and xformable.GetOrderedXformOps()):
             return None
     virtual = [k for k in np.flatnonzero(pick).tolist() if names[k] not in real]
-    transforms = tuple(
-        _local_to_world(base.translate[k], float(base.yaw_deg[k]), base.scale[k]) for k in virtual
-    )
+    transforms = _local_to_world(base.translate[virtual], base.yaw_deg[virtual], base.scale[virtual])
     objects = VirtualObjects(
         {name: k for k, name in enumerate(order)},
         tuple(names[k] for k in virtual),

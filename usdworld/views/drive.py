@@ -668,11 +668,11 @@ def seen_as_one_trunk(
     Their triangulated positions (:func:`_merge_estimate`) agree within
     ``association_gate_chi2`` (covariances summed) once their distance across the pair's mean
     viewing ray is shortened by the longer arm of the two (:func:`arm_across`: a track of a
-    lamp's head triangulates to a point under the head, beside the mast), and in every frame that saw both the two
-    placements overlap across the viewing ray (nearer than the sum of their footprints' reaches
-    across it, :func:`footprint_reach_across`): the halves of one crown cut by what stands in
-    front of it share their bearing, and so do a lamp's mast and its head over the road, two
-    trunks seen side by side do not. Their depths in such a frame
+    lamp's head triangulates to a point under the head, beside the mast), and in every frame
+    that saw both the two placements overlap across the viewing ray (nearer than the sum of
+    their footprints' reaches across it, :func:`footprint_reach_across`): the halves of one
+    crown cut by what stands in front of it share their bearing, and so do a lamp's mast and
+    its head over the road; two trunks seen side by side do not. Their depths in such a frame
     are not compared (a half's contact can lie metres off along the ray); the triangulations
     compare them. Pairs that share no frame are :func:`merge_fragments`' to join.
 

@@ -232,3 +232,12 @@ def test_the_whole_edit_command_takes_its_lock_without_filelock(small_frame, tmp
     assert not loaded & {"filelock", "pxr.UsdSemantics", "usdworld.authoring.editing.user_object", "decimal"}
     with WorldEditor(world) as editor:
         assert [h.op for h in editor.history()] == ["move"]
+
+
+def test_the_layer_prefetch_starts_before_pxr_usd_is_imported() -> None:
+    """An edit starts parsing the world's layers on a thread as soon as pxr.Sdf is loaded:
+    ``usdworld.authoring.stages`` (the prefetch, the schema registration) does not import pxr.Usd,
+    so its import (~20 ms) overlaps the parse too."""
+    loaded = _loaded_after("import usdworld.authoring.stages", whole_names=True)
+    assert "pxr.Sdf" in loaded
+    assert "pxr.Usd" not in loaded

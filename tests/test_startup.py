@@ -121,16 +121,17 @@ def test_an_edit_loads_no_shading_schemas_and_no_build_layout() -> None:
 NOT_IN_A_BUILD = {
     "scipy", "trimesh", "torch", "transformers", "PIL", "rich", "pygments", "jsonschema", "pydantic", "tqdm",
     "matplotlib", "networkx", "moderngl", "glcontext", "imageio", "imageio_ffmpeg", "omni", "dask",
-    "distributed", "starlette", "uvicorn", "filelock", "pandas", "sklearn", "statistics", "decimal", "fractions",
+    "distributed", "starlette", "uvicorn", "filelock", "pandas", "sklearn",
+    "statistics", "decimal", "fractions",
 }
 #: The stages of inputs a build from labels and a camera file does not have (detections, ground
 #: points, a segmentation model, a depth map, no camera file), and the light schemas' module
 #: (the lights are authored by their schema type names).
 OPTIONAL_STAGES = {
-    "usdworld.io.detections", "usdworld.io.correspondences", "usdworld.io.depth_files", "usdworld.io.detector_labels",
-    "usdworld.perception.classes", "usdworld.perception.dedupe", "usdworld.perception.refs",
-    "usdworld.perception.streets", "usdworld.streets_stage", "usdworld.segment_stage", "usdworld.layout.focal_cues",
-    "usdworld.geometry.lateral", "pxr.UsdLux",
+    "usdworld.io.detections", "usdworld.io.correspondences", "usdworld.io.depth_files",
+    "usdworld.io.detector_labels", "usdworld.perception.classes", "usdworld.perception.dedupe",
+    "usdworld.perception.refs", "usdworld.perception.streets", "usdworld.streets_stage",
+    "usdworld.segment_stage", "usdworld.layout.focal_cues", "usdworld.geometry.lateral", "pxr.UsdLux",
 }
 #: usdworld's own packages and modules that only other commands use.
 NOT_IN_A_BUILD_USDWORLD = {
@@ -222,8 +223,9 @@ def test_the_whole_edit_command_takes_its_lock_without_filelock(small_frame, tmp
 
     files = small_frame
     world = tmp_path / "world"
-    args = ["-q", "build", str(files["image"]), "--labels", str(files["labels"]), "--instances", str(files["instances"])]
-    assert main([*args, "--camera", str(files["camera"]), "-o", str(world)]) == 0
+    args = ["-q", "build", str(files["image"]), "--labels", str(files["labels"])]
+    args += ["--instances", str(files["instances"]), "--camera", str(files["camera"]), "-o", str(world)]
+    assert main(args) == 0
     with WorldEditor(world) as editor:
         name = sorted(o.name for o in editor.objects())[0]
     state = _command_state(["-q", "edit", str(world), "move", name, "--by", "0.5,0", "--force"], tmp_path)

@@ -148,7 +148,8 @@ def test_the_lights_are_authored_as_usdlux_writes_them_without_its_module() -> N
         "UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)\n"
         "UsdGeom.Xform.Define(stage, '/World')\n"
         "define_lights(stage, rig, None)\n"
-        "print(json.dumps({'usdlux': 'pxr.UsdLux' in sys.modules, 'layer': stage.GetRootLayer().ExportToString()}))\n"
+        "layer = stage.GetRootLayer().ExportToString()\n"
+        "print(json.dumps({'usdlux': 'pxr.UsdLux' in sys.modules, 'layer': layer}))\n"
     )
     out = subprocess.run(
         [sys.executable, "-c", probe], cwd=repo, env={**os.environ, "PYTHONPATH": str(repo)},

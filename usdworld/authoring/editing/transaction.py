@@ -39,8 +39,8 @@ def lock_path_of(edits_path: Path) -> Path:
 def edit_lock(path: Path) -> Iterator[None]:
     """Hold the exclusive lock ``path`` (created when missing), waiting as long as it takes.
 
-    On POSIX this is ``fcntl.flock`` itself: filelock's import costs an edit command about
-    10 ms of CPU (its logging, hashing and decimal modules) for the same system call.
+    On POSIX this is ``fcntl.flock`` itself: filelock's import costs an edit command 10-20 ms
+    of CPU (its logging, hashing, secrets and decimal modules) for the same system call.
 
     Raises:
         AuthoringError: the lock file cannot be created (e.g. a read-only folder).

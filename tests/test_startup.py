@@ -116,11 +116,22 @@ def test_an_edit_loads_no_shading_schemas_and_no_build_layout() -> None:
 
 #: Libraries ``usdworld build`` (labels and a camera file) never needs: the other commands'
 #: extras (renderer, validators, CNN backends, servers, Dask), the ones a build left behind
-#: (scipy, trimesh, rich) and numpy's masked arrays' sibling packages it does not use.
+#: (scipy, trimesh, rich), numpy's masked arrays' sibling packages it does not use, and the
+#: standard library's statistics (with decimal and fractions: only for objects the image cuts off).
 NOT_IN_A_BUILD = {
     "scipy", "trimesh", "torch", "transformers", "PIL", "rich", "pygments", "jsonschema", "pydantic", "tqdm",
     "matplotlib", "networkx", "moderngl", "glcontext", "imageio", "imageio_ffmpeg", "omni", "dask",
     "distributed", "starlette", "uvicorn", "filelock", "pandas", "sklearn",
+    "statistics", "decimal", "fractions",
+}
+#: The stages of inputs a build from labels and a camera file does not have (detections, ground
+#: points, a segmentation model, a depth map, no camera file), and the light schemas' module
+#: (the lights are authored by their schema type names).
+OPTIONAL_STAGES = {
+    "usdworld.io.detections", "usdworld.io.correspondences", "usdworld.io.depth_files",
+    "usdworld.io.detector_labels", "usdworld.perception.classes", "usdworld.perception.dedupe",
+    "usdworld.perception.refs", "usdworld.perception.streets", "usdworld.streets_stage",
+    "usdworld.segment_stage", "usdworld.layout.focal_cues", "usdworld.geometry.lateral", "pxr.UsdLux",
 }
 #: usdworld's own packages and modules that only other commands use.
 NOT_IN_A_BUILD_USDWORLD = {
@@ -170,6 +181,7 @@ def test_the_whole_build_command_loads_no_heavy_extra_and_runs_without_the_cycli
     loaded = set(state["modules"])
     assert not {m.split(".")[0] for m in loaded} & NOT_IN_A_BUILD
     assert not {m for m in loaded if m.startswith(tuple(NOT_IN_A_BUILD_USDWORLD))}
+    assert not loaded & OPTIONAL_STAGES
     assert {"usdworld.pipeline", "usdworld.authoring.world", "pxr.UsdGeom", "cv2"} <= loaded  # it did build
     assert not state["collecting"]  # usdworld.cli.main.run: no cyclic collection in a build
     assert state["frozen"] > 10_000  # ... and the teardown's collection skips the start-up's objects
@@ -192,3 +204,42 @@ def test_the_whole_render_command_loads_neither_the_build_nor_usdlux(small_frame
     assert not loaded & {"pxr.UsdLux", "usdworld.pipeline", "usdworld.authoring.world"}
     assert not {m.split(".")[0] for m in loaded} & {"scipy", "trimesh", "torch", "PIL", "rich", "omni"}
     assert not state["collecting"]
+
+
+def test_importing_the_build_loads_no_optional_input_stage() -> None:
+    """The pipeline and the build command import the stages of detections, ground points, a
+    segmentation model, a depth map or a missing camera file where those run, not with the module."""
+    loaded = _loaded_after("import usdworld.pipeline, usdworld.cli.build_cmd", whole_names=True)
+    assert "usdworld.perception.objects" in loaded and "usdworld.depth_stage" in loaded
+    assert not loaded & OPTIONAL_STAGES
+    assert not {m.split(".")[0] for m in loaded} & {"statistics", "decimal", "fractions"}
+
+
+def test_the_whole_edit_command_takes_its_lock_without_filelock(small_frame, tmp_path) -> None:
+    """``usdworld edit W move``: on POSIX the edit lock is ``fcntl.flock`` itself (filelock and its
+    logging, hashing and decimal modules are not loaded), and a move needs no UsdSemantics."""
+    from usdworld.authoring.edits import WorldEditor
+    from usdworld.cli.main import main
+
+    files = small_frame
+    world = tmp_path / "world"
+    args = ["-q", "build", str(files["image"]), "--labels", str(files["labels"])]
+    args += ["--instances", str(files["instances"]), "--camera", str(files["camera"]), "-o", str(world)]
+    assert main(args) == 0
+    with WorldEditor(world) as editor:
+        name = sorted(o.name for o in editor.objects())[0]
+    state = _command_state(["-q", "edit", str(world), "move", name, "--by", "0.5,0", "--force"], tmp_path)
+    loaded = set(state["modules"])
+    assert "usdworld.authoring.editing.transaction" in loaded  # it did edit, under the lock
+    assert not loaded & {"filelock", "pxr.UsdSemantics", "usdworld.authoring.editing.user_object", "decimal"}
+    with WorldEditor(world) as editor:
+        assert [h.op for h in editor.history()] == ["move"]
+
+
+def test_the_layer_prefetch_starts_before_pxr_usd_is_imported() -> None:
+    """An edit starts parsing the world's layers on a thread as soon as pxr.Sdf is loaded:
+    ``usdworld.authoring.stages`` (the prefetch, the schema registration) does not import pxr.Usd,
+    so its import (~20 ms) overlaps the parse too."""
+    loaded = _loaded_after("import usdworld.authoring.stages", whole_names=True)
+    assert "pxr.Sdf" in loaded
+    assert "pxr.Usd" not in loaded

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -124,3 +125,52 @@ def test_evaluate_reports_the_sun_error_against_synth_truth() -> None:
     errors = light_errors(stage, overcast_truth)
     assert (errors["true_overcast"], errors["overcast"], errors["azimuth_error_deg"]) == (True, False, None)
     assert light_errors(_stage(), truth) is None  # an old world: no lights
+
+
+def test_the_lights_are_authored_as_usdlux_writes_them_without_its_module() -> None:
+    """``define_lights`` writes the specs ``UsdLux.DistantLight/DomeLight.Define`` and their
+    ``Create*Attr`` write (same layer text), in a process that never loads ``pxr.UsdLux``."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    probe = (
+        "import json, sys\n"
+        "import numpy as np\n"
+        "from pxr import Usd, UsdGeom\n"
+        "import usdworld.authoring\n"
+        "from usdworld.authoring.lights import define_lights\n"
+        "from usdworld.layout.model import LightRig\n"
+        f"rig = LightRig(*(np.array(v) for v in {[list(map(float, v)) for v in vars(RIG).values()]!r}))\n"
+        "stage = Usd.Stage.CreateInMemory()\n"
+        "UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)\n"
+        "UsdGeom.Xform.Define(stage, '/World')\n"
+        "define_lights(stage, rig, None)\n"
+        "layer = stage.GetRootLayer().ExportToString()\n"
+        "print(json.dumps({'usdlux': 'pxr.UsdLux' in sys.modules, 'layer': layer}))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe], cwd=repo, env={**os.environ, "PYTHONPATH": str(repo)},
+        capture_output=True, text=True, check=True,
+    )
+    state = json.loads(out.stdout.splitlines()[-1])
+    assert not state["usdlux"]
+
+    stage = _stage()  # the same lights through UsdLux's schema classes
+    define_lights(stage, RIG, None)
+    for path in (SUN_PATH, SKY_PATH):
+        stage.RemovePrim(path)
+    sun = UsdLux.DistantLight.Define(stage, SUN_PATH)
+    colour = Gf.Vec3f(*(RIG.sun_color / RIG.sun_color.max()).tolist())
+    sun.CreateColorAttr(colour)
+    sun.CreateIntensityAttr(float(RIG.sun_color.max()))
+    sun.CreateAngleAttr(0.53)
+    from usdworld.authoring.lights import sun_orientation
+
+    UsdGeom.Xformable(sun.GetPrim()).AddOrientOp().Set(sun_orientation(RIG.sun_direction_world))
+    sky = UsdLux.DomeLight.Define(stage, SKY_PATH)
+    sky.CreateColorAttr(Gf.Vec3f(*(RIG.sky_ambient / RIG.sky_ambient.max()).tolist()))
+    sky.CreateIntensityAttr(float(RIG.sky_ambient.max()))
+    assert state["layer"] == stage.GetRootLayer().ExportToString()

@@ -19,7 +19,6 @@ import numpy as np
 
 from usdworld.errors import CalibrationError, InputError
 from usdworld.geometry.camera import PinholeCamera
-from usdworld.io.depth_files import read_depth
 from usdworld.io.label_table import label_lookups
 from usdworld.io.types import DepthMap, Segmentation, SourceImage
 from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
@@ -107,6 +106,8 @@ def estimate_depth(
     if backend == "file":
         if depth_file is None:
             raise InputError("--depth file needs --depth-map FILE (.npy, 16-bit PNG in metres*256, or .pfm)")
+        from usdworld.io.depth_files import read_depth  # only a build with --depth-map reads one
+
         depth = read_depth(depth_file, image)
         return DepthOutcome(depth, f"file:{depth_file.name}", "metric", "none: the file is metric", _NO_FIT)
     prediction = make_backend(backend, weights).predict(np.asarray(image.rgb), camera)

@@ -37,7 +37,7 @@ import tempfile
 from concurrent.futures import Future
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -62,8 +62,6 @@ from usdworld.geometry.vanishing import (
 from usdworld.io.asset_catalogue import AssetCatalogue
 from usdworld.io.camera_files import read_camera
 from usdworld.io.class_table import ClassTable, load_class_table
-from usdworld.io.correspondences import read_correspondences
-from usdworld.io.detections import read_detections_json, read_kitti_labels
 from usdworld.io.exif import read_exif_focal
 from usdworld.io.hashing import read_input
 from usdworld.io.images import read_image
@@ -72,7 +70,6 @@ from usdworld.io.labels import decode_segmentation, read_polygons
 from usdworld.io.limits import MAX_RANGE_CAP_M
 from usdworld.io.types import CameraSpec, Detections, InputFile, Segmentation, SourceImage
 from usdworld.layout.camera_cues import height_observations, road_top_row, street_view, vanishing_yaw
-from usdworld.layout.focal_cues import estimate_focal
 from usdworld.layout.heading import check_traffic
 from usdworld.layout.model import WorldModel
 from usdworld.layout.placement import Placement, Skipped, place_objects, skip_warnings
@@ -91,9 +88,7 @@ from usdworld.output_dir import temporary_prefix
 from usdworld.parameters import DEFAULT_PARAMETERS, Parameters
 from usdworld.parameters.camera import CameraParams
 from usdworld.parameters.placement import PlacementParams
-from usdworld.perception.dedupe import merge_duplicates
 from usdworld.perception.facades import StreetView
-from usdworld.perception.streets import StreetLabels
 from usdworld.perception.objects import (
     ImageObject,
     SegmentRegions,
@@ -102,14 +97,17 @@ from usdworld.perception.objects import (
     segment_regions,
     sort_objects,
 )
-from usdworld.perception.refs import join_things_and_stuff
 from usdworld.perception.segment import BACKEND_NAMES as SEGMENT_BACKENDS
 from usdworld.report import make_report
-from usdworld.segment_stage import segment_photo
 from usdworld.stage_threads import DEFAULT_THREADS, StageThreads, earlier_errors_first
-from usdworld.streets_stage import inferred_stuff, infer_streets
+
+if TYPE_CHECKING:
+    from usdworld.perception.streets import StreetLabels
 
 log = logging.getLogger(__name__)
+
+# The stages of optional inputs (detections, ground points, a segmentation model, no camera
+# file) are imported where they run: a build from labels and a camera file loads none of them.
 
 
 @dataclass(frozen=True)
@@ -263,6 +261,8 @@ def _read_detections(request: BuildRequest, image: SourceImage) -> Detections | 
         return request.detection_items
     if request.detections is None:
         return None
+    from usdworld.io.detections import read_detections_json, read_kitti_labels
+
     if request.detections.suffix.lower() == ".json":
         return read_detections_json(request.detections, image)
     return read_kitti_labels(request.detections, image)
@@ -315,6 +315,9 @@ def _objects(
         if seg is None or regions is None:
             return []
         return objects_from_regions(regions, seg, view, table, lookups, params.perception)
+    from usdworld.perception.dedupe import merge_duplicates
+    from usdworld.perception.refs import join_things_and_stuff
+
     things = merge_duplicates(
         objects_from_detections(dets, image.width, image.height, seg, lookups=lookups, params=params.perception),
         params.collision,
@@ -372,6 +375,8 @@ def _camera(
 
 def _ground_fit(request: BuildRequest, camera: PinholeCamera, params: Parameters) -> tuple[HomographyFit, str]:
     if request.correspondences is not None:
+        from usdworld.io.correspondences import read_correspondences
+
         pairs = read_correspondences(request.correspondences)
         return estimate_homography(pairs.points_px, pairs.points_ground), "manual"
     px, ground = ground_correspondences(camera, params.scene.dlt_grid, params.scene.dlt_horizon_margin)
@@ -435,6 +440,8 @@ def read_scene_head(
             spec = read_camera(request.camera, image, request.ground_plane)
         dets = _read_detections(request, image)
         if request.segment != "none":  # the model runs once every input file has been read and checked
+            from usdworld.segment_stage import segment_photo
+
             seg = segment_photo(request.segment, request.segment_model, image, dets, params.perception)
         with earlier_errors_first(lines):
             # The label map's regions need no perspective: found while the lines are.
@@ -453,6 +460,8 @@ def read_scene_head(
         else None
     )
     if no_intrinsics:  # the photo's own cues (EXIF, lines, vehicles)
+        from usdworld.layout.focal_cues import estimate_focal
+
         exif = read_exif_focal(request.image, image.width, image.height)
         focal = estimate_focal(
             image.width, image.height, objects, table, vanishing, segments, vertical, exif, params.camera
@@ -474,6 +483,9 @@ def read_scene_head(
     boxes_given = request.detections is not None or request.detection_items is not None
     if seg is None and boxes_given and request.infer_streets:
         # Boxes only: the road, sidewalks and buildings from the photo, once the camera gives the horizon.
+        from usdworld.perception.refs import join_things_and_stuff
+        from usdworld.streets_stage import inferred_stuff, infer_streets
+
         inferred, why = infer_streets(image, objects, camera.camera, vanishing, table, params)
         if inferred is not None:
             seg = Segmentation(inferred.label_ids, None, ())

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from pxr import Kind, Usd, UsdGeom, UsdSemantics
+from pxr import Kind, Usd, UsdGeom
 
 from usdworld.authoring.asset_cards import read_card
 from usdworld.authoring.mesh_reader import MeshTopology, read_topology
@@ -376,6 +376,8 @@ def define_asset_root(stage: Usd.Stage, class_name: str) -> Usd.Prim:
     Returns:
         The root prim.
     """
+    from pxr import UsdSemantics  # the asset generators' only: an editor or a build reads assets
+
     root = UsdGeom.Xform.Define(stage, f"/{class_name}")
     prim = root.GetPrim()
     stage.SetDefaultPrim(prim)

@@ -8,12 +8,16 @@ import re
 import threading
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from pxr import Plug, Sdf, Usd
+from pxr import Plug, Sdf
 
 from usdworld.errors import InputError
 from usdworld.resources import schemas_dir
 from usdworld.world_files import ROOT_LAYER
+
+if TYPE_CHECKING:
+    from pxr import Usd
 
 
 #: OpenUSD's error text: "Error in 'FUNCTION' at line N in file FILE : 'REASON'".
@@ -57,6 +61,8 @@ def open_stage(
         InputError: the file does not open, or one of its sublayers does not when ``whole``
             (the USD error's reason is quoted).
     """
+    from pxr import Usd  # not with the module: an edit starts its layer prefetch (Sdf) before it
+
     try:
         if mask is None:
             stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)

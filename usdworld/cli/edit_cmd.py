@@ -82,8 +82,9 @@ def _editor(
     """The editor of the world argument.
 
     The world's layers are parsed on a thread (:class:`~usdworld.authoring.stages.LayerPrefetch`)
-    while the editor's modules (numpy, the rules) are imported; the editor's stage then
-    finds them parsed.
+    while the editor's modules (pxr.Usd, numpy, the rules) are imported: the prefetch needs
+    only pxr.Sdf, so it starts before pxr.Usd is imported. The editor's stage then finds them
+    parsed.
     """
     from usdworld.authoring.stages import prefetch_world_layers
 

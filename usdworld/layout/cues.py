@@ -12,7 +12,6 @@ hidden) the front depth is a bound from above or the top-row estimate
 from __future__ import annotations
 
 from dataclasses import dataclass
-from statistics import NormalDist
 
 import numpy as np
 
@@ -278,6 +277,8 @@ def truncated_normal_median(mean: float, sigma: float, lo: float, hi: float) -> 
     Where the interval lies far in one tail (its probability underflows), the end nearer
     the mean.
     """
+    from statistics import NormalDist  # with decimal and fractions: only for objects the image cuts off
+
     dist = NormalDist(mean, sigma)
     p_lo, p_hi = dist.cdf(lo), dist.cdf(hi)
     if p_hi - p_lo < 1e-12:

@@ -24,7 +24,6 @@ from usdworld.io.class_table import ClassTable
 from usdworld.io.label_table import LabelLookups
 from usdworld.io.types import Detections, Segmentation
 from usdworld.parameters.perception import DEFAULT_PERCEPTION, PerceptionParams
-from usdworld.perception.classes import placed_class_for_label
 from usdworld.perception.crowns import crown_ranges
 from usdworld.perception.facades import StreetView, facade_ranges, fill_through_occluders
 
@@ -746,6 +745,8 @@ def objects_from_detections(
     Returns:
         Objects sorted canonically; ``instance_id`` is the detection's index in the file.
     """
+    from usdworld.perception.classes import placed_class_for_label  # detector label tables: boxes only
+
     items = []
     dropped: Counter[str] = Counter()
     for index, det in enumerate(detections.items):

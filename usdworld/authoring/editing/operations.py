@@ -38,7 +38,6 @@ from usdworld.authoring.editing import restyle as paint
 from usdworld.authoring.editing.journal import StepRecorder, capture, restore
 from usdworld.authoring.editing.state import ObjectState, WorldState, footprints, object_path
 from usdworld.authoring.editing.transaction import EditsTransaction
-from usdworld.authoring.editing.user_object import author_user_object, set_label
 from usdworld.errors import AuthoringError, EditRefused, InputError, RefusalReason
 from usdworld.geometry.rotation import turned
 from usdworld.io.class_table import ClassPrior, ClassTable
@@ -352,6 +351,8 @@ def add(
         path = Sdf.Path(OBJECTS_PATH).AppendChild(name)
 
         def author() -> None:
+            from usdworld.authoring.editing.user_object import author_user_object  # with UsdSemantics
+
             author_user_object(
                 ed.stage, path, class_name, ref, variant, (float(xy[0]), float(xy[1]), z), yaw, scale
             )
@@ -413,6 +414,8 @@ def replace(
         prim = ed.stage.GetPrimAtPath(obj.path)
 
         def author() -> None:
+            from usdworld.authoring.editing.user_object import set_label  # with UsdSemantics
+
             paint.clear_restyle(ed.tx.layer, prim)
             if ref is not None:
                 prim.GetReferences().SetReferences([Sdf.Reference(ref)])

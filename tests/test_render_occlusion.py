@@ -73,6 +73,9 @@ def test_hidden_instances_are_left_out_of_the_camera_passes_with_the_same_pixels
         # the occluders' depth first; the labels keep it (hidden fragments fail its test), last to first
         assert drawn == ["depth", "label_last_first", "shadow", "lit"]
         assert kept[0] < 1.0
+        # the twin never wins a pixel (the car drawn before it ties with it everywhere): its object
+        # wins none, and the colour pass leaves it out
+        assert r.last_colored == shown - 1
         again = r.render_labels(scene, cam.K, cam.world_from_cam())  # every instance again
     assert total - shown == BEHIND  # the touching box and the six behind; the pole and the flush box stay
     for name in ("rgb", "class_ids", "instance_ids", "object_ids", "depth_m"):

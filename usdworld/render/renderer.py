@@ -23,7 +23,9 @@ Passes (one draw call per mesh batch each; no multisampling anywhere, so every i
    small bias; four bilinear depth comparisons; ``shadow_taps=1``: one, a 2x2 PCF, which the
    fly-through uses), gamma-encoded to 8 bits, shading only the nearest surface of each pixel
    against a depth pre-pass (in :meth:`Renderer.render`, the label pass's depth;
-   :meth:`Renderer.render_rgb` draws its own), then the sky gradient where no surface was drawn.
+   :meth:`Renderer.render_rgb` draws its own), then the sky gradient where no surface was drawn;
+   after :meth:`Renderer.render`'s occlusion test, of the objects' instances only those of the
+   objects that won a pixel in the labels (the same winner at every pixel, so the same colour).
 """
 
 from __future__ import annotations
@@ -234,6 +236,22 @@ class _BatchBuffers:
         self.vaos, self.buffers = {}, []
 
 
+def _of_objects_seen(
+    object_ids: np.ndarray, shown: list[np.ndarray], batches: list[_BatchBuffers]
+) -> list[np.ndarray]:
+    """Per batch, (N,) bool the ``shown`` instances that are no object's or whose object won a pixel.
+
+    Args:
+        object_ids: (H, W) int32 the label pass's object index per pixel (0: no object).
+        shown: per batch, (N,) bool the instances the label pass drew.
+        batches: the batches on the GPU, in the same order.
+    """
+    top = max([int(object_ids.max(initial=0))] + [int(b.batch.object_ids.max(initial=0)) for b in batches])
+    seen = np.bincount(object_ids.ravel(), minlength=top + 1) > 0
+    seen[0] = True  # the ground and the stuff that is no object
+    return [mask & seen[b.batch.object_ids] for b, mask in zip(batches, shown, strict=True)]
+
+
 class _SceneBuffers:
     """The GPU copy of one RenderScene (kept while the same scene object is rendered)."""
 
@@ -299,6 +317,9 @@ class Renderer:
         self.last_shown: tuple[int, int] | None = None
         #: the instances the last shadow map drew
         self.last_sunlit: int | None = None
+        #: the instances the last :meth:`render` drew in its colour pass after the occlusion test
+        #: (those of the objects that won a pixel in the labels); None: as in the label pass
+        self.last_colored: int | None = None
         self.lighting = lighting or Lighting()
         self.near_m = float(near_m)
         self._ctx = create_context()
@@ -380,10 +401,18 @@ class Renderer:
             b.show(mask)
         batches = buffers.batches
         self.last_shown = (sum(b.n_shown for b in batches), sum(b.n_instances for b in batches))
+        self.last_colored = None
         # the occluders' depth stays for the labels (only where no surface can reach the far plane)
         kept = shown is not None and self._below_far(scene, world_from_cam)
         labels = self._labels(scene, K, world_from_cam, occluders_drawn=kept)
         class_ids, instance_ids, object_ids, depth = labels
+        if shown is not None:
+            # The colour pass draws, of the objects' instances, only those of objects that won a
+            # pixel: at each pixel it shows the first fragment at the nearest depth, as the labels
+            # do, whose object is one of them; another fragment there could only be drawn over.
+            for b, mask in zip(batches, _of_objects_seen(object_ids, shown, batches), strict=True):
+                b.show(mask)
+            self.last_colored = sum(b.n_shown for b in batches)
         # The labels' depth buffer is the colour pass's depth pre-pass (the same "<" test on the
         # same positions, gl_Position being invariant in both programs): it is not drawn again.
         rgb = self._color_pass(scene, K, world_from_cam, depth_drawn=True)

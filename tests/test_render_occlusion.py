@@ -28,6 +28,8 @@ def _walled_street(behind: bool = True) -> RenderScene:
     box(stage, "/World/Objects/wall", (10, -3, 0), (10.5, 3, 4), color=(0.6, 0.5, 0.5), cls="building")
     box(stage, "/World/Objects/pole", (20, -0.2, 0), (20.4, 0.2, 12), color=(0.7, 0.7, 0.7), cls="pole")
     box(stage, "/World/Objects/flush", (10, 2.5, 0), (10.4, 3.5, 1), color=(0.2, 0.7, 0.2), cls="car")
+    # the same box again: every one of its pixels is a tie of depth, which the first drawn wins
+    box(stage, "/World/Objects/twin", (10, 2.5, 0), (10.4, 3.5, 1), color=(0.9, 0.1, 0.9), cls="person")
     if behind:
         box(stage, "/World/Objects/touch", (10.5, -0.5, 0), (11, 0.5, 1), color=(0.8, 0.2, 0.2), cls="car")
         for k in range(BEHIND - 1):
@@ -44,21 +46,36 @@ def test_hidden_instances_are_left_out_of_the_camera_passes_with_the_same_pixels
     low_sun = Lighting(sun_direction_world=sun_direction(60.0, 12.0))
     scene = _walled_street()
     drawn: list[str] = []
+    kept: list[float] = []  # the nearest depth the label pass starts from
+    renderers: list[Renderer] = []
     draw = renderer_module._SceneBuffers.draw
-    monkeypatch.setattr(
-        renderer_module._SceneBuffers,
-        "draw",
-        lambda self, ctx, name: (drawn.append(name), draw(self, ctx, name)),
-    )
+
+    def spy(self: renderer_module._SceneBuffers, ctx: object, name: str) -> None:
+        drawn.append(name)
+        if name.startswith("label"):
+            raw = renderers[-1]._label_fbo.read(components=1, attachment=-1, dtype="f4", alignment=1)
+            kept.append(float(np.frombuffer(raw, dtype=np.float32).min()))
+        draw(self, ctx, name)
+
+    monkeypatch.setattr(renderer_module._SceneBuffers, "draw", spy)
     every = RenderingParams(occlusion_min_triangles_per_px=0.0)
     with Renderer(W, H, lighting=low_sun, occlusion_cull=False) as r:
+        renderers.append(r)
         full = r.render(scene, cam.K, cam.world_from_cam())
         without_behind = r.render(_walled_street(behind=False), cam.K, cam.world_from_cam())
+    assert kept == [1.0, 1.0]  # drawn from a cleared depth buffer, first to last
     with Renderer(W, H, lighting=low_sun, rendering=every) as r:
+        renderers.append(r)
         drawn.clear()
+        kept.clear()
         culled = r.render(scene, cam.K, cam.world_from_cam())
         shown, total = r.last_shown
-        assert drawn == ["depth", "label", "shadow", "lit"]  # the occluders' depth first
+        # the occluders' depth first; the labels keep it (hidden fragments fail its test), last to first
+        assert drawn == ["depth", "label_last_first", "shadow", "lit"]
+        assert kept[0] < 1.0
+        # the twin never wins a pixel (the car drawn before it ties with it everywhere): its object
+        # wins none, and the colour pass leaves it out
+        assert r.last_colored == shown - 1
         again = r.render_labels(scene, cam.K, cam.world_from_cam())  # every instance again
     assert total - shown == BEHIND  # the touching box and the six behind; the pole and the flush box stay
     for name in ("rgb", "class_ids", "instance_ids", "object_ids", "depth_m"):
@@ -70,6 +87,7 @@ def test_hidden_instances_are_left_out_of_the_camera_passes_with_the_same_pixels
     assert not np.array_equal(without_behind.rgb, full.rgb)
     assert np.array_equal(without_behind.object_ids, full.object_ids)
     assert set(np.unique(full.class_ids)) >= {7, 11, 17, 26}
+    assert 24 not in full.class_ids  # the twin ties with the car drawn before it everywhere: the car shows
 
 
 def test_a_scene_of_few_triangles_per_pixel_is_not_tested() -> None:
@@ -195,3 +213,35 @@ def test_a_box_beyond_a_side_of_the_clip_box_holds_only_points_beyond_it(data, l
         assert not inside_any
     if inside_any:
         assert not out
+
+
+def test_a_surface_at_the_far_planes_depth_keeps_the_cleared_label_pass(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A wall 60 km out: its window depth lies within a step of the far plane's 1, where a "<=" test
+    from the occluders' depth could pass what a "<" test from a cleared buffer does not; such a
+    scene's labels are drawn from a cleared buffer, as without the occlusion test."""
+    cam = camera(K=K, pitch=0.0, roll=0.0, yaw=0.0)
+    stage = new_stage()
+    box(stage, "/World/Road", (-5, -15, -0.1), (80, 15, 0), color=(0.3, 0.3, 0.3), cls="road")
+    box(stage, "/World/Objects/wall", (10, -3, 0), (10.5, 3, 4), color=(0.6, 0.5, 0.5), cls="building")
+    box(stage, "/World/Objects/far", (60000, -8000, -2000), (60010, 8000, 4000), cls="building")
+    scene = RenderScene.from_stage(stage)
+    drawn: list[str] = []
+    draw = renderer_module._SceneBuffers.draw
+    monkeypatch.setattr(
+        renderer_module._SceneBuffers,
+        "draw",
+        lambda self, ctx, name: (drawn.append(name), draw(self, ctx, name)),
+    )
+    with Renderer(W, H, occlusion_cull=False) as r:
+        full = r.render(scene, cam.K, cam.world_from_cam())
+    with Renderer(W, H, rendering=RenderingParams(occlusion_min_triangles_per_px=0.0)) as r:
+        drawn.clear()
+        culled = r.render(scene, cam.K, cam.world_from_cam())
+    assert drawn[:2] == ["depth", "label"]
+    with Renderer(W, H) as r:
+        assert not r._below_far(scene, cam.world_from_cam())
+        assert r._below_far(_walled_street(), cam.world_from_cam())
+    for name in ("rgb", "class_ids", "instance_ids", "object_ids", "depth_m"):
+        assert getattr(culled, name).tobytes() == getattr(full, name).tobytes(), name

@@ -102,7 +102,7 @@ class ImageObject:
 
     @property
     def mask_area(self) -> int:
-        return int(self.mask.sum())
+        return int(np.count_nonzero(self.mask))
 
     @property
     def edges_px(self) -> np.ndarray:

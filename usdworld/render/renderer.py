@@ -15,12 +15,17 @@ Passes (one draw call per mesh batch each; no multisampling anywhere, so every i
    beyond a side of the sun's box make no fragment and are not drawn
    (:func:`~usdworld.render.occlusion.outside_clip_sides`);
 2. labels: class id, instance id and object index as int32 and the OpenCV camera depth
-   ``z`` in metres as float32 (0 where no surface was hit) in one multi-target pass;
+   ``z`` in metres as float32 (0 where no surface was hit) in one multi-target pass; after
+   :meth:`Renderer.render`'s occlusion test it keeps the occluders' depth (the fragments behind
+   them fail the test and are not shaded) and draws last to first with "<=", so that the first
+   of the fragments at a pixel's nearest depth wins, as in one "<" pass from a cleared buffer;
 3. colour: Blinn-Phong + hemisphere ambient with a 3x3 PCF shadow lookup (normal offset +
    small bias; four bilinear depth comparisons; ``shadow_taps=1``: one, a 2x2 PCF, which the
    fly-through uses), gamma-encoded to 8 bits, shading only the nearest surface of each pixel
    against a depth pre-pass (in :meth:`Renderer.render`, the label pass's depth;
-   :meth:`Renderer.render_rgb` draws its own), then the sky gradient where no surface was drawn.
+   :meth:`Renderer.render_rgb` draws its own), then the sky gradient where no surface was drawn;
+   after :meth:`Renderer.render`'s occlusion test, of the objects' instances only those of the
+   objects that won a pixel in the labels (the same winner at every pixel, so the same colour).
 """
 
 from __future__ import annotations
@@ -53,6 +58,11 @@ log = logging.getLogger(__name__)
 
 #: Largest image side the renderer accepts (llvmpipe's framebuffer limit is 16384).
 MAX_SIZE = 8192
+
+#: Steps of a 24-bit depth buffer every surface's window depth must lie below the far plane's 1
+#: by for the label pass to keep the occluders' depth and test "<=" (the rounding of the window
+#: depth is half a step; geometry of the depth format, not tuned).
+FAR_MARGIN = 4.0 / (1 << 24)
 
 #: Shadow filters: bilinear depth comparisons per shaded pixel -> the lit program's source.
 _SHADOW_FILTERS = {4: "LIT_FS", 1: "LIT_BILINEAR_FS"}
@@ -149,14 +159,20 @@ class _BatchBuffers:
         self.buffers = [pos, nrm, inst_all, inst, inst_rev, ibo]
         place = f"{_ROWS} {_INSTANCE.itemsize - 96}x/i"
         placed = [(pos, "3f8", "in_pos"), (inst, place, *_ROW_NAMES)]
+        ids = f"{_ROWS} 36x 3i 12x/i"
         self.vaos: dict[str, Any] = {
             "shadow": ctx.vertex_array(
                 programs["shadow"], [(pos, "3f8", "in_pos"), (inst_all, place, *_ROW_NAMES)]
             ),
             "depth": ctx.vertex_array(programs["depth"], placed),
             "label": ctx.vertex_array(
+                programs["label"], [(pos, "3f8", "in_pos"), (inst, ids, *_ROW_NAMES, "in_ids")]
+            ),
+            "label_last_first": ctx.vertex_array(
                 programs["label"],
-                [(pos, "3f8", "in_pos"), (inst, f"{_ROWS} 36x 3i 12x/i", *_ROW_NAMES, "in_ids")],
+                [(pos, "3f8", "in_pos"), (inst_rev, ids, *_ROW_NAMES, "in_ids")],
+                index_buffer=ibo,
+                index_element_size=4,
             ),
         }
         lit = [(pos, "3f8", "in_pos"), (nrm, "3f", "in_normal")]
@@ -220,6 +236,22 @@ class _BatchBuffers:
         self.vaos, self.buffers = {}, []
 
 
+def _of_objects_seen(
+    object_ids: np.ndarray, shown: list[np.ndarray], batches: list[_BatchBuffers]
+) -> list[np.ndarray]:
+    """Per batch, (N,) bool the ``shown`` instances that are no object's or whose object won a pixel.
+
+    Args:
+        object_ids: (H, W) int32 the label pass's object index per pixel (0: no object).
+        shown: per batch, (N,) bool the instances the label pass drew.
+        batches: the batches on the GPU, in the same order.
+    """
+    top = max([int(object_ids.max(initial=0))] + [int(b.batch.object_ids.max(initial=0)) for b in batches])
+    seen = np.bincount(object_ids.ravel(), minlength=top + 1) > 0
+    seen[0] = True  # the ground and the stuff that is no object
+    return [mask & seen[b.batch.object_ids] for b, mask in zip(batches, shown, strict=True)]
+
+
 class _SceneBuffers:
     """The GPU copy of one RenderScene (kept while the same scene object is rendered)."""
 
@@ -230,7 +262,8 @@ class _SceneBuffers:
 
     def draw(self, ctx: Any, name: str) -> None:
         """One pass over every batch: in scene order, the lit pass last to first (see above)."""
-        for b in reversed(self.batches) if name.startswith("lit") else self.batches:
+        last_first = name.startswith("lit") or name.endswith("last_first")
+        for b in reversed(self.batches) if last_first else self.batches:
             b.render(ctx, name)
 
     def release(self) -> None:
@@ -284,6 +317,9 @@ class Renderer:
         self.last_shown: tuple[int, int] | None = None
         #: the instances the last shadow map drew
         self.last_sunlit: int | None = None
+        #: the instances the last :meth:`render` drew in its colour pass after the occlusion test
+        #: (those of the objects that won a pixel in the labels); None: as in the label pass
+        self.last_colored: int | None = None
         self.lighting = lighting or Lighting()
         self.near_m = float(near_m)
         self._ctx = create_context()
@@ -365,7 +401,18 @@ class Renderer:
             b.show(mask)
         batches = buffers.batches
         self.last_shown = (sum(b.n_shown for b in batches), sum(b.n_instances for b in batches))
-        class_ids, instance_ids, object_ids, depth = self._labels(scene, K, world_from_cam)
+        self.last_colored = None
+        # the occluders' depth stays for the labels (only where no surface can reach the far plane)
+        kept = shown is not None and self._below_far(scene, world_from_cam)
+        labels = self._labels(scene, K, world_from_cam, occluders_drawn=kept)
+        class_ids, instance_ids, object_ids, depth = labels
+        if shown is not None:
+            # The colour pass draws, of the objects' instances, only those of objects that won a
+            # pixel: at each pixel it shows the first fragment at the nearest depth, as the labels
+            # do, whose object is one of them; another fragment there could only be drawn over.
+            for b, mask in zip(batches, _of_objects_seen(object_ids, shown, batches), strict=True):
+                b.show(mask)
+            self.last_colored = sum(b.n_shown for b in batches)
         # The labels' depth buffer is the colour pass's depth pre-pass (the same "<" test on the
         # same positions, gl_Position being invariant in both programs): it is not drawn again.
         rgb = self._color_pass(scene, K, world_from_cam, depth_drawn=True)
@@ -489,19 +536,30 @@ class Renderer:
         return self._labels(scene, K, world_from_cam)
 
     def _labels(
-        self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray
+        self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray, occluders_drawn: bool = False
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`render_labels` of the instances shown (checked camera)."""
+        """:meth:`render_labels` of the instances shown (checked camera).
+
+        ``occluders_drawn``: the depth buffer holds the occluders' depth (:meth:`_unhidden`), which
+        the pass keeps (see :meth:`render`).
+        """
         ctx = self._context()
         buffers = self._upload(scene)
         self._label_fbo.use()
+        self._label_fbo.depth_mask = not occluders_drawn  # a clear with the mask off keeps the depth
         self._label_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self._label_fbo.depth_mask = True
         if buffers.n_vertices:
             prog = self._programs["label"]
             _write(prog, "u_view_proj", self._view_proj(scene, K, world_from_cam))
             _write(prog, "u_view", gl_view(world_from_cam))
             ctx.enable(ctx.DEPTH_TEST)
-            buffers.draw(ctx, "label")
+            if occluders_drawn:
+                ctx.depth_func = "<="
+                buffers.draw(ctx, "label_last_first")
+                ctx.depth_func = "<"
+            else:
+                buffers.draw(ctx, "label")
         out = []
         for i, dtype in enumerate(("i4", "i4", "i4", "f4")):
             raw = self._label_fbo.read(components=1, attachment=i, dtype=dtype, alignment=1)
@@ -601,14 +659,29 @@ class Renderer:
         self._shadow_key = None
         return self._buffers
 
-    def _view_proj(self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray) -> np.ndarray:
+    def _reach(self, scene: RenderScene, world_from_cam: np.ndarray) -> tuple[float, float]:
+        """The farthest distance of the scene's box from the camera and the far plane, metres."""
         lo, hi = scene.bounds_world()
         corners = np.array(
             [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
         )
-        far = float(np.linalg.norm(corners - world_from_cam[:3, 3], axis=1).max()) * 1.01 + 1.0
-        far = max(far, self.near_m * 10.0)
+        reach = float(np.linalg.norm(corners - world_from_cam[:3, 3], axis=1).max())
+        return reach, max(reach * 1.01 + 1.0, self.near_m * 10.0)
+
+    def _view_proj(self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray) -> np.ndarray:
+        far = self._reach(scene, world_from_cam)[1]
         return gl_projection(K, self.width, self.height, self.near_m, far) @ gl_view(world_from_cam)
+
+    def _below_far(self, scene: RenderScene, world_from_cam: np.ndarray) -> bool:
+        """Whether every surface's window depth lies :data:`FAR_MARGIN` below the far plane's 1.
+
+        A surface at depth z along the axis (at most the box's farthest distance) has the window
+        depth ``far (z - near) / (z (far - near))``; one that rounds to 1 would pass a "<=" test
+        against a cleared buffer, where a "<" test rejects it.
+        """
+        reach, far = self._reach(scene, world_from_cam)
+        z = max(reach, self.near_m)
+        return self.near_m * (far - z) / (z * (far - self.near_m)) >= FAR_MARGIN
 
     def _shadow_pass(
         self, scene: RenderScene, buffers: _SceneBuffers, K: np.ndarray, world_from_cam: np.ndarray

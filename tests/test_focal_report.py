@@ -1,4 +1,4 @@
-"""tools/focal_report.py: what each focal cue reads per frame (with the shared data), and the box shapes' profile."""
+"""tools/focal_report.py: what each focal cue reads per frame (with the shared data); the box shapes' profile."""
 
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ from usdworld.parameters import Parameters
 from usdworld.parameters.camera import CameraParams
 from usdworld.pipeline import BuildRequest
 
-_spec = importlib.util.spec_from_file_location("focal_report", Path(__file__).parents[1] / "tools" / "focal_report.py")
+_TOOL = Path(__file__).parents[1] / "tools" / "focal_report.py"
+_spec = importlib.util.spec_from_file_location("focal_report", _TOOL)
 focal_report = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(focal_report)
 
@@ -26,7 +27,9 @@ def test_the_box_shape_cue_carries_the_profile_it_is_summarised_from():
     L, W, H = CameraParams().shape_car_size_m
     boxes = []
     for X, Z in [(-4, 12), (3.5, 15), (-3, 25), (6, 20), (0.5, 30), (-7, 18)]:
-        pts = np.array([(X + dx, y, Z + dz) for dx in (-W / 2, W / 2) for dz in (-L / 2, L / 2) for y in (cam_h, cam_h - H)])
+        pts = np.array(
+            [(X + dx, y, Z + dz) for dx in (-W / 2, W / 2) for dz in (-L / 2, L / 2) for y in (cam_h, cam_h - H)]
+        )
         u, v = c[0] + f * pts[:, 0] / pts[:, 2], c[1] + f * pts[:, 1] / pts[:, 2]
         boxes.append([u.min(), v.min(), u.max(), v.max()])
     shapes = BoxShapes(np.array(boxes), np.tile((L, W, H), (6, 1)), np.full(6, 0.12))
@@ -45,7 +48,9 @@ def test_focal_report_on_a_kitti_frame(shared_data, tmp_path):
     """KITTI 000022 (no street vanishing point; two whole cars): the prior reads +11.5 % of P2's
     721.5 px (0.62 of the 1297 px diagonal), the box shapes read both cars, the fused line names them."""
     data = shared_data / "kitti" / "training"
-    request = BuildRequest(image=data / "image_2" / "000022.png", output=tmp_path / "w", detections=data / "label_2" / "000022.txt")
+    request = BuildRequest(
+        image=data / "image_2" / "000022.png", output=tmp_path / "w", detections=data / "label_2" / "000022.txt"
+    )
     line, f_fused = focal_report.frame_report(request, 721.5377, Parameters())
     assert line.startswith("prior  +11.5%")
     assert "vp -" in line and "shapes 2/2 mode" in line and "[box_shapes]" in line

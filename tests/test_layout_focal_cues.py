@@ -36,8 +36,12 @@ def test_a_detection_is_read_by_its_own_edges_not_the_pixels_it_touches():
     test stays on the whole pixels (a box touching the border is cut)."""
     table = load_class_table()
     params = CameraParams()
-    inside = replace(box_object("car", (100, 150, 181, 201), 1), box_edges_px=np.array([100.4, 150.3, 180.2, 200.6]))
-    at_border = replace(box_object("car", (1180, 150, 1242, 200), 2), box_edges_px=np.array([1180.2, 150.1, 1241.7, 199.5]))
+    inside = replace(
+        box_object("car", (100, 150, 181, 201), 1), box_edges_px=np.array([100.4, 150.3, 180.2, 200.6])
+    )
+    at_border = replace(
+        box_object("car", (1180, 150, 1242, 200), 2), box_edges_px=np.array([1180.2, 150.1, 1241.7, 199.5])
+    )
     shapes = box_shapes([inside, at_border], table, 1242, 375, params)
     assert len(shapes) == 1
     np.testing.assert_allclose(shapes.box_px, [[100.4, 150.3, 180.2, 200.6]])

@@ -31,7 +31,12 @@ import numpy as np
 from usdworld.authoring import asset_library
 from usdworld.geometry.focal import box_shape_profile, exif_cue, prior_cue
 from usdworld.geometry.lateral import lateral_focal_cue
-from usdworld.geometry.vanishing import detect_segments, find_vertical_vanishing_point, horizon_measurement, vanishing_focal_cue
+from usdworld.geometry.vanishing import (
+    detect_segments,
+    find_vertical_vanishing_point,
+    horizon_measurement,
+    vanishing_focal_cue,
+)
 from usdworld.io.camera_files import read_kitti_projection
 from usdworld.io.class_table import load_class_table
 from usdworld.io.exif import read_exif_focal
@@ -62,7 +67,9 @@ def frame_report(request: BuildRequest, f_true: float, params: Parameters) -> tu
     lateral = lateral_focal_cue(street, segments, w, h, cam)[0] if street is not None else None
     parts.append(f"lat {_pct(lateral.f_px, f_true)}+-{100 * lateral.sigma_log:.0f}%" if lateral else "lat -")
     shapes = box_shapes(head.objects, table, w, h, cam)
-    vehicles = sum(1 for o in head.objects if table[o.class_name].yaw == "road" and table[o.class_name].kind == "thing")
+    vehicles = sum(
+        1 for o in head.objects if table[o.class_name].yaw == "road" and table[o.class_name].kind == "thing"
+    )
     text = f"shapes {len(shapes)}/{vehicles}"
     if len(shapes):
         horizon = horizon_measurement(street, prior_cue(w, h, cam).f_px, cam) if street is not None else None
@@ -75,18 +82,22 @@ def frame_report(request: BuildRequest, f_true: float, params: Parameters) -> tu
     fused = estimate_focal(w, h, head.objects, table, street, segments, vertical, exif, cam)
     used = ",".join(c.source for c in fused.used if c.source != "prior") or "prior only"
     dropped = ",".join(c.source for c in fused.dropped)
-    parts.append(f"fused {_pct(fused.f_px, f_true)}+-{100 * fused.sigma_log:.0f}% [{used}]" + (f" dropped {dropped}" if dropped else ""))
+    text = f"fused {_pct(fused.f_px, f_true)}+-{100 * fused.sigma_log:.0f}% [{used}]"
+    parts.append(text + (f" dropped {dropped}" if dropped else ""))
     return " | ".join(parts), fused.f_px
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("data_dir", type=Path, nargs="?", help="KITTI-layout folder (image_2, label_2, calib)")
+    parser.add_argument(
+        "data_dir", type=Path, nargs="?", help="KITTI-layout folder (image_2, label_2, calib)"
+    )
     parser.add_argument(
         "--cityscapes",
         nargs=2,
         metavar=("DIR", "F_TRUE_PX"),
-        help="also a Cityscapes folder (*_leftImg8bit.png with its labelIds and instanceIds) and its true focal length, px",
+        help="also a Cityscapes folder (*_leftImg8bit.png with its labelIds and instanceIds) "
+        "and its true focal length, px",
     )
     args = parser.parse_args(argv)
     params = Parameters()
@@ -97,7 +108,9 @@ def main(argv: list[str] | None = None) -> int:
             for image in sorted((args.data_dir / "image_2").glob("*.png")):
                 f_true = float(read_kitti_projection(args.data_dir / "calib" / f"{image.stem}.txt")[0, 0])
                 req = BuildRequest(
-                    image=image, output=Path(tmp) / image.stem, detections=args.data_dir / "label_2" / f"{image.stem}.txt"
+                    image=image,
+                    output=Path(tmp) / image.stem,
+                    detections=args.data_dir / "label_2" / f"{image.stem}.txt",
                 )
                 jobs.append((image.stem, req, f_true))
         if args.cityscapes:
@@ -119,7 +132,10 @@ def main(argv: list[str] | None = None) -> int:
         print("error: no frames found", file=sys.stderr)
         return 2
     e = np.array(errors)
-    print(f"fused focal error over {len(e)} frames: median signed {100 * np.median(e):+.1f} %, median |error| {100 * np.median(np.abs(e)):.1f} %")
+    print(
+        f"fused focal error over {len(e)} frames: median signed {100 * np.median(e):+.1f} %, "
+        f"median |error| {100 * np.median(np.abs(e)):.1f} %"
+    )
     return 0
 
 

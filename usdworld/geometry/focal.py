@@ -305,30 +305,28 @@ def project_street_boxes(
     return width, top_v, Z
 
 
-def box_shape_cue(
+def box_shape_profile(
     width: int,
     height: int,
     shapes: BoxShapes,
     street_u: float | None = None,
     horizon: tuple[float, float] | None = None,
     params: CameraParams = DEFAULT_CAMERA,
-) -> FocalCue | None:
-    """The focal length the vehicles' box shapes measure (module docstring).
+) -> tuple[np.ndarray, np.ndarray]:
+    """The profile log likelihood of ``log f`` the vehicles' box shapes give (module docstring).
 
     A grid over (log f, camera height, pitch) scores the Cauchy residuals of every
     vehicle's predicted box width and top row (spreads: the class size's, relative
     ``params.shape_length_rel_std`` for length and width, ``params.shape_yaw_std_deg`` of turn off the street, ``height_std_m`` for height,
     plus ``params.edge_noise_px``; each vehicle along the street or, with probability
     ``params.shape_cross_fraction``, across it), with the camera-height and pitch priors and,
-    when given, the horizon row. The profile likelihood of log f (best height and horizon row
-    per focal length; the focal prior is fused separately) is the cue: :func:`fuse_focal`
-    multiplies it with the other cues' likelihoods, and its mode and curvature (a Laplace
-    summary) are the ``f_px`` and ``sigma_log`` its consistency with them is tested by.
+    when given, the horizon row. The profile keeps, for each focal length, the best height
+    and horizon row (the focal prior is fused separately).
 
     Args:
         width: image width, pixels.
         height: image height, pixels.
-        shapes: the vehicles (whole boxes in view).
+        shapes: the vehicles (whole boxes in view), at least one.
         street_u: column of the street's vanishing point (the vehicles' direction), or None
             (the optical axis).
         horizon: (row, sigma) of the horizon measured otherwise (the street's vanishing
@@ -336,10 +334,9 @@ def box_shape_cue(
         params: priors, spreads and grid.
 
     Returns:
-        The cue, or None with fewer than ``params.shape_min_objects`` vehicles.
+        log_f: (M,) float64 increasing grid of ``log f`` (``params.shape_focal_range`` of the diagonal).
+        log_lik: (M,) float64 the profile log likelihood there, its maximum 0.
     """
-    if len(shapes) < params.shape_min_objects:
-        return None
     c = principal_point(width, height)
     diag = float(np.hypot(width, height))
     n_f, n_h, n_p = params.shape_grid
@@ -363,17 +360,48 @@ def box_shape_cue(
         data = -np.logaddexp(np.log1p(-p_cross) - along, np.log(p_cross) - across)
     else:
         data = along
-    mean_h, std_h = params.height_prior_m
     cost = data.sum(axis=1) + 0.5 * ((Hc - mean_h) / std_h) ** 2 + 0.5 * (np.degrees(P) / params.pitch_prior_std_deg) ** 2
     if horizon is not None:
         cost += np.log1p(((v_h - horizon[0]) / horizon[1]) ** 2)
-    # The profile likelihood of log f (the best camera height and horizon row for each focal
-    # length), summarised by its mode and curvature (a Laplace approximation). Moments over
-    # the bounded grid would pull a weak cue towards the grid's middle, and a marginal over
-    # the nuisance parameters weighs focal lengths by how many of them fit; the profile's
-    # mode and curvature do neither, and a flat profile shows as a large sigma.
-    logf = np.log(fs)
     log_lik = -(cost - cost.min()).reshape(n_f, n_h * n_p).min(axis=1)
+    return np.log(fs), log_lik
+
+
+def box_shape_cue(
+    width: int,
+    height: int,
+    shapes: BoxShapes,
+    street_u: float | None = None,
+    horizon: tuple[float, float] | None = None,
+    params: CameraParams = DEFAULT_CAMERA,
+) -> FocalCue | None:
+    """The focal length the vehicles' box shapes measure: :func:`box_shape_profile` as a cue.
+
+    The profile likelihood of log f is the cue: :func:`fuse_focal` multiplies it with the
+    other cues' likelihoods, and its mode and curvature (a Laplace summary) are the ``f_px``
+    and ``sigma_log`` its consistency with them is tested by.
+
+    Args:
+        width: image width, pixels.
+        height: image height, pixels.
+        shapes: the vehicles (whole boxes in view).
+        street_u: column of the street's vanishing point (the vehicles' direction), or None
+            (the optical axis).
+        horizon: (row, sigma) of the horizon measured otherwise (the street's vanishing
+            point), or None.
+        params: priors, spreads and grid.
+
+    Returns:
+        The cue, or None with fewer than ``params.shape_min_objects`` vehicles.
+    """
+    if len(shapes) < params.shape_min_objects:
+        return None
+    logf, log_lik = box_shape_profile(width, height, shapes, street_u, horizon, params)
+    n_f = len(logf)
+    # The profile's mode and curvature (a Laplace approximation). Moments over the bounded
+    # grid would pull a weak cue towards the grid's middle, and a marginal over the nuisance
+    # parameters weighs focal lengths by how many of them fit; the profile's mode and
+    # curvature do neither, and a flat profile shows as a large sigma.
     k = int(np.argmax(log_lik))
     if k < 2 or k > n_f - 3:
         return None  # no maximum inside the searched range

@@ -39,7 +39,8 @@ def box_shapes(
     objects: Sequence[ImageObject], table: ClassTable, width: int, height: int, params: CameraParams
 ) -> BoxShapes:
     """Vehicles usable by the box-shape cue: classes aligned with the road and of rigid height,
-    whose box touches no image border and whose bottom is neither cut nor hidden.
+    whose box touches no image border and whose bottom is neither cut nor hidden, with their
+    box's edges (:attr:`~usdworld.perception.objects.ImageObject.edges_px`).
 
     Sizes are the class table's, except a car's: ``params.shape_car_size_m`` (published
     proportions; the table's car is sized for the camera-height fit).
@@ -56,10 +57,12 @@ def box_shapes(
         prior = table[o.class_name]
         if prior.yaw != "road" or not prior.rigid_height or prior.kind != "thing":
             continue
-        x0, y0, x1, y1 = (float(v) for v in o.box_px)
+        x0, _, x1, y1 = (int(v) for v in o.box_px)
         if o.top_truncated or o.bottom_truncated or o.bottom_occluded or x0 <= 0 or x1 >= width or y1 >= height:
             continue
-        rows.append((x0, y0, x1, y1))
+        # the box's own edges (sub-pixel for a detection), which the cue's projected box
+        # predicts; the whole pixels it touches reach up to a pixel further on each side
+        rows.append(tuple(float(v) for v in o.edges_px))
         sizes.append(params.shape_car_size_m if o.class_name == CAR_CLASS else prior.size_m)
         stds.append(prior.height_std_m)
     return BoxShapes(

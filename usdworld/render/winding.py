@@ -17,9 +17,16 @@ Example:
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from usdworld.authoring.mesh_reader import MeshTopology
+
+
+#: id(topology) -> (a weak reference to it, its winding): a drive's frames are scenes of their own
+#: that share their meshes' topologies, which are read once.
+_WINDINGS: dict[int, tuple[weakref.ref, int]] = {}
 
 
 def outward_winding(topology: MeshTopology) -> int:
@@ -34,8 +41,19 @@ def outward_winding(topology: MeshTopology) -> int:
             ``orientation`` is not applied, see :class:`~usdworld.authoring.mesh_reader.MeshTopology`).
 
     Returns:
-        The sign of the outward faces' winding, or 0.
+        The sign of the outward faces' winding, or 0 (remembered while the topology lives).
     """
+    key = id(topology)
+    kept = _WINDINGS.get(key)
+    if kept is not None and kept[0]() is topology:
+        return kept[1]
+    winding = _winding(topology)
+    _WINDINGS[key] = (weakref.ref(topology, lambda _, k=key: _WINDINGS.pop(k, None)), winding)
+    return winding
+
+
+def _winding(topology: MeshTopology) -> int:
+    """:func:`outward_winding`, worked out."""
     points = np.asarray(topology.points, dtype=np.float64)
     tris = np.asarray(topology.triangles, dtype=np.int64).reshape(-1, 3)
     if len(tris) < 4 or len(points) == 0:

@@ -245,12 +245,13 @@ class _SceneBuffers:
         self.scene = scene
         self.batches = [_BatchBuffers(ctx, b, programs) for b in scene.batches if b.n_instances]
         self.n_vertices = sum(b.n_corners * b.n_instances for b in scene.batches)
+        #: per batch, the face its draws cull (``"back"`` / ``"front"``) or None; None: no culling
+        self.culled: list[str | None] | None = None
 
-    def draw(self, ctx: Any, name: str, culled: list[str | None] | None = None) -> None:
-        """One pass over every batch: in scene order, the lit pass last to first (see above).
-
-        ``culled``: per batch, the face to cull (``"back"`` / ``"front"``) or None; None: no culling.
-        """
+    def draw(self, ctx: Any, name: str) -> None:
+        """One pass over every batch: in scene order, the lit pass last to first (see above),
+        each batch with the face :attr:`culled` gives it culled."""
+        culled = self.culled
         order = range(len(self.batches) - 1, -1, -1) if name.startswith("lit") else range(len(self.batches))
         for i in order:
             face = culled[i] if culled is not None else None
@@ -492,6 +493,7 @@ class Renderer:
         pass_name = "lit" if sunlit else "lit_ambient"
         # render() shades against the label pass's depth, which culls nothing: no culling there
         culled = self._culled_faces(buffers, K, world_from_cam) if self.cull_back_faces and not depth_drawn else None
+        buffers.culled = culled
 
         self._color_fbo.use()
         self._color_fbo.depth_mask = not depth_drawn  # a clear with the mask off keeps the depth
@@ -519,14 +521,15 @@ class Renderer:
             if not depth_drawn:
                 _write(self._programs["depth"], "u_view_proj", view_proj)
                 self._color_fbo.color_mask = (False, False, False, False)
-                buffers.draw(ctx, "depth", culled)
+                buffers.draw(ctx, "depth")
                 self._color_fbo.color_mask = (True, True, True, True)
             ctx.depth_func = "<="
             # The depth buffer already holds each pixel's nearest depth, and the fragments that
             # pass "<=" lie at it: the lit pass writes no depth (llvmpipe then skips the stores).
             self._color_fbo.depth_mask = False
-            buffers.draw(ctx, pass_name, culled)
+            buffers.draw(ctx, pass_name)
             self._color_fbo.depth_mask = True
+        buffers.culled = None
         # The sky last, at the far plane: it passes "<=" only where no surface was drawn (the
         # surfaces' depth is < 1: the pre-pass's "<" test against the cleared 1 writes no other).
         sky = self._programs["sky"]

@@ -100,8 +100,9 @@ class VideoParams:
         "ties in depth with another or a pixel centre falls exactly on a silhouette edge (origin).",
         "geometry: a ray's first hit on a closed mesh from outside is a front face; measured with "
         "tools/bench_flythrough.py --quality on the fly-through of synthetic seed 3 (120 frames at "
-        "1280x640, session 14) -- 30-35 % less CPU per frame; 14-73 pixels of 819,200 per frame differ "
-        "from the unculled frames (z ties on thin parts and silhouette edges)",
+        "1280x640, session 14) -- a frame's instructions 34 % fewer (callgrind), its CPU 25-35 % less; "
+        "against the frames with every face drawn 0.006 % of the pixels differ (specks at depth ties and "
+        "silhouette edges), PSNR 58.1 dB, worst frame 54.4 dB, luma SSIM 0.9998",
     )
 
     def __post_init__(self) -> None:

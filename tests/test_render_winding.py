@@ -67,7 +67,9 @@ def test_points_split_per_face_are_welded_by_position() -> None:
     scale=st.floats(0.05, 50.0),
     shift=st.tuples(*[st.floats(-100.0, 100.0)] * 3),
 )
-def test_spheres_face_out_wherever_they_are(subdivisions: int, scale: float, shift: tuple[float, ...]) -> None:
+def test_spheres_face_out_wherever_they_are(
+    subdivisions: int, scale: float, shift: tuple[float, ...]
+) -> None:
     sphere = trimesh.creation.icosphere(subdivisions=subdivisions, radius=scale)
     points = np.asarray(sphere.vertices) + np.asarray(shift)
     faces = np.asarray(sphere.faces).tolist()
@@ -91,7 +93,8 @@ def _street(inward_box: bool = False):
     box(stage, "/World/Wall", (12, -2.5, 0), (14, 2.5, 3.0), color=(0.6, 0.5, 0.4), cls="building")
     box(stage, "/World/Post", (8, 2.0, 0), (8.2, 2.2, 2.0), color=(0.8, 0.8, 0.2), cls="pole")
     sign = UsdGeom.Mesh.Define(stage, "/World/Sign")  # an open quad: both sides show
-    sign.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.array([[9, -3, 1], [9, -1, 1], [9, -1, 2.5], [9, -3, 2.5]], np.float32)))
+    corners = np.array([[9, -3, 1], [9, -1, 1], [9, -1, 2.5], [9, -3, 2.5]], np.float32)
+    sign.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(corners))
     sign.CreateFaceVertexCountsAttr([4])
     sign.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
     sign.CreateDisplayColorAttr([Gf.Vec3f(0.2, 0.3, 0.9)])
@@ -101,8 +104,11 @@ def _street(inward_box: bool = False):
     return RenderScene.from_stage(stage)
 
 
+K = np.array([[260.0, 0.0, 161.3], [0.0, 250.0, 83.6], [0.0, 0.0, 1.0]])
+
+
 def _rgb(scene: RenderScene, cull: bool, height_m: float = 1.5, yaw: float = 0.0, tx: float = 0.0) -> tuple:
-    cam = camera(K=np.array([[260.0, 0.0, 161.3], [0.0, 250.0, 83.6], [0.0, 0.0, 1.0]]), height_m=height_m, pitch=0.05, roll=0.0, yaw=yaw)
+    cam = camera(K=K, height_m=height_m, pitch=0.05, roll=0.0, yaw=yaw)
     pose = cam.world_from_cam()
     pose[0, 3] += tx
     lighting = Lighting(sun_direction_world=sun_direction(20.0, 35.0), shadow_map_size=512)
@@ -135,7 +141,7 @@ def test_a_batch_whose_box_holds_the_camera_is_drawn_whole() -> None:
 def test_render_never_culls() -> None:
     """Stills (Renderer.render) shade against the label pass's depth: nothing is culled there."""
     scene = _street()
-    cam = camera(K=np.array([[260.0, 0.0, 161.3], [0.0, 250.0, 83.6], [0.0, 0.0, 1.0]]), pitch=0.05, roll=0.0, yaw=0.0)
+    cam = camera(K=K, pitch=0.05, roll=0.0, yaw=0.0)
     with Renderer(W, H, cull_back_faces=True) as r:
         culled = r.render(scene, cam.K, cam.world_from_cam()).rgb
         assert r.last_culled is None

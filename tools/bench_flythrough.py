@@ -119,7 +119,12 @@ def _render_alone_process(world: Path, frames: int, width: int, height: int, che
 
 
 def _frames_alone(
-    world: Path, frames: int, width: int, height: int, shadow_taps: int | None = None, cull: bool | None = None
+    world: Path,
+    frames: int,
+    width: int,
+    height: int,
+    shadow_taps: int | None = None,
+    cull: bool | None = None,
 ) -> tuple[float, list[np.ndarray]]:
     """Seconds to render the fly-through's frames with no encoding, and the frames (with the
     fly-through's shading, or ``shadow_taps`` and back-face culling ``cull`` when given)."""
@@ -133,7 +138,8 @@ def _frames_alone(
     # the world's own sun and sky, as render_flythrough and the command use
     taps = VideoParams().shadow_taps if shadow_taps is None else shadow_taps
     cull = VideoParams().cull_back_faces if cull is None else cull
-    with Renderer(width, height, lighting=lighting_from_stage(stage), shadow_taps=taps, cull_back_faces=cull) as renderer:
+    lighting = lighting_from_stage(stage)
+    with Renderer(width, height, lighting=lighting, shadow_taps=taps, cull_back_faces=cull) as renderer:
         renderer.fix_shadow_box(scene, K, poses)  # one shadow map for the path, as render_flythrough
         renderer.render_rgb(scene, K, poses[0])  # context, upload and shadow map, as the first frame
         t0 = time.perf_counter()
@@ -163,11 +169,18 @@ def _quality(world: Path, frames: int, width: int, height: int) -> None:
     _, full = _frames_alone(world, frames, width, height, shadow_taps=4, cull=False)
     _, whole = _frames_alone(world, frames, width, height, cull=False)
     params = VideoParams()
-    print(f"\nThe video's frames (shadow_taps={params.shadow_taps}, cull_back_faces={params.cull_back_faces}), {frames} frames at {width}x{height}, against:\n")
-    print("| reference | PSNR dB (RGB, all) | worst frame dB (frame) | SSIM (luma, mean) | worst frame SSIM (frame) | pixels off by > 8 | pixels that differ |")
+    print(
+        f"\nThe video's frames (shadow_taps={params.shadow_taps}, cull_back_faces={params.cull_back_faces}), "
+        f"{frames} frames at {width}x{height}, against:\n"
+    )
+    print(
+        "| reference | PSNR dB (RGB, all) | worst frame dB (frame) | SSIM (luma, mean) "
+        "| worst frame SSIM (frame) | pixels off by > 8 | pixels that differ |"
+    )
     print("|---|---|---|---|---|---|---|")
     _quality_row("the still's shading (shadow_taps=4, no culling)", video, full)
-    _quality_row(f"the same shading with every face drawn (shadow_taps={params.shadow_taps}, no culling)", video, whole)
+    same = f"the same shading with every face drawn (shadow_taps={params.shadow_taps}, no culling)"
+    _quality_row(same, video, whole)
 
 
 def _quality_row(name: str, video: list[np.ndarray], full: list[np.ndarray]) -> None:
@@ -179,8 +192,9 @@ def _quality_row(name: str, video: list[np.ndarray], full: list[np.ndarray]) -> 
     off = np.mean([np.mean(np.abs(v.astype(int) - f).max(axis=2) > 8) for v, f in zip(video, full)])
     differ = np.mean([np.mean(np.any(v != f, axis=2)) for v, f in zip(video, full)])
     print(
-        f"| {name} | {10 * np.log10(255.0**2 / max(mse.mean(), 1e-12)):.2f} | {psnr.min():.2f} ({int(psnr.argmin())}) | "
-        f"{s.mean():.5f} | {s.min():.5f} ({int(s.argmin())}) | {100 * off:.3f} % | {100 * differ:.4f} % |"
+        f"| {name} | {10 * np.log10(255.0**2 / max(mse.mean(), 1e-12)):.2f} | "
+        f"{psnr.min():.2f} ({int(psnr.argmin())}) | {s.mean():.5f} | {s.min():.5f} ({int(s.argmin())}) | "
+        f"{100 * off:.3f} % | {100 * differ:.4f} % |"
     )
 
 

@@ -401,7 +401,11 @@ def render_flythrough(
     params = video or VideoParams()
     with (
         Renderer(
-            width, height, lighting=lighting, shadow_taps=params.shadow_taps, cull_back_faces=params.cull_back_faces
+            width,
+            height,
+            lighting=lighting,
+            shadow_taps=params.shadow_taps,
+            cull_back_faces=params.cull_back_faces,
         ) as renderer,
         Mp4Writer(output, width, height, fps=fps, params=params) as writer,
     ):

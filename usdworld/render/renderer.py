@@ -417,7 +417,9 @@ class Renderer:
         self._show_all(scene)
         return self._color_pass(scene, K, world_from_cam, depth_drawn=False)
 
-    def _culled_faces(self, buffers: _SceneBuffers, K: np.ndarray, world_from_cam: np.ndarray) -> list[str | None]:
+    def _culled_faces(
+        self, buffers: _SceneBuffers, K: np.ndarray, world_from_cam: np.ndarray
+    ) -> list[str | None]:
         """Per batch, the face its closed meshes drop in this view (``cull_back_faces``), or None.
 
         A batch is culled only when the camera is outside every instance's axis-aligned box
@@ -492,7 +494,9 @@ class Renderer:
         sun_vp, texel = self._shadow_pass(scene, buffers, K, world_from_cam) if sunlit else (np.eye(4), 0.0)
         pass_name = "lit" if sunlit else "lit_ambient"
         # render() shades against the label pass's depth, which culls nothing: no culling there
-        culled = self._culled_faces(buffers, K, world_from_cam) if self.cull_back_faces and not depth_drawn else None
+        culled = None
+        if self.cull_back_faces and not depth_drawn:
+            culled = self._culled_faces(buffers, K, world_from_cam)
         buffers.culled = culled
 
         self._color_fbo.use()

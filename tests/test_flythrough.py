@@ -304,3 +304,55 @@ def test_flythrough_renders_with_the_video_parameters_shadow_filter(
         Usd.Stage.Open(str(world)), tmp_path / "b.mp4", n_frames=2, width=64, height=32, video=VideoParams(shadow_taps=4)
     )
     assert taps == [1, 4]
+
+
+def test_flythrough_culls_back_faces_as_the_video_parameters_say(
+    world: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import usdworld.render.flythrough as flythrough_module
+
+    culls: list[bool] = []
+    real = flythrough_module.Renderer
+
+    def recording(*args, **kwargs):
+        culls.append(kwargs["cull_back_faces"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(flythrough_module, "Renderer", recording)
+    render_flythrough(Usd.Stage.Open(str(world)), tmp_path / "a.mp4", n_frames=2, width=64, height=32)
+    render_flythrough(
+        Usd.Stage.Open(str(world)),
+        tmp_path / "b.mp4",
+        n_frames=2,
+        width=64,
+        height=32,
+        video=VideoParams(cull_back_faces=False),
+    )
+    assert culls == [True, False]
+
+
+def test_flythrough_frames_with_back_faces_culled_keep_nearly_every_pixel(world: Path) -> None:
+    """On the synthetic street's path every closed mesh is culled wherever the camera is outside its
+    box; the frames differ from the whole meshes' only at depth ties and silhouette edges (< 0.05 %
+    of the pixels; measured 0.003 to 0.008 % per frame here)."""
+    from usdworld.render import Lighting, Renderer
+    from usdworld.render.outputs import view_camera, world_image_size
+
+    stage = Usd.Stage.Open(str(world))
+    source_size = world_image_size(stage)
+    source = view_camera(stage, *source_size)
+    size = (384, 192)
+    K = video_intrinsics(source.K, source_size, size)
+    add_source_vehicle(stage, car_asset_for(world))
+    scene = RenderScene.from_stage(stage)
+    poses = flythrough_poses(source.world_from_cam, 24)[::4]
+    frames = {}
+    for cull in (True, False):
+        with Renderer(*size, lighting=Lighting(), shadow_taps=1, cull_back_faces=cull) as renderer:
+            renderer.fix_shadow_box(scene, K, poses)
+            frames[cull] = np.array([renderer.render_rgb(scene, K, pose) for pose in poses])
+            if cull:
+                culled, batches = renderer.last_culled
+                assert culled >= 0.9 * batches  # the synthetic street's meshes all close up
+    off = np.any(frames[True] != frames[False], axis=3).mean(axis=(1, 2))
+    assert off.max() < 5e-4

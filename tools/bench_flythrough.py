@@ -17,11 +17,12 @@ the machine and a markdown table for BENCHMARKS.md.
 with this checkout, the whole command and the rendering alone (a fresh process that renders
 the N frames after one warm-up frame, wall and CPU) with that checkout's code.
 
-``--quality`` also compares the video's frames (rendered with the fly-through's shading,
-:class:`~usdworld.parameters.video.VideoParams`) with the same frames under the still's full
-shading (``Renderer(shadow_taps=4)``, as ``usdworld render``): PSNR over RGB of all frames and
-of the worst frame, luma SSIM (mean and worst frame), and the share of pixels off by more than
-8 levels. ``--repeat 0`` prints that alone.
+``--quality`` also compares the video's frames (rendered with the fly-through's shading and
+back-face culling, :class:`~usdworld.parameters.video.VideoParams`) with the same frames under
+the still's full shading (``Renderer(shadow_taps=4)`` with every face drawn, as ``usdworld
+render``) and with the video's shading but every face drawn: PSNR over RGB of all frames and
+of the worst frame, luma SSIM (mean and worst frame), and the shares of pixels off by more than
+8 levels and of pixels that differ at all. ``--repeat 0`` prints that alone.
 
 Usage::
 
@@ -72,6 +73,8 @@ from usdworld.render.world_lights import lighting_from_stage
 try:  # the fly-through's shading where the checkout has one (render_flythrough uses it)
     from usdworld.parameters.video import VideoParams
     shading = {"shadow_taps": VideoParams().shadow_taps} if hasattr(VideoParams(), "shadow_taps") else {}
+    if hasattr(VideoParams(), "cull_back_faces"):
+        shading["cull_back_faces"] = VideoParams().cull_back_faces
 except ImportError:
     shading = {}
 world, frames = Path(sys.argv[1]), int(sys.argv[2])
@@ -116,10 +119,15 @@ def _render_alone_process(world: Path, frames: int, width: int, height: int, che
 
 
 def _frames_alone(
-    world: Path, frames: int, width: int, height: int, shadow_taps: int | None = None
+    world: Path,
+    frames: int,
+    width: int,
+    height: int,
+    shadow_taps: int | None = None,
+    cull: bool | None = None,
 ) -> tuple[float, list[np.ndarray]]:
     """Seconds to render the fly-through's frames with no encoding, and the frames (with the
-    fly-through's shading, or ``shadow_taps`` when given)."""
+    fly-through's shading, or ``shadow_taps`` and back-face culling ``cull`` when given)."""
     stage = open_world(world)
     size = world_image_size(stage)
     source = view_camera(stage, *size)
@@ -129,7 +137,9 @@ def _frames_alone(
     poses = fly.flythrough_poses(source.world_from_cam, frames, fly.clear_path(fly.FlythroughPath(), scene, source.world_from_cam))
     # the world's own sun and sky, as render_flythrough and the command use
     taps = VideoParams().shadow_taps if shadow_taps is None else shadow_taps
-    with Renderer(width, height, lighting=lighting_from_stage(stage), shadow_taps=taps) as renderer:
+    cull = VideoParams().cull_back_faces if cull is None else cull
+    lighting = lighting_from_stage(stage)
+    with Renderer(width, height, lighting=lighting, shadow_taps=taps, cull_back_faces=cull) as renderer:
         renderer.fix_shadow_box(scene, K, poses)  # one shadow map for the path, as render_flythrough
         renderer.render_rgb(scene, K, poses[0])  # context, upload and shadow map, as the first frame
         t0 = time.perf_counter()
@@ -153,25 +163,38 @@ def _in_process(world: Path, out: Path, frames: int, width: int, height: int) ->
 
 
 def _quality(world: Path, frames: int, width: int, height: int) -> None:
-    """Print how far the video's frames are from the still's full shading (see the module docstring)."""
+    """Print how far the video's frames are from the still's full shading and from the same frames
+    with every face drawn (see the module docstring)."""
+    _, video = _frames_alone(world, frames, width, height)
+    _, full = _frames_alone(world, frames, width, height, shadow_taps=4, cull=False)
+    _, whole = _frames_alone(world, frames, width, height, cull=False)
+    params = VideoParams()
+    print(
+        f"\nThe video's frames (shadow_taps={params.shadow_taps}, cull_back_faces={params.cull_back_faces}), "
+        f"{frames} frames at {width}x{height}, against:\n"
+    )
+    print(
+        "| reference | PSNR dB (RGB, all) | worst frame dB (frame) | SSIM (luma, mean) "
+        "| worst frame SSIM (frame) | pixels off by > 8 | pixels that differ |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    _quality_row("the still's shading (shadow_taps=4, no culling)", video, full)
+    same = f"the same shading with every face drawn (shadow_taps={params.shadow_taps}, no culling)"
+    _quality_row(same, video, whole)
+
+
+def _quality_row(name: str, video: list[np.ndarray], full: list[np.ndarray]) -> None:
     from bench_video import _luma, ssim
 
-    _, video = _frames_alone(world, frames, width, height)
-    _, full = _frames_alone(world, frames, width, height, shadow_taps=4)
     mse = np.array([np.mean((v.astype(np.float64) - f) ** 2) for v, f in zip(video, full)])
     psnr = 10 * np.log10(255.0**2 / np.maximum(mse, 1e-12))
     s = np.array([ssim(_luma(v), _luma(f)) for v, f in zip(video, full)])
     off = np.mean([np.mean(np.abs(v.astype(int) - f).max(axis=2) > 8) for v, f in zip(video, full)])
-    taps = VideoParams().shadow_taps
+    differ = np.mean([np.mean(np.any(v != f, axis=2)) for v, f in zip(video, full)])
     print(
-        f"\nThe video's frames (shadow_taps={taps}) against the still's shading (shadow_taps=4), "
-        f"{frames} frames at {width}x{height}:\n"
-    )
-    print("| PSNR dB (RGB, all) | worst frame dB (frame) | SSIM (luma, mean) | worst frame SSIM (frame) | pixels off by > 8 |")
-    print("|---|---|---|---|---|")
-    print(
-        f"| {10 * np.log10(255.0**2 / max(mse.mean(), 1e-12)):.2f} | {psnr.min():.2f} ({int(psnr.argmin())}) | "
-        f"{s.mean():.5f} | {s.min():.5f} ({int(s.argmin())}) | {100 * off:.3f} % |"
+        f"| {name} | {10 * np.log10(255.0**2 / max(mse.mean(), 1e-12)):.2f} | "
+        f"{psnr.min():.2f} ({int(psnr.argmin())}) | {s.mean():.5f} | {s.min():.5f} ({int(s.argmin())}) | "
+        f"{100 * off:.3f} % | {100 * differ:.4f} % |"
     )
 
 

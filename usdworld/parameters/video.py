@@ -89,6 +89,22 @@ class VideoParams:
         "36.9 dB against the rendered frames",
     )
 
+    cull_back_faces: bool = param(
+        True,
+        "flag",
+        "The fly-through's frames leave out the faces of closed meshes turned away from the camera "
+        "(back-face culling, in the depth pre-pass and the lit pass; :mod:`usdworld.render.winding`): "
+        "a closed mesh seen from outside hides them behind its own front faces, so the same surfaces "
+        "show while half of each mesh's faces are not rasterised. Meshes that do not close up, and "
+        "any batch whose box the camera is in, are drawn whole. Pixels change only where a face "
+        "ties in depth with another or a pixel centre falls exactly on a silhouette edge (origin).",
+        "geometry: a ray's first hit on a closed mesh from outside is a front face; measured with "
+        "tools/bench_flythrough.py --quality on the fly-through of synthetic seed 3 (120 frames at "
+        "1280x640, session 14) -- a frame's instructions 34 % fewer (callgrind), its CPU 25-35 % less; "
+        "against the frames with every face drawn 0.006 % of the pixels differ (specks at depth ties and "
+        "silhouette edges), PSNR 58.1 dB, worst frame 54.4 dB, luma SSIM 0.9998",
+    )
+
     def __post_init__(self) -> None:
         if self.shadow_taps not in (1, 4):
             raise ValueError(f"video.shadow_taps must be 1 or 4, got {self.shadow_taps}")

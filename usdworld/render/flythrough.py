@@ -8,7 +8,8 @@ from) is part of the scene, all in red: the car asset is referenced at the world
 **session layer** (:func:`add_source_vehicle`), so the world's files are never changed.
 Frames stream into an H.264 MP4 (:mod:`usdworld.render.video`) as they are rendered. They
 are shaded with :class:`~usdworld.parameters.video.VideoParams`' cheaper shadow filter (one
-bilinear depth comparison instead of the still's four; ``usdworld render`` keeps four).
+bilinear depth comparison instead of the still's four; ``usdworld render`` keeps four), and
+closed meshes' faces turned away from the camera are culled (``cull_back_faces``).
 
 Example:
     >>> stage = Usd.Stage.Open("world/world.usda")                          # doctest: +SKIP
@@ -399,7 +400,13 @@ def render_flythrough(
     render_s = 0.0
     params = video or VideoParams()
     with (
-        Renderer(width, height, lighting=lighting, shadow_taps=params.shadow_taps) as renderer,
+        Renderer(
+            width,
+            height,
+            lighting=lighting,
+            shadow_taps=params.shadow_taps,
+            cull_back_faces=params.cull_back_faces,
+        ) as renderer,
         Mp4Writer(output, width, height, fps=fps, params=params) as writer,
     ):
         prototypes: dict = {}

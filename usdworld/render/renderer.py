@@ -25,7 +25,9 @@ Passes (one draw call per mesh batch each; no multisampling anywhere, so every i
    against a depth pre-pass (in :meth:`Renderer.render`, the label pass's depth;
    :meth:`Renderer.render_rgb` draws its own), then the sky gradient where no surface was drawn;
    after :meth:`Renderer.render`'s occlusion test, of the objects' instances only those of the
-   objects that won a pixel in the labels (the same winner at every pixel, so the same colour).
+   objects that won a pixel in the labels (the same winner at every pixel, so the same colour);
+   ``cull_back_faces`` (the fly-through's) leaves out of :meth:`Renderer.render_rgb`'s two
+   passes the faces of closed meshes turned away from the camera.
 """
 
 from __future__ import annotations
@@ -53,6 +55,7 @@ from usdworld.render.occlusion import (
     project_boxes,
 )
 from usdworld.render.scene import RenderScene
+from usdworld.render.winding import culled_face, outward_winding
 
 log = logging.getLogger(__name__)
 
@@ -156,6 +159,8 @@ class _BatchBuffers:
         last_first = np.arange(n_tri - 1, -1, -1, dtype=np.int32)[:, None] * 3
         ibo = ctx.buffer((last_first + np.arange(3, dtype=np.int32)).ravel().tobytes())
         self._corners_world: np.ndarray | None = None
+        self._boxes_world: np.ndarray | None = None
+        self._cull_face: str | None | bool = False  # False: not worked out yet
         self.buffers = [pos, nrm, inst_all, inst, inst_rev, ibo]
         place = f"{_ROWS} {_INSTANCE.itemsize - 96}x/i"
         placed = [(pos, "3f8", "in_pos"), (inst, place, *_ROW_NAMES)]
@@ -191,6 +196,19 @@ class _BatchBuffers:
         if self._corners_world is None:
             self._corners_world = instance_corners(self.batch)
         return self._corners_world
+
+    def cull_face(self) -> str | None:
+        """The face every instance may drop seen from outside (:func:`.winding.culled_face`), kept."""
+        if self._cull_face is False:
+            self._cull_face = culled_face(outward_winding(self.batch.topology), self.batch.world_from_local)
+        return self._cull_face
+
+    def boxes_world(self) -> np.ndarray:
+        """(N, 2, 3) float64 each instance's axis-aligned box ``[min, max]`` in the world, kept."""
+        if self._boxes_world is None:
+            corners = self.corners_world()
+            self._boxes_world = np.stack([corners.min(axis=1), corners.max(axis=1)], axis=1)
+        return self._boxes_world
 
     def show(self, shown: np.ndarray | None) -> None:
         """Let the camera's passes draw only the instances where ``shown`` ((N,) bool) is True; None: all.
@@ -259,12 +277,23 @@ class _SceneBuffers:
         self.scene = scene
         self.batches = [_BatchBuffers(ctx, b, programs) for b in scene.batches if b.n_instances]
         self.n_vertices = sum(b.n_corners * b.n_instances for b in scene.batches)
+        #: per batch, the face its draws cull (``"back"`` / ``"front"``) or None; None: no culling
+        self.culled: list[str | None] | None = None
 
     def draw(self, ctx: Any, name: str) -> None:
-        """One pass over every batch: in scene order, the lit pass last to first (see above)."""
+        """One pass over every batch: in scene order, the lit pass (and a ``*last_first`` pass) last
+        to first (see above), each batch with the face :attr:`culled` gives it culled."""
+        culled = self.culled
         last_first = name.startswith("lit") or name.endswith("last_first")
-        for b in reversed(self.batches) if last_first else self.batches:
-            b.render(ctx, name)
+        order = range(len(self.batches) - 1, -1, -1) if last_first else range(len(self.batches))
+        for i in order:
+            face = culled[i] if culled is not None else None
+            if face is not None:
+                ctx.enable(ctx.CULL_FACE)
+                ctx.cull_face = face
+            self.batches[i].render(ctx, name)
+            if face is not None:
+                ctx.disable(ctx.CULL_FACE)
 
     def release(self) -> None:
         for b in self.batches:
@@ -288,6 +317,14 @@ class Renderer:
         shadow_taps: the colour pass's shadow filter: 4 bilinear depth comparisons (a 3x3 PCF)
             or 1 (a 2x2 PCF, cheaper, with slightly harder shadow edges: the fly-through's,
             :attr:`~usdworld.parameters.video.VideoParams.shadow_taps`).
+        cull_back_faces: :meth:`render_rgb` leaves out of its depth pre-pass and lit pass the
+            faces of closed meshes turned away from the camera (:mod:`usdworld.render.winding`),
+            for every batch whose instances' boxes, widened by the near plane's reach, all
+            leave the camera outside: the same surfaces show, but half of each closed mesh is
+            not rasterised. Pixels change only where a face ties in depth with another or a
+            pixel centre falls on a silhouette edge (the fly-through's,
+            :attr:`~usdworld.parameters.video.VideoParams.cull_back_faces`). :meth:`render`
+            never culls.
 
     Raises:
         RenderError: no usable headless OpenGL (the message names the packages to install).
@@ -302,6 +339,7 @@ class Renderer:
         occlusion_cull: bool = True,
         rendering: RenderingParams | None = None,
         shadow_taps: int = 4,
+        cull_back_faces: bool = False,
     ) -> None:
         if not (0 < int(width) <= MAX_SIZE and 0 < int(height) <= MAX_SIZE):
             raise UsdWorldError(f"render size must be 1..{MAX_SIZE} pixels per side, got {width}x{height}")
@@ -310,6 +348,9 @@ class Renderer:
         if shadow_taps not in _SHADOW_FILTERS:
             raise UsdWorldError(f"shadow_taps must be one of {sorted(_SHADOW_FILTERS)}, got {shadow_taps}")
         self.shadow_taps = int(shadow_taps)
+        self.cull_back_faces = bool(cull_back_faces)
+        #: batches whose back faces the last :meth:`render_rgb` culled, of all (for benchmarks)
+        self.last_culled: tuple[int, int] | None = None
         self.width, self.height = int(width), int(height)
         self.occlusion_cull = bool(occlusion_cull)
         self.rendering = rendering or RenderingParams()
@@ -423,6 +464,32 @@ class Renderer:
         self._show_all(scene)
         return self._color_pass(scene, K, world_from_cam, depth_drawn=False)
 
+    def _culled_faces(
+        self, buffers: _SceneBuffers, K: np.ndarray, world_from_cam: np.ndarray
+    ) -> list[str | None]:
+        """Per batch, the face its closed meshes drop in this view (``cull_back_faces``), or None.
+
+        A batch is culled only when the camera is outside every instance's axis-aligned box
+        widened by the near plane's reach (the farthest point of the near plane from the eye):
+        then no ray starts inside a mesh or enters one through the near plane, and its first
+        hit on a closed mesh is a face turned towards it.
+        """
+        fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+        u = np.array([-0.5 - cx, self.width - 0.5 - cx]) / fx
+        v = np.array([-0.5 - cy, self.height - 0.5 - cy]) / fy
+        reach = self.near_m * float(np.sqrt(1.0 + np.max(u**2) + np.max(v**2)))
+        eye = world_from_cam[:3, 3]
+        out: list[str | None] = []
+        for b in buffers.batches:
+            face = b.cull_face()
+            if face is not None:
+                boxes = b.boxes_world()
+                inside = np.all((boxes[:, 0] - reach <= eye) & (eye <= boxes[:, 1] + reach), axis=1)
+                face = None if inside.any() else face
+            out.append(face)
+        self.last_culled = (sum(f is not None for f in out), len(out))
+        return out
+
     def _show_all(self, scene: RenderScene) -> None:
         for b in self._upload(scene).batches:
             b.show(None)
@@ -473,6 +540,11 @@ class Renderer:
         sunlit = _sunlit(self.lighting)
         sun_vp, texel = self._shadow_pass(scene, buffers, K, world_from_cam) if sunlit else (np.eye(4), 0.0)
         pass_name = "lit" if sunlit else "lit_ambient"
+        # render() shades against the label pass's depth, which culls nothing: no culling there
+        culled = None
+        if self.cull_back_faces and not depth_drawn:
+            culled = self._culled_faces(buffers, K, world_from_cam)
+        buffers.culled = culled
 
         self._color_fbo.use()
         self._color_fbo.depth_mask = not depth_drawn  # a clear with the mask off keeps the depth
@@ -508,6 +580,7 @@ class Renderer:
             self._color_fbo.depth_mask = False
             buffers.draw(ctx, pass_name)
             self._color_fbo.depth_mask = True
+        buffers.culled = None
         # The sky last, at the far plane: it passes "<=" only where no surface was drawn (the
         # surfaces' depth is < 1: the pre-pass's "<" test against the cleared 1 writes no other).
         sky = self._programs["sky"]

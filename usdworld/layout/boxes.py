@@ -250,14 +250,16 @@ def align_box_columns(
     centre perpendicular to the viewing ray until the projected and observed box centres
     agree, by at most ``box_align_max_shift`` of the object's width.
 
-    A box whose one side is cut (by the image border, or hidden by a nearer object) shows
-    the object's own edge on the other side only: the object extends beyond the cut, by
-    what its size says. The projected box's edge on the seen side is aligned with the image
-    box's edge there instead, moving the centre by at most half the footprint's diagonal
-    (the seen part's ray passes through the footprint). Which corner makes that edge depends
-    on the heading: without one (``heading_known`` False: a person turned to the camera for
-    want of theirs) a cut box is left alone and a hidden side is not taken as cut. Boxes cut
-    on both sides are left alone.
+    A box whose one side is hidden by a nearer object shows the object's own edge on the
+    other side only: the object extends behind the nearer one, by what its size says. The
+    projected box's edge on the seen side is aligned with the image box's edge there
+    instead, moving the centre by at most half the footprint's diagonal (the seen part's ray
+    passes through the footprint). Which corner makes that edge depends on the heading:
+    without one (``heading_known`` False: a person turned to the camera for want of theirs)
+    a hidden side is not taken as cut. Boxes hidden on both sides, and boxes cut by the
+    left or right image border, are left alone (a border-cut box's contact row is not its
+    nearest contact either, so its seen edge alone would move it across the ray while its
+    depth stays off).
 
     Args:
         camera: the source camera.
@@ -272,9 +274,11 @@ def align_box_columns(
         (2,) float64 corrected footprint centre.
     """
     x0, _, x1, _ = (float(b) for b in obj.edges_px)
-    left = (obj.left_bounded or not heading_known) and x0 > 0.5
-    right = (obj.right_bounded or not heading_known) and x1 < camera.width - 0.5
-    if not (left and right) and not (heading_known and (left or right)):
+    if x0 <= 0.5 or x1 >= camera.width - 0.5:
+        return ground
+    left = obj.left_bounded or not heading_known
+    right = obj.right_bounded or not heading_known
+    if not (left or right):
         return ground
     start = np.asarray(ground, dtype=np.float64)
     cx, cy = float(start[0]), float(start[1])

@@ -241,13 +241,25 @@ def align_box_columns(
     size: np.ndarray,
     obj: ImageObject,
     params: PlacementParams,
+    heading_known: bool = True,
 ) -> np.ndarray:
     """Shift an object sideways so that its projected 3D box spans the same columns as the image box.
 
     The box centre column is not the projection of the object's centre when the object
     is seen at an angle (its near side widens the box). A few fixed-point steps move the
     centre perpendicular to the viewing ray until the projected and observed box centres
-    agree, by at most ``box_align_max_shift`` of the object's width. Boxes cut by the left or right image border are left alone.
+    agree, by at most ``box_align_max_shift`` of the object's width.
+
+    A box whose one side is hidden by a nearer object shows the object's own edge on the
+    other side only: the object extends behind the nearer one, by what its size says. The
+    projected box's edge on the seen side is aligned with the image box's edge there
+    instead, moving the centre by at most half the footprint's diagonal (the seen part's ray
+    passes through the footprint). Which corner makes that edge depends on the heading:
+    without one (``heading_known`` False: a person turned to the camera for want of theirs)
+    a hidden side is not taken as cut. Boxes hidden on both sides, and boxes cut by the
+    left or right image border, are left alone (a border-cut box's contact row is not its
+    nearest contact either, so its seen edge alone would move it across the ray while its
+    depth stays off).
 
     Args:
         camera: the source camera.
@@ -256,6 +268,7 @@ def align_box_columns(
         size: (3,) float64 length, width, height.
         obj: the image evidence.
         params: the alignment's steps and largest shift.
+        heading_known: ``yaw`` is the object's heading, not a stand-in for it.
 
     Returns:
         (2,) float64 corrected footprint centre.
@@ -263,25 +276,43 @@ def align_box_columns(
     x0, _, x1, _ = (float(b) for b in obj.edges_px)
     if x0 <= 0.5 or x1 >= camera.width - 0.5:
         return ground
+    left = obj.left_bounded or not heading_known
+    right = obj.right_bounded or not heading_known
+    if not (left or right):
+        return ground
     start = np.asarray(ground, dtype=np.float64)
     cx, cy = float(start[0]), float(start[1])
     offsets, h = _foot_offsets(yaw, size)  # the turn is fixed: only the centre moves
-    target = 0.5 * (x0 + x1)
     for _ in range(params.box_align_iterations):
         px, depth = camera.project(_corners_at(np.array([cx, cy]), offsets, h))
         if not np.isfinite(px).all():
             return ground
         u = px[:, 0]
-        error_px = target - 0.5 * (float(u.min()) + float(u.max()))
         bearing = np.arctan2(cy, cx)
-        # The step along ``left = (-sin, cos)``, each coordinate in plain floats with numpy's
-        # elementwise order: centre - left * error * mean depth / fx.
-        scale = float(np.mean(depth))
         lx, ly = -float(np.sin(bearing)), float(np.cos(bearing))
-        cx, cy = cx - lx * error_px * scale / camera.fx, cy - ly * error_px * scale / camera.fx
+        if left and right:
+            error_px = 0.5 * (x0 + x1) - 0.5 * (float(u.min()) + float(u.max()))
+            # The step along ``left = (-sin, cos)``, each coordinate in plain floats with numpy's
+            # elementwise order: centre - left * error * mean depth / fx.
+            scale = float(np.mean(depth))
+            cx, cy = cx - lx * error_px * scale / camera.fx, cy - ly * error_px * scale / camera.fx
+            continue
+        # One edge: the corner that makes it moves with the centre; a Newton step on its
+        # column, whose rate per metre along ``left`` is its projection's.
+        edge = int(np.argmin(u)) if left else int(np.argmax(u))
+        error_px = (x0 if left else x1) - float(u[edge])
+        corner = _corners_at(np.array([cx, cy]), offsets, h)[edge : edge + 1]
+        moved, _ = camera.project(corner + np.array([[lx, ly, 0.0]]) * 1e-3)
+        rate = (float(moved[0, 0]) - float(u[edge])) / 1e-3
+        if not (np.isfinite(rate) and abs(rate) > 1e-9):
+            return ground
+        cx, cy = cx + lx * error_px / rate, cy + ly * error_px / rate
     centre = np.array([cx, cy])
     shift = centre - start
-    limit = params.box_align_max_shift * float(size[1])
+    if left and right:
+        limit = params.box_align_max_shift * float(size[1])
+    else:
+        limit = 0.5 * float(np.hypot(size[0], size[1]))
     norm = float(np.linalg.norm(shift))
     return start + shift * (limit / norm) if norm > limit else centre
 

@@ -78,7 +78,10 @@ def draft_object(
     heading = object_heading(prior, ground, ctx.axis, obj, ctx.camera, ctx.params)
     yaw, yaw_source = heading.yaw, heading.source
     if obj.is_thing:
-        ground = align_box_columns(ctx.camera, ground, yaw, sized.size, obj, ctx.params)
+        # A class turned to the camera or along the street for want of its heading has no
+        # corner known to make a cut box's seen edge.
+        heading_known = prior.yaw not in ("camera", "along_road")
+        ground = align_box_columns(ctx.camera, ground, yaw, sized.size, obj, ctx.params, heading_known)
     if not depth > 0:  # a wall seen at the image's bottom corner, a few decimetres ahead: centre behind the camera
         return None
     centre_cues = tuple(

@@ -57,6 +57,13 @@ class PerceptionParams:
         "A detection box's bottom counts as occluded when a lower box covers this fraction of its bottom edge.",
         "convention: a majority of the edge (commit 07357ff)",
     )
+    hidden_side_fraction: float = param(
+        0.5,
+        "fraction",
+        "A mask's left or right side counts as hidden when an object whose bottom is lower in the image "
+        "borders it in this fraction of its rows (perception/objects.py hidden_sides).",
+        "convention: a majority of the rows, as occluded_fraction",
+    )
     same_thing_iou: float = param(
         0.5,
         "fraction",

@@ -59,6 +59,10 @@ class ImageObject:
         left_truncated: the left side touches the image border (or the input marks the
             object cut there): the box bounds the object only from the right.
         right_truncated: the right side touches the image border (or is marked cut).
+        left_hidden: the left side of the mask borders, in most of its rows, an object whose
+            bottom is lower in the image (nearer on the ground): the mask bounds the object
+            from the right only, like a cut side (:func:`hidden_sides`).
+        right_hidden: the same on the right side.
         box_edges_px: (4,) float64 ``xmin, ymin, xmax, ymax`` of a box-only object as its
             detection gave them, sub-pixel (a projected 3D box's edges are not whole pixels),
             in the intrinsics' pixel frame; None: ``box_px`` (a mask's pixels). See :attr:`edges_px`.
@@ -81,9 +85,19 @@ class ImageObject:
     left_truncated: bool = False
     right_truncated: bool = False
     box_edges_px: np.ndarray | None = None
+    left_hidden: bool = False
+    right_hidden: bool = False
 
     def __post_init__(self) -> None:
-        for name in ("bottom_truncated", "bottom_occluded", "top_truncated", "left_truncated", "right_truncated"):
+        for name in (
+            "bottom_truncated",
+            "bottom_occluded",
+            "top_truncated",
+            "left_truncated",
+            "right_truncated",
+            "left_hidden",
+            "right_hidden",
+        ):
             object.__setattr__(self, name, bool(getattr(self, name)))
         object.__setattr__(self, "instance_id", int(self.instance_id))
         object.__setattr__(self, "score", float(self.score))
@@ -148,6 +162,16 @@ class ImageObject:
     def sides_cut(self) -> bool:
         """True when the left or the right side is cut: the box's width bounds the object from one side only."""
         return self.left_truncated or self.right_truncated
+
+    @property
+    def left_bounded(self) -> bool:
+        """The box's left edge is the object's own: cut by neither the border nor a nearer object."""
+        return not (self.left_truncated or self.left_hidden)
+
+    @property
+    def right_bounded(self) -> bool:
+        """The box's right edge is the object's own: cut by neither the border nor a nearer object."""
+        return not (self.right_truncated or self.right_hidden)
 
 
 def _column_bottoms(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -250,6 +274,51 @@ def _contact_from_mask(
         values, counts = np.unique(below_owner[hidden], return_counts=True)
         occluder = int(values[np.argmax(counts)])
     return _Contact(np.array([u, v]), bool(truncated), bool(occluded), standing_on, occluder)
+
+
+def hidden_sides(
+    mask: np.ndarray, x0: int, y0: int, owner: np.ndarray, own_value: int, bottoms: np.ndarray, fraction: float
+) -> tuple[bool, bool]:
+    """Which sides of a mask a nearer object hides: (left, right).
+
+    In each row of the mask, the pixel just beyond its outermost pixel on a side belongs
+    either to the background or to another object. The side is hidden when, in at least
+    ``fraction`` of the rows, it belongs to an object whose lowest row is below this mask's:
+    on the ground, the object whose bottom is lower in the image stands nearer, so it hides
+    what lies beyond the mask's edge there (a car behind another in a parked row shows only
+    its side's sliver). A side at the image border is cut, not hidden.
+
+    Args:
+        mask: (h, w) bool crop.
+        x0: column of the crop's left pixel in the image.
+        y0: row of the crop's top pixel in the image.
+        owner: (H, W) int32 index (1-based) of the object owning each pixel, 0 for none.
+        own_value: this mask's index in ``owner``.
+        bottoms: (K + 1,) int64 lowest row of each object index (entry 0 unused).
+        fraction: share of the mask's rows that must be hidden.
+
+    Returns:
+        (left hidden, right hidden).
+    """
+    H, W = owner.shape
+    rows = np.nonzero(mask.any(axis=1))[0]
+    if len(rows) == 0:
+        return False, False
+    sub = mask[rows]
+    first = np.argmax(sub, axis=1)
+    last = sub.shape[1] - 1 - np.argmax(sub[:, ::-1], axis=1)
+    rows_abs = rows + y0
+    own_bottom = int(rows_abs.max())
+    out = []
+    for cols in (first + x0 - 1, last + x0 + 1):
+        inside = (cols >= 0) & (cols < W)
+        if not inside.any():
+            out.append(False)
+            continue
+        other = owner[rows_abs[inside], cols[inside]]
+        nearer = (other != 0) & (other != own_value) & (bottoms[other] > own_bottom)
+        out.append(bool(nearer.sum() >= fraction * len(rows)))
+    return out[0], out[1]
 
 
 def _split_columns(mask: np.ndarray, aspect: float, min_width_px: int) -> list[tuple[int, int]]:
@@ -567,13 +636,18 @@ def objects_from_regions(
 
     owner = np.zeros((H, W), dtype=np.int32)
     objects: list[ImageObject] = []
+    bottoms = np.full(len(pending) + 1, -1, dtype=np.int64)
     for idx, (_, _, _, box, crop, _) in enumerate(pending, start=1):
         x0, y0, x1, y1 = (int(b) for b in box)
         np.copyto(owner[y0:y1, x0:x1], idx, where=crop)
+        bottoms[idx] = y1 - 1
     for idx, (class_name, source, iid, box, crop, thing) in enumerate(pending, start=1):
         x0, y0, x1, y1 = (int(b) for b in box)
         contact = _contact_from_mask(
             crop, x0, y0, labels, owner, idx, thing, classes.has(class_name, "trunk"), lookups, params
+        )
+        left_hidden, right_hidden = (
+            hidden_sides(crop, x0, y0, owner, idx, bottoms, params.hidden_side_fraction) if thing else (False, False)
         )
         objects.append(
             ImageObject(
@@ -591,6 +665,8 @@ def objects_from_regions(
                 ref=idx,
                 left_truncated=x0 <= 0,
                 right_truncated=x1 >= W,
+                left_hidden=left_hidden,
+                right_hidden=right_hidden,
             )
         )
     return sort_objects(objects)

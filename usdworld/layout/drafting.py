@@ -33,6 +33,11 @@ from usdworld.perception.depth.fusion import DepthCue
 from usdworld.perception.objects import ImageObject
 from usdworld.perception.shape import top_shape_ratio
 
+#: Class yaw modes that turn an object for want of its real heading (to the camera, or along
+#: the street either way): its footprint may lie at any heading, and no corner of it is known
+#: to make a cut box's seen edge.
+HEADING_STAND_INS = ("camera", "along_road")
+
 
 @dataclass(frozen=True)
 class _Size:
@@ -78,9 +83,7 @@ def draft_object(
     heading = object_heading(prior, ground, ctx.axis, obj, ctx.camera, ctx.params)
     yaw, yaw_source = heading.yaw, heading.source
     if obj.is_thing:
-        # A class turned to the camera or along the street for want of its heading has no
-        # corner known to make a cut box's seen edge.
-        heading_known = prior.yaw not in ("camera", "along_road")
+        heading_known = prior.yaw not in HEADING_STAND_INS
         ground = align_box_columns(ctx.camera, ground, yaw, sized.size, obj, ctx.params, heading_known)
     if not depth > 0:  # a wall seen at the image's bottom corner, a few decimetres ahead: centre behind the camera
         return None
@@ -225,9 +228,7 @@ def _centre(
         return ground, depth, depth - front
     contact_half = sizes.contact_own_half(variant) if trunk else sizes.contact_half(variant)
     reach = size[:2] if obj.box_only else 2.0 * contact_half * scale
-    if prior.yaw in ("camera", "along_road") and not obj.box_only:
-        # Turned to face the camera, or along the street either way, only for want of its
-        # real heading: expect any heading.
+    if prior.yaw in HEADING_STAND_INS and not obj.box_only:  # any heading may be the real one
         ahead = sizes.mean_reach(variant) * scale
     else:
         ahead = _forward_half_extent(reach, yaw, camera.yaw)

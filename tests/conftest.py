@@ -5,11 +5,21 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import pytest
-from hypothesis import HealthCheck, settings
+# OpenUSD destroys a released layer's data on a detached worker thread; a process that holds a
+# stage until it exits (a probe's globals, a pytest worker) can then run the libraries' static
+# destructors beside that thread, and it aborts ("pure virtual method called"). The suite and
+# every process it starts (they inherit the environment) destroy synchronously instead, set
+# before pxr is first imported; TF_ENV_SETTING_ALERTS_ENABLED=0 keeps OpenUSD's banner about an
+# overridden setting off stderr, which tests read. (The ``usdworld`` command itself never tears
+# its interpreter down: usdworld.cli.main.run.)
+os.environ.setdefault("WORK_SYNCHRONIZE_ASYNC_DESTROY_CALLS", "1")
+os.environ.setdefault("TF_ENV_SETTING_ALERTS_ENABLED", "0")
 
-import usdworld.authoring  # noqa: F401  (registers the schema plugin before any stage is opened)
-from usdworld.resources import evaluation_data_dir
+import pytest  # noqa: E402
+from hypothesis import HealthCheck, settings  # noqa: E402
+
+import usdworld.authoring  # noqa: F401, E402  (registers the schema plugin before any stage is opened)
+from usdworld.resources import evaluation_data_dir  # noqa: E402
 
 settings.register_profile("ci", max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))

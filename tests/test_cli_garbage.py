@@ -36,9 +36,13 @@ def _run(monkeypatch, argv: list[str]) -> tuple[bool, int, int]:
         seen.append(gc.isenabled())
         return 3
 
+    def fake_quick_exit(code: int) -> None:
+        raise SystemExit(code)
+
     gc.unfreeze()
     monkeypatch.setattr(sys, "argv", ["usdworld", *argv])
     monkeypatch.setattr(cli, "main", fake_main)
+    monkeypatch.setattr(cli, "quick_exit", fake_quick_exit)  # the process goes on: it is pytest's
     with pytest.raises(SystemExit) as exc:
         cli.run()
     return seen[0], gc.get_freeze_count(), exc.value.code

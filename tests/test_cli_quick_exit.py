@@ -1,8 +1,9 @@
-"""``usdworld edit`` ends its process without the interpreter's teardown, after the exit handlers
-and with its output flushed; the other commands exit as before."""
+"""Every ``usdworld`` sub-command ends its process without the interpreter's teardown, after the
+threads that are not daemons and the exit handlers, with its output flushed; help exits as usual."""
 
 from __future__ import annotations
 
+import gc
 import os
 import subprocess
 import sys
@@ -30,10 +31,17 @@ def _run(monkeypatch, argv: list[str]) -> tuple[list[str], int]:
         raise _Exited(code)
 
     monkeypatch.setattr(sys, "argv", ["usdworld", *argv])
+    monkeypatch.setattr(cli.threading, "_shutdown", lambda: calls.append("threads"))
     monkeypatch.setattr(cli.atexit, "_run_exitfuncs", lambda: calls.append("atexit"))
     monkeypatch.setattr(cli.os, "_exit", fake_exit)
-    with pytest.raises((_Exited, SystemExit)) as exc:
-        cli.run()
+    collecting = gc.isenabled()
+    try:
+        with pytest.raises((_Exited, SystemExit)) as exc:
+            cli.run()
+    finally:  # run() turns the collector off for build and render and freezes: pytest goes on
+        gc.unfreeze()
+        if collecting:
+            gc.enable()
     return calls, exc.value.code
 
 
@@ -44,16 +52,45 @@ def test_an_edit_runs_the_exit_handlers_then_ends_the_process(
     edits = root.parent / "layers" / "edits.usda"
     before = edits.read_bytes()
     calls, code = _run(monkeypatch, ["-q", "edit", str(root), "move", "car_0001", "--by", "0.5,0", "--force"])
-    assert (calls, code) == (["atexit", "os._exit"], 0)
+    assert (calls, code) == (["threads", "atexit", "os._exit"], 0)
     assert edits.read_bytes() != before  # saved before the process ends
     calls, code = _run(monkeypatch, ["edit", str(root), "move", "no_such_0001", "--by", "1,0"])
-    assert (calls, code) == (["atexit", "os._exit"], 2)
+    assert (calls, code) == (["threads", "atexit", "os._exit"], 2)
     assert capsys.readouterr().err.startswith("error: no object 'no_such_0001'")
 
 
-def test_other_commands_exit_normally(monkeypatch):
-    calls, code = _run(monkeypatch, ["--help"])
+@pytest.mark.parametrize("argv", [["build", "photo.png"], ["-q", "render", "W"], ["serve", "W"], ["batch", "in", "-o", "o"]])
+def test_every_sub_command_ends_its_process_the_same_way(monkeypatch, argv):
+    monkeypatch.setattr(cli, "main", lambda args: 3)
+    calls, code = _run(monkeypatch, argv)
+    assert (calls, code) == (["threads", "atexit", "os._exit"], 3)
+
+
+@pytest.mark.parametrize("argv", [["--help"], [], ["no-such-command"]])
+def test_help_and_unknown_commands_exit_normally(monkeypatch, argv):
+    monkeypatch.setattr(cli, "main", lambda args: 0)
+    calls, code = _run(monkeypatch, argv)
     assert (calls, code) == ([], 0)
+
+
+def test_a_thread_that_is_no_daemon_finishes_before_the_process_ends(tmp_path_factory, tmp_path):
+    """As at a normal exit: a worker a command (or a library it used) left running gets to finish."""
+    root = fresh_world(tmp_path_factory, tmp_path / "world")
+    code = (
+        "import sys, threading, time\n"
+        "def worker():\n"
+        "    while threading.main_thread().is_alive():  # until the command has returned\n"
+        "        time.sleep(0.01)\n"
+        "    print('worker finished')\n"
+        "threading.Thread(target=worker, daemon=False).start()\n"
+        "from usdworld.cli.main import run\n"
+        f"sys.argv = ['usdworld', '-q', 'info', {str(root)!r}]\n"
+        "run()\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[-1] == "worker finished"
 
 
 def test_the_edit_process_flushes_its_output_and_runs_atexit_handlers(tmp_path_factory, tmp_path):

@@ -243,3 +243,12 @@ def test_the_layer_prefetch_starts_before_pxr_usd_is_imported() -> None:
     loaded = _loaded_after("import usdworld.authoring.stages", whole_names=True)
     assert "pxr.Sdf" in loaded
     assert "pxr.Usd" not in loaded
+
+
+def test_the_suite_and_its_probes_destroy_layers_synchronously() -> None:
+    """tests/conftest.py: no detached destruction left running when a test process exits."""
+    from pxr import Tf
+
+    assert Tf.GetEnvSetting("WORK_SYNCHRONIZE_ASYNC_DESTROY_CALLS") is True
+    loaded = _loaded_after("from pxr import Tf\nassert Tf.GetEnvSetting('WORK_SYNCHRONIZE_ASYNC_DESTROY_CALLS') is True")
+    assert "pxr" in loaded

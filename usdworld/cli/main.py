@@ -16,6 +16,7 @@ import importlib
 import logging
 import os
 import sys
+import threading
 import traceback
 import warnings
 from collections.abc import Sequence
@@ -47,8 +48,8 @@ COMMANDS = {
 }
 #: Options of the ``usdworld`` command itself (they come before the sub-command).
 ROOT_FLAGS = ("--debug", "--quiet", "-q")
-#: Sub-commands whose process ends without tearing the interpreter down (see :func:`run`).
-QUICK_EXIT_COMMANDS = frozenset({"edit"})
+#: Sub-commands whose process ends without tearing the interpreter down (see :func:`run`): all.
+QUICK_EXIT_COMMANDS = frozenset(COMMANDS)
 #: Sub-commands whose process runs without Python's cyclic garbage collector (see :func:`run`).
 UNCOLLECTED_COMMANDS = frozenset({"build", "render"})
 
@@ -180,11 +181,15 @@ def run() -> None:
     exit handlers and module teardown still run as before. Together about 0.1 s of CPU of a
     whole ``usdworld build`` on the 2-core machine (BENCHMARKS.md, thirteenth session).
 
-    A command of :data:`QUICK_EXIT_COMMANDS` ends its process with :func:`quick_exit`: by
-    the time :func:`main` returns, an edit is saved (atomically, fsync'ed) and its lock
-    released, so what is left is tearing down the interpreter and OpenUSD's libraries
-    (module teardown, their registries' static destructors): 0.04-0.1 s of CPU after a
-    10,000-object world's edit on the 2-core machine, a tenth of the command or more.
+    A run of a sub-command (:data:`QUICK_EXIT_COMMANDS`: every one) ends its process with
+    :func:`quick_exit`: by the time :func:`main` returns, its files are written (atomically),
+    an edit's lock is released and its pools are shut down, so what is left is tearing down
+    the interpreter and OpenUSD's libraries (module teardown, their registries' static
+    destructors). That teardown costs 0.04-0.1 s of CPU after a 10,000-object world's edit on
+    the 2-core machine, and it is not safe: OpenUSD destroys a layer's data on a detached
+    worker thread (``WorkMoveDestroyAsync``), which can still be running when the static
+    destructors run, and the process then aborts ("pure virtual method called", SIGABRT)
+    after its work is done. ``--help``, no arguments and unknown names exit as usual.
     """
     args = sys.argv[1:]
     names = commands_for(args)
@@ -199,9 +204,15 @@ def run() -> None:
 
 
 def quick_exit(code: int) -> NoReturn:
-    """End the process with ``code`` after the exit handlers (``atexit``: logging's shutdown
-    among them) and with the standard streams flushed, skipping the interpreter's teardown."""
-    atexit._run_exitfuncs()  # what a normal exit runs first (no public name for it)
+    """End the process with ``code`` the way the interpreter's exit begins, skipping its teardown.
+
+    As :c:func:`Py_FinalizeEx` does first: wait for the threads that are not daemons (and
+    shut ``concurrent.futures`` pools down), then run the exit handlers (``atexit``: logging's
+    shutdown, Dask's and multiprocessing's clean-up among them); then flush the standard
+    streams and end the process.
+    """
+    threading._shutdown()  # the interpreter's own first step of an exit (no public name for it)
+    atexit._run_exitfuncs()  # its second one
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()

@@ -1,4 +1,4 @@
-"""A drive's vehicle tracks as a standing-or-moving mixture: one-frame parked cars keep apart, movers are tracked."""
+"""A drive's vehicle tracks as a standing-or-moving mixture: one-frame parked cars keep apart."""
 
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ def test_two_parked_cars_seen_one_after_the_other_are_not_one_mover() -> None:
     obs += [_car(k, (25.0 + 1.0 * k, -10.0), 1.0, 0.5, ref=3) for k in range(6)]
     objects = track_drive(obs, [0.1 * k for k in range(6)], PARAMS)
     movers = [o for o in objects if o.moving]
-    standing = sorted((o for o in objects if not o.moving), key=lambda o: -o.fused.placement.position_world[1])
+    standing = sorted((o for o in objects if not o.moving), key=lambda o: -o.fused.placement.contact_world[1])
     assert len(movers) == 1 and len(movers[0].times) == 6
     assert movers[0].velocity == pytest.approx([10.0, 0.0], abs=0.5)
     assert [len(o.times) for o in standing] == [1, 3]
@@ -132,7 +132,8 @@ def test_the_standing_weight_follows_the_frames() -> None:
     cov = np.array([np.eye(2)] * 10)
     still = fit_motion([0.1 * k for k in range(10)], np.tile([20.0, 0.0], (10, 1)), cov, sigma)
     assert standing_weight(still, sigma, 0.95) > 0.99
-    moving = fit_motion([0.1 * k for k in range(10)], np.array([[20.0 + k, 0.0] for k in range(10)]), cov, sigma)
+    driving = np.array([[20.0 + k, 0.0] for k in range(10)])
+    moving = fit_motion([0.1 * k for k in range(10)], driving, cov, sigma)
     assert standing_weight(moving, sigma, 0.95) < 1e-6
     two = fit_motion([0.0, 1.0], np.array([[0.0, 0.0], [1.0, 0.0]]), cov[:2], sigma)
     Cv = two.covariance[2:, 2:]

@@ -248,7 +248,7 @@ class _Track:
         self.refit()
 
     def refit(self) -> None:
-        """Fit the motion of the frames held now (:func:`fit_motion`), and standing when the class keeps that hypothesis."""
+        """Fit the motion of the frames held now (:func:`fit_motion`); standing too where the class keeps it."""
         pos = np.array([o.placement.contact_world[:2] for o in self.items])
         cov = np.array([fit_covariance(o) for o in self.items])
         self.fit = fit_motion(self.times, pos, cov, self.sigma_speed)
@@ -810,7 +810,8 @@ def _joined_overlapping(a: _Track, b: _Track, params: ViewsParams) -> _Track:
     for t, item in zip(b.times, b.items):
         by_time[t] = _merged_item(by_time[t], item, params) if t in by_time else item
     times = sorted(by_time)
-    out = _Track(a.class_name, a.sigma_speed, times, [by_time[t] for t in times], standing_share=a.standing_share)
+    items = [by_time[t] for t in times]
+    out = _Track(a.class_name, a.sigma_speed, times, items, standing_share=a.standing_share)
     out.refit()
     return out
 
@@ -827,9 +828,8 @@ def _pair_mahalanobis2(pos: np.ndarray, cov: np.ndarray) -> np.ndarray:
 def _joined(a: _Track, b: _Track) -> _Track:
     """One track of two that share no frame: their frames in time order, the fit redone."""
     pairs = sorted(zip(a.times + b.times, a.items + b.items), key=lambda p: p[0])
-    out = _Track(
-        a.class_name, a.sigma_speed, [t for t, _ in pairs], [item for _, item in pairs], standing_share=a.standing_share
-    )
+    times, items = [t for t, _ in pairs], [item for _, item in pairs]
+    out = _Track(a.class_name, a.sigma_speed, times, items, standing_share=a.standing_share)
     out.refit()
     return out
 

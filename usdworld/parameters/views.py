@@ -88,6 +88,15 @@ class ViewsParams:
         "own observations say how fast it goes.",
         "published: the 50 km/h (13.9 m/s) urban speed limit of most European countries",
     )
+    vehicle_standing_share: float = param(
+        0.95,
+        "fraction",
+        "Prior probability that a tracked vehicle stands (is parked) rather than moves. A drive's vehicle "
+        "track is associated as a mixture of a standing hypothesis (velocity 0) and a moving one (the "
+        "vehicle_speed_max_mps prior), weighted by this prior times each hypothesis' evidence in the "
+        "track's frames: a track of one or two frames is not given the moving hypothesis' wide gate alone.",
+        "published: the average car is parked 95 % of the time (Shoup, The High Cost of Free Parking, 2005)",
+    )
     person_speed_max_mps: float = param(
         2.6,
         "m/s",

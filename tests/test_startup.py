@@ -125,13 +125,15 @@ NOT_IN_A_BUILD = {
     "statistics", "decimal", "fractions",
 }
 #: The stages of inputs a build from labels and a camera file does not have (detections, ground
-#: points, a segmentation model, a depth map, no camera file), and the light schemas' module
-#: (the lights are authored by their schema type names).
+#: points, a segmentation model, a depth map, no camera file: its EXIF reader too), the editor's
+#: object index (written beside the crate layer of a large world only) and the light schemas'
+#: module (the lights are authored by their schema type names).
 OPTIONAL_STAGES = {
     "usdworld.io.detections", "usdworld.io.correspondences", "usdworld.io.depth_files",
     "usdworld.io.detector_labels", "usdworld.perception.classes", "usdworld.perception.dedupe",
     "usdworld.perception.refs", "usdworld.perception.streets", "usdworld.streets_stage",
     "usdworld.segment_stage", "usdworld.layout.focal_cues", "usdworld.geometry.lateral", "pxr.UsdLux",
+    "usdworld.io.exif", "usdworld.authoring.editing.index", "usdworld.authoring.editing.index_file",
 }
 #: usdworld's own packages and modules that only other commands use.
 NOT_IN_A_BUILD_USDWORLD = {

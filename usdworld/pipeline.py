@@ -62,7 +62,6 @@ from usdworld.geometry.vanishing import (
 from usdworld.io.asset_catalogue import AssetCatalogue
 from usdworld.io.camera_files import read_camera
 from usdworld.io.class_table import ClassTable, load_class_table
-from usdworld.io.exif import read_exif_focal
 from usdworld.io.hashing import read_input
 from usdworld.io.images import read_image
 from usdworld.io.label_table import label_lookups
@@ -460,6 +459,7 @@ def read_scene_head(
         else None
     )
     if no_intrinsics:  # the photo's own cues (EXIF, lines, vehicles)
+        from usdworld.io.exif import read_exif_focal
         from usdworld.layout.focal_cues import estimate_focal
 
         exif = read_exif_focal(request.image, image.width, image.height)

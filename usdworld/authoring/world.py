@@ -33,8 +33,6 @@ import usdworld
 from usdworld.authoring.appearance import define_appearances
 from usdworld.authoring.asset_cards import card_path
 from usdworld.authoring.camera import define_camera
-from usdworld.authoring.editing.index import Opinions
-from usdworld.authoring.editing.index_file import INDEX_FILE, layers_key, save_opinions
 from usdworld.authoring.lights import define_lights
 from usdworld.authoring.provenance import (
     PROVENANCE_API,
@@ -59,6 +57,7 @@ from usdworld.world_files import (  # re-exported: the names of what this module
 )
 
 if TYPE_CHECKING:  # annotations only: the editor imports this module, and layout's imports cost it 0.2 s
+    from usdworld.authoring.editing.index import Opinions
     from usdworld.layout.model import WorldModel
     from usdworld.layout.placement import Placement
     from usdworld.layout.surfaces import SurfaceMesh
@@ -341,6 +340,8 @@ def object_opinions(placements: Sequence[Placement], asset_refs: dict[str, str])
         ``active`` opinion; translate z, scale z and rotateZ ((N, 3) float64); the asset path; plain
         (every object is one ``def`` of only these opinions and its provenance).
     """
+    from usdworld.authoring.editing.index import Opinions  # large worlds only: not with the module
+
     n = len(placements)
     position = np.array([p.position_world[:3] for p in placements], dtype=np.float64).reshape(n, 3)
     factor = np.array([float(p.scale) for p in placements], dtype=np.float64)
@@ -372,6 +373,8 @@ def write_object_index(placements: Sequence[Placement], base: Path, asset_refs: 
             only the edits layer on it (a rig's drive layer makes the editor read it again).
         asset_refs: class name -> the asset path the base layer's references name.
     """
+    from usdworld.authoring.editing.index_file import INDEX_FILE, layers_key, save_opinions
+
     save_opinions(base.parent / INDEX_FILE, object_opinions(placements, asset_refs), layers_key([base]))
 
 

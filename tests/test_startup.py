@@ -124,8 +124,9 @@ NOT_IN_A_BUILD = {
     "distributed", "starlette", "uvicorn", "filelock", "pandas", "sklearn",
     "statistics", "decimal", "fractions",
 }
-#: The stages of inputs a build from labels and a camera file does not have (detections, ground
-#: points, a segmentation model, a depth map, no camera file: its EXIF reader too), the editor's
+#: The stages of inputs a build from labels and a whole camera file does not have (detections,
+#: ground points, a segmentation model, a depth map, no camera file: its EXIF reader too, the focal
+#: length's, the lane lines' and the roll's estimates), the editor's
 #: object index (written beside the crate layer of a large world only) and the light schemas'
 #: module (the lights are authored by their schema type names).
 OPTIONAL_STAGES = {
@@ -134,6 +135,7 @@ OPTIONAL_STAGES = {
     "usdworld.perception.refs", "usdworld.perception.streets", "usdworld.streets_stage",
     "usdworld.segment_stage", "usdworld.layout.focal_cues", "usdworld.geometry.lateral", "pxr.UsdLux",
     "usdworld.io.exif", "usdworld.authoring.editing.index", "usdworld.authoring.editing.index_file",
+    "usdworld.geometry.focal", "usdworld.geometry.lanes", "usdworld.geometry.roll",
 }
 #: usdworld's own packages and modules that only other commands use.
 NOT_IN_A_BUILD_USDWORLD = {

@@ -49,10 +49,7 @@ from usdworld.depth_stage import DepthOutcome, estimate_depth
 from usdworld.errors import InputError, OutputError
 from usdworld.geometry.camera import PinholeCamera, ground_correspondences
 from usdworld.geometry.estimate import CameraEstimate, PosePrior, estimate_camera
-from usdworld.geometry.focal import FocalEstimate
 from usdworld.geometry.homography import HomographyFit, estimate_homography
-from usdworld.geometry.lanes import LaneMarkings, find_lane_markings
-from usdworld.geometry.roll import RollMeasurement, roll_from_vertical
 from usdworld.geometry.vanishing import (
     VanishingPoint,
     detect_segments,
@@ -101,12 +98,16 @@ from usdworld.report import make_report
 from usdworld.stage_threads import DEFAULT_THREADS, StageThreads, earlier_errors_first
 
 if TYPE_CHECKING:
+    from usdworld.geometry.focal import FocalEstimate
+    from usdworld.geometry.lanes import LaneMarkings
+    from usdworld.geometry.roll import RollMeasurement
     from usdworld.perception.streets import StreetLabels
 
 log = logging.getLogger(__name__)
 
 # The stages of optional inputs (detections, ground points, a segmentation model, no camera
-# file) are imported where they run: a build from labels and a camera file loads none of them.
+# file or one without the roll) are imported where they run: a build from labels and a whole
+# camera file loads none of them.
 
 
 @dataclass(frozen=True)
@@ -468,6 +469,8 @@ def read_scene_head(
         )
     lanes = None
     if params.camera.lane_height_cue:
+        from usdworld.geometry.lanes import find_lane_markings
+
         lanes = find_lane_markings(
             image.rgb,
             vanishing,
@@ -477,6 +480,8 @@ def read_scene_head(
         )
     roll = None
     if no_roll and vertical is not None:  # no roll given: the photo's verticals measure it
+        from usdworld.geometry.roll import roll_from_vertical
+
         roll = roll_from_vertical(vertical, image.width, image.height, params.camera)
     camera = _camera(spec, image, objects, seg, catalogue, vanishing, table, params, focal, lanes, roll)
     inferred, why = None, ""

@@ -21,16 +21,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from usdworld.errors import CalibrationError
 from usdworld.geometry.camera import PinholeCamera
-from usdworld.geometry.focal import FocalEstimate, fuse_focal, principal_point, prior_cue
-from usdworld.geometry.lanes import LaneMarkings, LaneWidthCue, derolled_markings, lane_width_cue
-from usdworld.geometry.roll import RollEstimate, RollMeasurement, deroll_points, fuse_roll
 from usdworld.geometry.vanishing import VanishingPoint, horizon_measurement
 from usdworld.parameters.camera import DEFAULT_CAMERA, CameraParams
+
+if TYPE_CHECKING:  # the focal length, lane and roll modules are imported where a missing part is estimated
+    from usdworld.geometry.focal import FocalEstimate
+    from usdworld.geometry.lanes import LaneMarkings, LaneWidthCue
+    from usdworld.geometry.roll import RollEstimate, RollMeasurement
 
 
 @dataclass(frozen=True)
@@ -152,6 +155,8 @@ _BLOCK_ELEMENTS = 1 << 14
 
 def intrinsics_from_focal(width: int, height: int, f_px: float) -> np.ndarray:
     """(3, 3) float64 K with square pixels of focal ``f_px`` and the principal point at the image centre."""
+    from usdworld.geometry.focal import principal_point
+
     cx, cy = principal_point(width, height)
     return np.array([[f_px, 0.0, cx], [0.0, f_px, cy], [0.0, 0.0, 1.0]])
 
@@ -404,6 +409,9 @@ def _derolled(
 ) -> tuple[HeightObservations, VanishingPoint | None, LaneMarkings | None]:
     """The objects' contacts and tops, the street's vanishing point and the lane lines as the level
     camera sees them (turned back by ``roll`` about the principal point of ``K``)."""
+    from usdworld.geometry.lanes import derolled_markings
+    from usdworld.geometry.roll import deroll_points
+
     c = np.asarray(K)[:2, 2]
     bottom = deroll_points(np.column_stack([obs.u, obs.v_bottom]), roll, c)
     top = deroll_points(np.column_stack([obs.u, obs.v_top]), roll, c)
@@ -478,6 +486,8 @@ def estimate_camera(
     notes = []
     if K is None:
         if focal is None:
+            from usdworld.geometry.focal import fuse_focal, prior_cue
+
             focal = fuse_focal([prior_cue(width, height, params)], params)
         K = intrinsics_from_focal(width, height, focal.f_px)
         estimated.append("K")
@@ -486,6 +496,8 @@ def estimate_camera(
         focal = None
     roll_estimate = None
     if roll is None:
+        from usdworld.geometry.roll import fuse_roll
+
         estimated.append("roll")
         roll_estimate = fuse_roll(roll_measurement, params)
         notes.append(roll_estimate.describe())
@@ -507,6 +519,8 @@ def estimate_camera(
         v_vp = horizon_measurement(vanishing, float(np.asarray(K)[1, 1]), params) if vanishing is not None else None
         evidence = HorizonEvidence(road_top_v, *(v_vp or (None, 1.0)))
         if height_m is None and lanes is not None:
+            from usdworld.geometry.lanes import lane_width_cue
+
             lane_cue = lane_width_cue(lanes, np.asarray(K), params)
         mode = _search(np.asarray(K), usable, evidence, height_m, pitch, params, pose_prior, lane_cue)
         h_est, p_est, sigma_h, sigma_p = _posterior_moments(

@@ -356,3 +356,56 @@ def test_flythrough_frames_with_back_faces_culled_keep_nearly_every_pixel(world:
                 assert culled >= 0.9 * batches  # the synthetic street's meshes all close up
     off = np.any(frames[True] != frames[False], axis=3).mean(axis=(1, 2))
     assert off.max() < 5e-4
+
+
+def test_flythrough_draws_near_first_as_the_video_parameters_say(
+    world: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import usdworld.render.flythrough as flythrough_module
+
+    orders: list[bool] = []
+    real = flythrough_module.Renderer
+
+    def recording(*args, **kwargs):
+        orders.append(kwargs["near_first"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(flythrough_module, "Renderer", recording)
+    render_flythrough(Usd.Stage.Open(str(world)), tmp_path / "a.mp4", n_frames=2, width=64, height=32)
+    render_flythrough(
+        Usd.Stage.Open(str(world)),
+        tmp_path / "b.mp4",
+        n_frames=2,
+        width=64,
+        height=32,
+        video=VideoParams(near_first=False),
+    )
+    assert orders == [True, False]
+
+
+def test_flythrough_frames_drawn_near_first_keep_nearly_every_pixel(world: Path) -> None:
+    """Near surfaces first with no depth pre-pass: the frames differ from the pre-pass's only where
+    surfaces of different assets, or two instances of one mesh, tie in depth (< 0.01 % of the
+    pixels; on synthetic seed 3 at 1280x640, 0 to 3 pixels a frame)."""
+    from usdworld.render import Lighting, Renderer
+    from usdworld.render.outputs import view_camera, world_image_size
+
+    stage = Usd.Stage.Open(str(world))
+    source_size = world_image_size(stage)
+    source = view_camera(stage, *source_size)
+    size = (384, 192)
+    K = video_intrinsics(source.K, source_size, size)
+    add_source_vehicle(stage, car_asset_for(world))
+    scene = RenderScene.from_stage(stage)
+    poses = flythrough_poses(source.world_from_cam, 24)[::4]
+    frames = {}
+    for near_first in (True, False):
+        kw = {"shadow_taps": 1, "cull_back_faces": True, "near_first": near_first}
+        with Renderer(*size, lighting=Lighting(), **kw) as renderer:
+            renderer.fix_shadow_box(scene, K, poses)
+            frames[near_first] = np.array([renderer.render_rgb(scene, K, pose) for pose in poses])
+            groups = renderer._buffers.groups
+            assert (renderer._buffers.last_order is not None) == near_first
+    assert len(groups) < len(scene.batches)  # assets of several parts are drawn together
+    off = np.any(frames[True] != frames[False], axis=3).mean(axis=(1, 2))
+    assert off.max() < 1e-4

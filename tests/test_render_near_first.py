@@ -102,5 +102,7 @@ def test_stills_and_near_first_frames_share_a_renderer(tmp_path) -> None:
     with Renderer(W, H, lighting=LIGHTING, near_first=True) as r:
         for _ in range(2):
             assert np.array_equal(r.render(scene, K, pose).rgb, still.rgb)
+            for b in r._buffers.batches:  # the still's lit pass draws the instances last to first
+                assert b._camera[1].read() == b._records[::-1].tobytes()
             assert np.array_equal(r.render(scene, K, pose).object_ids, still.object_ids)
             assert np.array_equal(r.render_rgb(scene, K, pose), frame)

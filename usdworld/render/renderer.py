@@ -27,7 +27,9 @@ Passes (one draw call per mesh batch each; no multisampling anywhere, so every i
    after :meth:`Renderer.render`'s occlusion test, of the objects' instances only those of the
    objects that won a pixel in the labels (the same winner at every pixel, so the same colour);
    ``cull_back_faces`` (the fly-through's) leaves out of :meth:`Renderer.render_rgb`'s two
-   passes the faces of closed meshes turned away from the camera.
+   passes the faces of closed meshes turned away from the camera; ``near_first`` (the
+   fly-through's) draws no pre-pass there: the lit pass draws near surfaces first and writes
+   the depth (:meth:`_SceneBuffers.draw_near_first`).
 """
 
 from __future__ import annotations

@@ -537,7 +537,8 @@ class Renderer:
 
     def render_rgb(self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray) -> np.ndarray:
         """(H, W, 3) uint8 lit colour with shadows and sky (same arguments as :meth:`render`)."""
-        self._show_all(scene)
+        if not self.near_first:  # near first, the lit pass shows every instance in its own order
+            self._show_all(scene)
         return self._color_pass(scene, K, world_from_cam, depth_drawn=False)
 
     def _culled_faces(

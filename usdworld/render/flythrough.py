@@ -409,7 +409,7 @@ def render_flythrough(
             cull_back_faces=params.cull_back_faces,
             near_first=params.near_first,
         ) as renderer,
-        Mp4Writer(output, width, height, fps=fps, params=params) as writer,
+        Mp4Writer(output, width, height, fps=fps, params=params, source="rgba_bottom_up") as writer,
     ):
         prototypes: dict = {}
         still = StaticCache()  # a drive's parked cars, buildings and trees: read at the first frame only
@@ -421,7 +421,7 @@ def render_flythrough(
             if codes[i] is not None:  # the drive's movers where they are at the frame's time
                 scene = scene_at(stage, codes[i], prototypes=prototypes, static=still)
             t0 = time.perf_counter()
-            frame = renderer.render_rgb(scene, K, pose)
+            frame = renderer.render_rgba_rows(scene, K, pose)  # GL's rows: ffmpeg flips them
             render_s += time.perf_counter() - t0
             writer.write(frame)
             if progress is not None:

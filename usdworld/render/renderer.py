@@ -541,6 +541,16 @@ class Renderer:
             self._show_all(scene)
         return self._color_pass(scene, K, world_from_cam, depth_drawn=False)
 
+    def render_rgba_rows(self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray) -> bytes:
+        """:meth:`render_rgb`'s colour as read from GL: (H * W * 4,) RGBA bytes (alpha 255), rows bottom first.
+
+        For an encoder that flips the rows itself (:class:`~usdworld.render.video.Mp4Writer` with
+        ``source="rgba_bottom_up"``): no RGBA to RGB packing, no flip and no copy here.
+        """
+        if not self.near_first:
+            self._show_all(scene)
+        return self._color_pass(scene, K, world_from_cam, depth_drawn=False, raw=True)
+
     def _culled_faces(
         self, buffers: _SceneBuffers, K: np.ndarray, world_from_cam: np.ndarray
     ) -> list[str | None]:
@@ -606,9 +616,10 @@ class Renderer:
         return [~hidden(rect, depth, front, pyramid) for rect, depth, front, _ in boxes]
 
     def _color_pass(
-        self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray, depth_drawn: bool
-    ) -> np.ndarray:
-        """The colour; ``depth_drawn``: the depth buffer holds this view's depth (from the labels)."""
+        self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray, depth_drawn: bool, raw: bool = False
+    ) -> Any:
+        """The colour ((H, W, 3) uint8; ``raw``: GL's RGBA bytes, rows bottom first); ``depth_drawn``:
+        the depth buffer holds this view's depth (from the labels)."""
         ctx = self._context()
         K, world_from_cam = self._check_camera(K, world_from_cam)
         buffers = self._upload(scene)
@@ -676,6 +687,10 @@ class Renderer:
         self._sky_vao.render(mode=ctx.TRIANGLES, vertices=3)
         self._color_fbo.depth_mask = True
         ctx.depth_func = "<"
+        if raw:
+            data = self._color_fbo.read(components=4, alignment=1)
+            ctx.finish()
+            return data
         data = self._color_fbo.read(components=3, alignment=1)
         ctx.finish()
         return np.frombuffer(data, dtype=np.uint8).reshape(self.height, self.width, 3)[::-1].copy()

@@ -189,7 +189,8 @@ def _quality(world: Path, frames: int, width: int, height: int) -> None:
     )
     print("|---|---|---|---|---|---|---|")
     _quality_row("the still's shading (shadow_taps=4, no culling, depth pre-pass)", video, full)
-    same = f"the same shading with every face drawn (shadow_taps={params.shadow_taps}, no culling, depth pre-pass)"
+    taps = params.shadow_taps
+    same = f"the same shading with every face drawn (shadow_taps={taps}, no culling, depth pre-pass)"
     _quality_row(same, video, whole)
     _quality_row("the same frames drawn after a depth pre-pass (near_first=False)", video, prepass)
 

@@ -115,9 +115,9 @@ class VideoParams:
         "asset's parts tie in depth the first in the scene's order still wins (origin).",
         "geometry: the nearest surface wins the depth test in any drawing order; measured with "
         "tools/bench_flythrough.py on the fly-through of synthetic seed 3 (120 frames at "
-        "1280x640, session 15) -- a frame's instructions 14 % fewer (callgrind), CPU 3 % less under load; "
+        "1280x640, session 15) -- a frame's instructions 15 % fewer (callgrind), its CPU 3-4 % less under load; "
         "fragments shaded 1.23x the pixels drawn (nearest first by each batch's own distance: 1.19x, "
-        "but its order flips ties between an asset's parts, 150-300 pixels a frame); 0-3 pixels a frame "
+        "but its order flips ties between an asset's parts, 10-300 pixels a frame); 0-3 pixels a frame "
         "differ from the frames with the pre-pass",
     )
 

@@ -542,7 +542,7 @@ class Renderer:
         return self._color_pass(scene, K, world_from_cam, depth_drawn=False)
 
     def render_rgba_rows(self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray) -> bytes:
-        """:meth:`render_rgb`'s colour as read from GL: (H * W * 4,) RGBA bytes (alpha 255), rows bottom first.
+        """:meth:`render_rgb`'s colour as GL reads it: (H * W * 4,) RGBA bytes (alpha 255), rows bottom first.
 
         For an encoder that flips the rows itself (:class:`~usdworld.render.video.Mp4Writer` with
         ``source="rgba_bottom_up"``): no RGBA to RGB packing, no flip and no copy here.
@@ -616,7 +616,12 @@ class Renderer:
         return [~hidden(rect, depth, front, pyramid) for rect, depth, front, _ in boxes]
 
     def _color_pass(
-        self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray, depth_drawn: bool, raw: bool = False
+        self,
+        scene: RenderScene,
+        K: np.ndarray,
+        world_from_cam: np.ndarray,
+        depth_drawn: bool,
+        raw: bool = False,
     ) -> Any:
         """The colour ((H, W, 3) uint8; ``raw``: GL's RGBA bytes, rows bottom first); ``depth_drawn``:
         the depth buffer holds this view's depth (from the labels)."""

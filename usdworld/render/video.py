@@ -187,9 +187,8 @@ class Mp4Writer:
         """Queue GL's RGBA rows (bytes are immutable: no copy)."""
         if not isinstance(rows, bytes) or len(rows) != self.width * self.height * 4:
             got = len(rows) if isinstance(rows, bytes) else type(rows).__name__
-            raise UsdWorldError(
-                f"video frame must be {self.width * self.height * 4} RGBA bytes (rows bottom first), got {got}"
-            )
+            size = self.width * self.height * 4
+            raise UsdWorldError(f"video frame must be {size} RGBA bytes (rows bottom first), got {got}")
         if self._failure is not None:
             self._raise_failure()
         self._queue.put(rows)

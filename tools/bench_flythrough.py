@@ -20,7 +20,8 @@ the N frames after one warm-up frame, wall and CPU) with that checkout's code.
 ``--quality`` also compares the video's frames (rendered with the fly-through's shading and
 back-face culling, :class:`~usdworld.parameters.video.VideoParams`) with the same frames under
 the still's full shading (``Renderer(shadow_taps=4)`` with every face drawn, as ``usdworld
-render``) and with the video's shading but every face drawn: PSNR over RGB of all frames and
+render``), with the video's shading but every face drawn, and with the video's shading drawn
+after a depth pre-pass (``near_first=False``): PSNR over RGB of all frames and
 of the worst frame, luma SSIM (mean and worst frame), and the shares of pixels off by more than
 8 levels and of pixels that differ at all. ``--repeat 0`` prints that alone.
 
@@ -75,6 +76,8 @@ try:  # the fly-through's shading where the checkout has one (render_flythrough 
     shading = {"shadow_taps": VideoParams().shadow_taps} if hasattr(VideoParams(), "shadow_taps") else {}
     if hasattr(VideoParams(), "cull_back_faces"):
         shading["cull_back_faces"] = VideoParams().cull_back_faces
+    if hasattr(VideoParams(), "near_first"):
+        shading["near_first"] = VideoParams().near_first
 except ImportError:
     shading = {}
 world, frames = Path(sys.argv[1]), int(sys.argv[2])
@@ -125,9 +128,11 @@ def _frames_alone(
     height: int,
     shadow_taps: int | None = None,
     cull: bool | None = None,
+    near_first: bool | None = None,
 ) -> tuple[float, list[np.ndarray]]:
     """Seconds to render the fly-through's frames with no encoding, and the frames (with the
-    fly-through's shading, or ``shadow_taps`` and back-face culling ``cull`` when given)."""
+    fly-through's shading, or ``shadow_taps``, back-face culling ``cull`` and the drawing order
+    ``near_first`` when given)."""
     stage = open_world(world)
     size = world_image_size(stage)
     source = view_camera(stage, *size)
@@ -138,8 +143,11 @@ def _frames_alone(
     # the world's own sun and sky, as render_flythrough and the command use
     taps = VideoParams().shadow_taps if shadow_taps is None else shadow_taps
     cull = VideoParams().cull_back_faces if cull is None else cull
+    near_first = VideoParams().near_first if near_first is None else near_first
     lighting = lighting_from_stage(stage)
-    with Renderer(width, height, lighting=lighting, shadow_taps=taps, cull_back_faces=cull) as renderer:
+    with Renderer(
+        width, height, lighting=lighting, shadow_taps=taps, cull_back_faces=cull, near_first=near_first
+    ) as renderer:
         renderer.fix_shadow_box(scene, K, poses)  # one shadow map for the path, as render_flythrough
         renderer.render_rgb(scene, K, poses[0])  # context, upload and shadow map, as the first frame
         t0 = time.perf_counter()
@@ -166,11 +174,13 @@ def _quality(world: Path, frames: int, width: int, height: int) -> None:
     """Print how far the video's frames are from the still's full shading and from the same frames
     with every face drawn (see the module docstring)."""
     _, video = _frames_alone(world, frames, width, height)
-    _, full = _frames_alone(world, frames, width, height, shadow_taps=4, cull=False)
-    _, whole = _frames_alone(world, frames, width, height, cull=False)
+    _, full = _frames_alone(world, frames, width, height, shadow_taps=4, cull=False, near_first=False)
+    _, whole = _frames_alone(world, frames, width, height, cull=False, near_first=False)
+    _, prepass = _frames_alone(world, frames, width, height, near_first=False)
     params = VideoParams()
     print(
-        f"\nThe video's frames (shadow_taps={params.shadow_taps}, cull_back_faces={params.cull_back_faces}), "
+        f"\nThe video's frames (shadow_taps={params.shadow_taps}, cull_back_faces={params.cull_back_faces}, "
+        f"near_first={params.near_first}), "
         f"{frames} frames at {width}x{height}, against:\n"
     )
     print(
@@ -178,9 +188,11 @@ def _quality(world: Path, frames: int, width: int, height: int) -> None:
         "| worst frame SSIM (frame) | pixels off by > 8 | pixels that differ |"
     )
     print("|---|---|---|---|---|---|---|")
-    _quality_row("the still's shading (shadow_taps=4, no culling)", video, full)
-    same = f"the same shading with every face drawn (shadow_taps={params.shadow_taps}, no culling)"
+    _quality_row("the still's shading (shadow_taps=4, no culling, depth pre-pass)", video, full)
+    taps = params.shadow_taps
+    same = f"the same shading with every face drawn (shadow_taps={taps}, no culling, depth pre-pass)"
     _quality_row(same, video, whole)
+    _quality_row("the same frames drawn after a depth pre-pass (near_first=False)", video, prepass)
 
 
 def _quality_row(name: str, video: list[np.ndarray], full: list[np.ndarray]) -> None:

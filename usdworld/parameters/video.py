@@ -105,6 +105,22 @@ class VideoParams:
         "silhouette edges), PSNR 58.1 dB, worst frame 54.4 dB, luma SSIM 0.9998",
     )
 
+    near_first: bool = param(
+        True,
+        "flag",
+        "The fly-through's frames are drawn without a depth pre-pass: the lit pass draws near surfaces "
+        "first (one asset's parts, i.e. the batches placed by the same transforms, together; their "
+        "instances nearest first) and writes the depth, so most hidden fragments fail the depth test "
+        "before they are shaded, and no surface is rasterised twice. The same surfaces show; where one "
+        "asset's parts tie in depth the first in the scene's order still wins (origin).",
+        "geometry: the nearest surface wins the depth test in any drawing order; measured with "
+        "tools/bench_flythrough.py on the fly-through of synthetic seed 3 (120 frames at "
+        "1280x640, session 15) -- a frame's instructions 15 % fewer (callgrind), its CPU 3-4 % less under load; "
+        "fragments shaded 1.23x the pixels drawn (nearest first by each batch's own distance: 1.19x, "
+        "but its order flips ties between an asset's parts, 10-300 pixels a frame); 0-3 pixels a frame "
+        "differ from the frames with the pre-pass",
+    )
+
     def __post_init__(self) -> None:
         if self.shadow_taps not in (1, 4):
             raise ValueError(f"video.shadow_taps must be 1 or 4, got {self.shadow_taps}")

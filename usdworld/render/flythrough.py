@@ -9,7 +9,8 @@ from) is part of the scene, all in red: the car asset is referenced at the world
 Frames stream into an H.264 MP4 (:mod:`usdworld.render.video`) as they are rendered. They
 are shaded with :class:`~usdworld.parameters.video.VideoParams`' cheaper shadow filter (one
 bilinear depth comparison instead of the still's four; ``usdworld render`` keeps four), and
-closed meshes' faces turned away from the camera are culled (``cull_back_faces``).
+closed meshes' faces turned away from the camera are culled (``cull_back_faces``) and
+near surfaces are drawn first instead of a depth pre-pass (``near_first``).
 
 Example:
     >>> stage = Usd.Stage.Open("world/world.usda")                          # doctest: +SKIP
@@ -406,8 +407,9 @@ def render_flythrough(
             lighting=lighting,
             shadow_taps=params.shadow_taps,
             cull_back_faces=params.cull_back_faces,
+            near_first=params.near_first,
         ) as renderer,
-        Mp4Writer(output, width, height, fps=fps, params=params) as writer,
+        Mp4Writer(output, width, height, fps=fps, params=params, source="rgba_bottom_up") as writer,
     ):
         prototypes: dict = {}
         still = StaticCache()  # a drive's parked cars, buildings and trees: read at the first frame only
@@ -419,7 +421,7 @@ def render_flythrough(
             if codes[i] is not None:  # the drive's movers where they are at the frame's time
                 scene = scene_at(stage, codes[i], prototypes=prototypes, static=still)
             t0 = time.perf_counter()
-            frame = renderer.render_rgb(scene, K, pose)
+            frame = renderer.render_rgba_rows(scene, K, pose)  # GL's rows: ffmpeg flips them
             render_s += time.perf_counter() - t0
             writer.write(frame)
             if progress is not None:

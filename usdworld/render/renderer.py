@@ -27,7 +27,9 @@ Passes (one draw call per mesh batch each; no multisampling anywhere, so every i
    after :meth:`Renderer.render`'s occlusion test, of the objects' instances only those of the
    objects that won a pixel in the labels (the same winner at every pixel, so the same colour);
    ``cull_back_faces`` (the fly-through's) leaves out of :meth:`Renderer.render_rgb`'s two
-   passes the faces of closed meshes turned away from the camera.
+   passes the faces of closed meshes turned away from the camera; ``near_first`` (the
+   fly-through's) draws no pre-pass there: the lit pass draws near surfaces first and writes
+   the depth (:meth:`_SceneBuffers.draw_near_first`).
 """
 
 from __future__ import annotations
@@ -160,6 +162,9 @@ class _BatchBuffers:
         ibo = ctx.buffer((last_first + np.arange(3, dtype=np.int32)).ravel().tobytes())
         self._corners_world: np.ndarray | None = None
         self._boxes_world: np.ndarray | None = None
+        self._centres_world: np.ndarray | None = None
+        #: the order the lit pass draws the instances in (``show_near_first``); None: last to first
+        self._lit_order: np.ndarray | None = None
         self._cull_face: str | None | bool = False  # False: not worked out yet
         self.buffers = [pos, nrm, inst_all, inst, inst_rev, ibo]
         place = f"{_ROWS} {_INSTANCE.itemsize - 96}x/i"
@@ -210,15 +215,23 @@ class _BatchBuffers:
             self._boxes_world = np.stack([corners.min(axis=1), corners.max(axis=1)], axis=1)
         return self._boxes_world
 
+    def centres_world(self) -> np.ndarray:
+        """(N, 3) float64 the centre of each instance's axis-aligned box in the world, kept."""
+        if self._centres_world is None:
+            self._centres_world = self.boxes_world().mean(axis=1)
+        return self._centres_world
+
     def show(self, shown: np.ndarray | None) -> None:
         """Let the camera's passes draw only the instances where ``shown`` ((N,) bool) is True; None: all.
 
         The shown instances keep their order (and the lit pass its reverse order).
         """
-        if shown is None and self._shown is None:
-            return
-        if shown is not None and self._shown is not None and np.array_equal(shown, self._shown):
-            return
+        if self._lit_order is None:
+            if shown is None and self._shown is None:
+                return
+            if shown is not None and self._shown is not None and np.array_equal(shown, self._shown):
+                return
+        self._lit_order = None
         records = self._records if shown is None else self._records[shown]
         inst, inst_rev = self._camera
         if len(records):
@@ -226,6 +239,19 @@ class _BatchBuffers:
             inst_rev.write(records[::-1].tobytes())
         self.n_shown = len(records)
         self._shown = None if shown is None else shown.copy()
+
+    def show_near_first(self, order: np.ndarray) -> None:
+        """Let the camera's passes draw every instance, the lit pass in ``order`` ((N,) int, a permutation).
+
+        The other camera passes keep the scene's order (:meth:`show` with None).
+        """
+        if self._shown is not None:  # the forward buffer holds a subset: every instance again
+            self._camera[0].write(self._records.tobytes())
+            self.n_shown, self._shown = self.n_instances, None
+        if self._lit_order is not None and np.array_equal(order, self._lit_order):
+            return
+        self._camera[1].write(self._records[order].tobytes())
+        self._lit_order = np.array(order, copy=True)
 
     def show_to_sun(self, inside: np.ndarray | None) -> None:
         """Let the shadow map draw only the instances where ``inside`` ((N,) bool) is True; None: all."""
@@ -279,6 +305,11 @@ class _SceneBuffers:
         self.n_vertices = sum(b.n_corners * b.n_instances for b in scene.batches)
         #: per batch, the face its draws cull (``"back"`` / ``"front"``) or None; None: no culling
         self.culled: list[str | None] | None = None
+        #: the batches that place their meshes with the same transforms (one asset's parts), in
+        #: scene order, each group in the order of its first batch
+        self.groups: list[list[int]] = _same_placement_groups(self.batches)
+        #: the batch indices in the order the last :meth:`draw_near_first` drew them
+        self.last_order: list[int] | None = None
 
     def draw(self, ctx: Any, name: str) -> None:
         """One pass over every batch: in scene order, the lit pass (and a ``*last_first`` pass) last
@@ -295,10 +326,46 @@ class _SceneBuffers:
             if face is not None:
                 ctx.disable(ctx.CULL_FACE)
 
+    def draw_near_first(self, ctx: Any, name: str, eye: np.ndarray) -> None:
+        """The lit pass ``name`` without a depth pre-pass, near surfaces first (the caller tests "<=").
+
+        The groups of batches (:attr:`groups`) are drawn nearest first (by the nearest centre of
+        their instances' boxes from ``eye``, (3,) float64), each group's batches last to first and
+        each batch's instances nearest first, every batch with its triangles last to first: a
+        fragment hidden by one already drawn fails the depth test and is not shaded. Where two
+        surfaces of one asset's parts (one group: the same instances) tie in depth, the "<=" test
+        lets the last drawn win, which is the first in the scene's order, as after a pre-pass.
+        """
+        culled = self.culled
+        nearest = []
+        for b in self.batches:
+            dist = np.linalg.norm(b.centres_world() - eye, axis=1)
+            b.show_near_first(np.argsort(dist, kind="stable"))
+            nearest.append(float(dist.min()))
+        first = [min(nearest[i] for i in group) for group in self.groups]
+        order = [i for g in np.argsort(first, kind="stable") for i in reversed(self.groups[g])]
+        for i in order:
+            face = culled[i] if culled is not None else None
+            if face is not None:
+                ctx.enable(ctx.CULL_FACE)
+                ctx.cull_face = face
+            self.batches[i].render(ctx, name)
+            if face is not None:
+                ctx.disable(ctx.CULL_FACE)
+        self.last_order = order
+
     def release(self) -> None:
         for b in self.batches:
             b.release()
         self.batches = []
+
+
+def _same_placement_groups(batches: list[_BatchBuffers]) -> list[list[int]]:
+    """Indices of ``batches`` grouped by equal ``world_from_local`` ((N, 4, 4) arrays, bit for bit)."""
+    groups: dict[bytes, list[int]] = {}
+    for i, b in enumerate(batches):
+        groups.setdefault(np.ascontiguousarray(b.batch.world_from_local).tobytes(), []).append(i)
+    return list(groups.values())
 
 
 class Renderer:
@@ -325,6 +392,13 @@ class Renderer:
             pixel centre falls on a silhouette edge (the fly-through's,
             :attr:`~usdworld.parameters.video.VideoParams.cull_back_faces`). :meth:`render`
             never culls.
+        near_first: :meth:`render_rgb` draws no depth pre-pass: its lit pass draws the scene
+            near surfaces first (:meth:`_SceneBuffers.draw_near_first`) and writes the depth, so
+            that most hidden fragments fail the depth test unshaded. The same surfaces show;
+            pixels change only where surfaces of different assets, or two instances of one
+            mesh, tie in depth (the fly-through's,
+            :attr:`~usdworld.parameters.video.VideoParams.near_first`). :meth:`render` keeps its
+            label pass's depth.
 
     Raises:
         RenderError: no usable headless OpenGL (the message names the packages to install).
@@ -340,6 +414,7 @@ class Renderer:
         rendering: RenderingParams | None = None,
         shadow_taps: int = 4,
         cull_back_faces: bool = False,
+        near_first: bool = False,
     ) -> None:
         if not (0 < int(width) <= MAX_SIZE and 0 < int(height) <= MAX_SIZE):
             raise UsdWorldError(f"render size must be 1..{MAX_SIZE} pixels per side, got {width}x{height}")
@@ -349,6 +424,7 @@ class Renderer:
             raise UsdWorldError(f"shadow_taps must be one of {sorted(_SHADOW_FILTERS)}, got {shadow_taps}")
         self.shadow_taps = int(shadow_taps)
         self.cull_back_faces = bool(cull_back_faces)
+        self.near_first = bool(near_first)
         #: batches whose back faces the last :meth:`render_rgb` culled, of all (for benchmarks)
         self.last_culled: tuple[int, int] | None = None
         self.width, self.height = int(width), int(height)
@@ -461,8 +537,19 @@ class Renderer:
 
     def render_rgb(self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray) -> np.ndarray:
         """(H, W, 3) uint8 lit colour with shadows and sky (same arguments as :meth:`render`)."""
-        self._show_all(scene)
+        if not self.near_first:  # near first, the lit pass shows every instance in its own order
+            self._show_all(scene)
         return self._color_pass(scene, K, world_from_cam, depth_drawn=False)
+
+    def render_rgba_rows(self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray) -> bytes:
+        """:meth:`render_rgb`'s colour as GL reads it: (H * W * 4,) RGBA bytes (alpha 255), rows bottom first.
+
+        For an encoder that flips the rows itself (:class:`~usdworld.render.video.Mp4Writer` with
+        ``source="rgba_bottom_up"``): no RGBA to RGB packing, no flip and no copy here.
+        """
+        if not self.near_first:
+            self._show_all(scene)
+        return self._color_pass(scene, K, world_from_cam, depth_drawn=False, raw=True)
 
     def _culled_faces(
         self, buffers: _SceneBuffers, K: np.ndarray, world_from_cam: np.ndarray
@@ -529,9 +616,15 @@ class Renderer:
         return [~hidden(rect, depth, front, pyramid) for rect, depth, front, _ in boxes]
 
     def _color_pass(
-        self, scene: RenderScene, K: np.ndarray, world_from_cam: np.ndarray, depth_drawn: bool
-    ) -> np.ndarray:
-        """The colour; ``depth_drawn``: the depth buffer holds this view's depth (from the labels)."""
+        self,
+        scene: RenderScene,
+        K: np.ndarray,
+        world_from_cam: np.ndarray,
+        depth_drawn: bool,
+        raw: bool = False,
+    ) -> Any:
+        """The colour ((H, W, 3) uint8; ``raw``: GL's RGBA bytes, rows bottom first); ``depth_drawn``:
+        the depth buffer holds this view's depth (from the labels)."""
         ctx = self._context()
         K, world_from_cam = self._check_camera(K, world_from_cam)
         buffers = self._upload(scene)
@@ -568,18 +661,24 @@ class Renderer:
             _write(lit, "u_map_size", float(self._shadow_size))
             _write(lit, "u_shadow_map", 0)
             self._shadow_tex.use(location=0)
-            # Depth first, then shade only the fragment that is seen (no shading of hidden ones).
-            if not depth_drawn:
-                _write(self._programs["depth"], "u_view_proj", view_proj)
-                self._color_fbo.color_mask = (False, False, False, False)
-                buffers.draw(ctx, "depth")
-                self._color_fbo.color_mask = (True, True, True, True)
-            ctx.depth_func = "<="
-            # The depth buffer already holds each pixel's nearest depth, and the fragments that
-            # pass "<=" lie at it: the lit pass writes no depth (llvmpipe then skips the stores).
-            self._color_fbo.depth_mask = False
-            buffers.draw(ctx, pass_name)
-            self._color_fbo.depth_mask = True
+            buffers.last_order = None
+            if self.near_first and not depth_drawn:
+                # No pre-pass: near surfaces first, and the lit pass writes the depth.
+                ctx.depth_func = "<="
+                buffers.draw_near_first(ctx, pass_name, world_from_cam[:3, 3])
+            else:
+                # Depth first, then shade only the fragment that is seen (no shading of hidden ones).
+                if not depth_drawn:
+                    _write(self._programs["depth"], "u_view_proj", view_proj)
+                    self._color_fbo.color_mask = (False, False, False, False)
+                    buffers.draw(ctx, "depth")
+                    self._color_fbo.color_mask = (True, True, True, True)
+                ctx.depth_func = "<="
+                # The depth buffer already holds each pixel's nearest depth, and the fragments that
+                # pass "<=" lie at it: the lit pass writes no depth (llvmpipe then skips the stores).
+                self._color_fbo.depth_mask = False
+                buffers.draw(ctx, pass_name)
+                self._color_fbo.depth_mask = True
         buffers.culled = None
         # The sky last, at the far plane: it passes "<=" only where no surface was drawn (the
         # surfaces' depth is < 1: the pre-pass's "<" test against the cleared 1 writes no other).
@@ -593,6 +692,10 @@ class Renderer:
         self._sky_vao.render(mode=ctx.TRIANGLES, vertices=3)
         self._color_fbo.depth_mask = True
         ctx.depth_func = "<"
+        if raw:
+            data = self._color_fbo.read(components=4, alignment=1)
+            ctx.finish()
+            return data
         data = self._color_fbo.read(components=3, alignment=1)
         ctx.finish()
         return np.frombuffer(data, dtype=np.uint8).reshape(self.height, self.width, 3)[::-1].copy()

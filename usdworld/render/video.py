@@ -34,6 +34,9 @@ from usdworld.parameters.video import VideoParams
 
 log = logging.getLogger(__name__)
 
+#: What :class:`Mp4Writer` takes -> ffmpeg's input pixel format.
+SOURCES = {"rgb24": "rgb24", "rgba_bottom_up": "rgba"}
+
 #: Frames queued for the encoder at most (memory: this many frames, e.g. 2.4 MB each at 1280x640).
 QUEUE_FRAMES = 8
 
@@ -65,6 +68,10 @@ class Mp4Writer:
         height: frame height in pixels (even).
         fps: frames per second.
         params: the encoder's settings (default :class:`~usdworld.parameters.video.VideoParams`).
+        source: what :meth:`write` takes: ``"rgb24"``, (height, width, 3) uint8 RGB arrays, rows top
+            first; or ``"rgba_bottom_up"``, GL's readback as is (``Renderer.render_rgba_rows``:
+            height * width * 4 RGBA bytes, rows bottom first), which ffmpeg flips (``-vf vflip``, no
+            copy) and converts: the same file, byte for byte, as the RGB frames give.
 
     Raises:
         InputError: odd or non-positive size, or fps <= 0.
@@ -78,10 +85,14 @@ class Mp4Writer:
         height: int,
         fps: float = 30.0,
         params: VideoParams | None = None,
+        source: str = "rgb24",
     ) -> None:
         check_video_size(width, height)
         if not fps > 0:
             raise InputError(f"fps must be > 0, got {fps}")
+        if source not in SOURCES:
+            raise UsdWorldError(f"Mp4Writer source must be one of {', '.join(SOURCES)}, got {source!r}")
+        self.source = source
         self.path = Path(path)
         self.width, self.height, self.fps = int(width), int(height), float(fps)
         self.params = params or VideoParams()
@@ -100,14 +111,19 @@ class Mp4Writer:
             self._gen: Generator[None, Any, None] | None = _ffmpeg().write_frames(
                 str(self._tmp),
                 (self.width, self.height),
-                pix_fmt_in="rgb24",
+                pix_fmt_in=SOURCES[source],
                 pix_fmt_out="yuv420p",
                 fps=self.fps,
                 quality=None,
                 codec="libx264",
                 macro_block_size=1,
                 ffmpeg_log_level="error",
-                output_params=[*self.params.x264_arguments(), "-movflags", "+faststart"],
+                output_params=[
+                    *(["-vf", "vflip"] if source == "rgba_bottom_up" else []),
+                    *self.params.x264_arguments(),
+                    "-movflags",
+                    "+faststart",
+                ],
             )
             self._gen.send(None)  # start ffmpeg
         except UsdWorldError:
@@ -118,7 +134,7 @@ class Mp4Writer:
             raise OutputError(
                 f"{self.path}: ffmpeg (libx264) could not start: {' '.join(str(exc).split())}"
             ) from None
-        self._queue: queue.Queue[np.ndarray | None] = queue.Queue(maxsize=QUEUE_FRAMES)
+        self._queue: queue.Queue[np.ndarray | bytes | None] = queue.Queue(maxsize=QUEUE_FRAMES)
         self._failure: str | None = None
         self._thread = threading.Thread(target=self._feed, name="mp4-writer", daemon=True)
         self._thread.start()
@@ -142,17 +158,21 @@ class Mp4Writer:
         self.abort()
         raise OutputError(f"{self.path}: ffmpeg stopped while writing: {failure}")
 
-    def write(self, frame_rgb: np.ndarray) -> None:
+    def write(self, frame_rgb: np.ndarray | bytes) -> None:
         """Queue one frame for encoding (a copy: the caller may reuse its array).
 
         Args:
-            frame_rgb: (height, width, 3) uint8 RGB.
+            frame_rgb: (height, width, 3) uint8 RGB; with ``source="rgba_bottom_up"``, the RGBA
+                bytes, rows bottom first.
 
         Raises:
             OutputError: ffmpeg stopped (the partial file is deleted).
         """
         if self._gen is None:
             raise UsdWorldError("this Mp4Writer is closed")
+        if self.source == "rgba_bottom_up":
+            self._write_rows(frame_rgb)
+            return
         frame = np.asarray(frame_rgb)
         if frame.shape != (self.height, self.width, 3) or frame.dtype != np.uint8:
             raise UsdWorldError(
@@ -161,6 +181,17 @@ class Mp4Writer:
         if self._failure is not None:
             self._raise_failure()
         self._queue.put(np.array(frame, order="C", copy=True))
+        self.frames_written += 1
+
+    def _write_rows(self, rows: bytes) -> None:
+        """Queue GL's RGBA rows (bytes are immutable: no copy)."""
+        if not isinstance(rows, bytes) or len(rows) != self.width * self.height * 4:
+            got = len(rows) if isinstance(rows, bytes) else type(rows).__name__
+            size = self.width * self.height * 4
+            raise UsdWorldError(f"video frame must be {size} RGBA bytes (rows bottom first), got {got}")
+        if self._failure is not None:
+            self._raise_failure()
+        self._queue.put(rows)
         self.frames_written += 1
 
     def close(self) -> Path:

@@ -68,7 +68,11 @@ triangulation.
 **What a moving object gets.** Its placement (the default, un-timed value) is its fitted
 position at its first frame; per frame where it is seen, a time sample of its position
 *on the constant-velocity fit* (not the raw observation: single-view depth noise would
-make it jitter) and of its heading, the velocity's direction. Between and outside those
+make it jitter) and of its heading, the velocity's direction. That fit is the tracking's
+with one difference: a frame placed by a bound (just behind what hides its bottom, or by a
+visible bottom or cut height: :func:`usdworld.views.hidden_contact.depth_bound_side`) only
+says on which side along its ray the object is, so it counts only where the track would
+cross it (:func:`fit_motion_bounded`). Between and outside those
 frames USD interpolates the samples linearly and holds the first and last; the world
 shows the object only from the first frame it is seen in to the last (its ``visibility``
 is time-sampled: :func:`usdworld.authoring.rig.visibility_samples`).
@@ -96,7 +100,7 @@ from usdworld.views.fusion import (
     fusion_method,
     sized_by_a_whole_view,
 )
-from usdworld.views.hidden_contact import fit_covariance
+from usdworld.views.hidden_contact import depth_bound_side, fit_covariance
 
 #: Classes that can move in a drive, with the parameter that bounds their speed.
 VEHICLE_CLASSES = ("car", "truck", "bus", "motorcycle", "bicycle")
@@ -183,6 +187,73 @@ def fit_motion(
     return MotionFit(t_ref, C @ rhs, C)
 
 
+#: Largest move of a bound's stand-in position (metres) at which :func:`fit_motion_bounded` has converged.
+_BOUND_TOLERANCE_M = 1e-4
+#: Most refits :func:`fit_motion_bounded` makes (it converges geometrically; a cap, not a tuning).
+_BOUND_MAX_REFITS = 200
+
+
+def fit_motion_bounded(
+    times: Sequence[float],
+    positions: np.ndarray,
+    covariances: np.ndarray,
+    sigma_speed: float,
+    rays: np.ndarray,
+    sides: np.ndarray,
+) -> MotionFit:
+    """:func:`fit_motion` where some positions bound the depth along their viewing ray instead of reading it.
+
+    A bound from below (``side`` +1: the object is at or beyond the position along ``ray``) or
+    from above (-1: at or nearer) costs nothing where the track keeps it and its along-ray spread
+    where the track breaks it; across the ray (the bearing) it counts as a reading. The fit
+    minimises that convex cost by alternating two steps until they agree: each kept bound's
+    position moves along its ray onto the track's prediction (a broken one stays at its bound),
+    and the track is fitted again to those positions with the same covariances. Each frame's
+    covariance has its ray as an axis, so the move along the ray is the covariance's nearest
+    point of the bound's half-plane. Without bounds, or when the plain fit breaks every bound,
+    it is :func:`fit_motion`'s; the covariance is the plain fit's (kept bounds still counted).
+
+    Args:
+        times: (N,) seconds.
+        positions: (N, 2) float64 ground positions (a bound's: the bound itself), metres.
+        covariances: (N, 2, 2) float64 their covariances, each with its ray as an axis, metres squared.
+        sigma_speed: the velocity prior (:func:`fit_motion`).
+        rays: (N, 2) float64 unit viewing directions on the ground, from the camera to the position.
+        sides: (N,) int 0 for a reading, +1 for a bound from below, -1 for one from above.
+
+    Returns:
+        The fit.
+
+    Example:
+        A walker at 10 m whose second frame is only known to be beyond 9 m: the bound is kept, so
+        that frame does not pull; read as a position it would.
+
+        >>> at = np.array([[10.0, 0.0], [9.0, 0.0]]); cov = np.array([np.eye(2)] * 2)
+        >>> rays = np.array([[1.0, 0.0]] * 2)
+        >>> fit_motion_bounded([0.0, 1.0], at, cov, 0.0, rays, np.array([0, 1])).state[:2].round(3).tolist()
+        [10.0, 0.0]
+        >>> fit_motion([0.0, 1.0], at, cov, 0.0).state[:2].round(3).tolist()
+        [9.5, 0.0]
+    """
+    z0 = np.asarray(positions, dtype=np.float64)
+    rays = np.asarray(rays, dtype=np.float64)
+    sides = np.asarray(sides)
+    fit = fit_motion(times, z0, covariances, sigma_speed)
+    if not np.any(sides != 0):
+        return fit
+    t = np.asarray(times, dtype=np.float64)
+    z = z0
+    for _ in range(_BOUND_MAX_REFITS):
+        predicted = fit.state[:2] + (t - fit.t_ref)[:, None] * fit.state[2:]
+        r = np.einsum("ni,ni->n", predicted - z0, rays)
+        moved = z0 + np.where(sides * r > 0.0, r, 0.0)[:, None] * rays
+        if float(np.max(np.abs(moved - z))) < _BOUND_TOLERANCE_M:
+            break
+        z = moved
+        fit = fit_motion(times, z, covariances, sigma_speed)
+    return fit
+
+
 #: Added to every score inside the gate, so a pair exactly at the gate still scores above no pair.
 _TIE = 1e-9
 
@@ -205,6 +276,17 @@ class _Track:
         pos = np.array([o.placement.contact_world[:2] for o in self.items])
         cov = np.array([fit_covariance(o) for o in self.items])
         self.fit = fit_motion(self.times, pos, cov, self.sigma_speed)
+
+    def placed_fit(self) -> MotionFit:
+        """The fit that places a moving track: :func:`fit_motion_bounded`, each frame's bound
+        side from :func:`~usdworld.views.hidden_contact.depth_bound_side` along its primary
+        view's ray (the tracking's own fit, :meth:`refit`, takes every frame as a reading)."""
+        pos = np.array([o.placement.contact_world[:2] for o in self.items])
+        cov = np.array([fit_covariance(o) for o in self.items])
+        rays = np.array([o.placement.contact_world[:2] - o.observations[0].camera_ground for o in self.items])
+        rays = rays / np.maximum(np.linalg.norm(rays, axis=1, keepdims=True), 1e-9)
+        sides = np.array([depth_bound_side(o) for o in self.items])
+        return fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides)
 
 
 @dataclass(frozen=True)
@@ -751,6 +833,7 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
     moving = _is_moving(tr, fit, params)
     z = float(primary.position_world[2])
     if moving:
+        fit = tr.placed_fit()
         xy = np.array([fit.predict(float(t))[0] for t in times])
         positions = np.c_[xy, np.full(len(times), z)]
         yaw = _yaw_of(fit.velocity, primary.yaw, params)

@@ -164,10 +164,14 @@ def fit_motion(
     Returns:
         The fit (velocity exactly 0 with zero covariance when ``sigma_speed`` is 0).
     """
+    inv = np.linalg.inv(np.asarray(covariances, dtype=np.float64))
+    return _fit_information(times, np.asarray(positions, dtype=np.float64), inv, sigma_speed)
+
+
+def _fit_information(times: Sequence[float], z: np.ndarray, inv: np.ndarray, sigma_speed: float) -> MotionFit:
+    """:func:`fit_motion` from (N, 2) positions and their (N, 2, 2) information matrices (inverse covariances)."""
     t = np.asarray(times, dtype=np.float64)
     t_ref = float(t[-1])
-    inv = np.linalg.inv(np.asarray(covariances, dtype=np.float64))
-    z = np.asarray(positions, dtype=np.float64)
     if sigma_speed <= 0:
         info = inv.sum(axis=0)
         cov = np.linalg.inv(info)
@@ -187,10 +191,8 @@ def fit_motion(
     return MotionFit(t_ref, C @ rhs, C)
 
 
-#: Largest move of a bound's stand-in position (metres) at which :func:`fit_motion_bounded` has converged.
-_BOUND_TOLERANCE_M = 1e-4
-#: Most refits :func:`fit_motion_bounded` makes (it converges geometrically; a cap, not a tuning).
-_BOUND_MAX_REFITS = 200
+#: Most active sets :func:`fit_motion_bounded` tries (each is one refit; it usually settles in two or three).
+_BOUND_MAX_REFITS = 50
 
 
 def fit_motion_bounded(
@@ -204,14 +206,15 @@ def fit_motion_bounded(
     """:func:`fit_motion` where some positions bound the depth along their viewing ray instead of reading it.
 
     A bound from below (``side`` +1: the object is at or beyond the position along ``ray``) or
-    from above (-1: at or nearer) costs nothing where the track keeps it and its along-ray spread
-    where the track breaks it; across the ray (the bearing) it counts as a reading. The fit
-    minimises that convex cost by alternating two steps until they agree: each kept bound's
-    position moves along its ray onto the track's prediction (a broken one stays at its bound),
-    and the track is fitted again to those positions with the same covariances. Each frame's
-    covariance has its ray as an axis, so the move along the ray is the covariance's nearest
-    point of the bound's half-plane. Without bounds, or when the plain fit breaks every bound,
-    it is :func:`fit_motion`'s; the covariance is the plain fit's (kept bounds still counted).
+    from above (-1: at or nearer) costs nothing along its ray where the track keeps it and its
+    along-ray spread where the track breaks it; across the ray (the bearing) it counts as a
+    reading. The cost is convex and piecewise quadratic; the fit finds its minimum by active
+    sets: the bounds the current track keeps lose their along-ray information (each frame's
+    covariance has its ray as an axis), the broken ones are readings at the bound, the track is
+    fitted again, until the kept set repeats (the lowest cost seen is returned if it never
+    does). Without bounds, or with no frame that reads the depth (the bounds are then all
+    that is known along the rays), it is :func:`fit_motion`'s. The covariance is the last
+    refit's.
 
     Args:
         times: (N,) seconds.
@@ -235,23 +238,37 @@ def fit_motion_bounded(
         >>> fit_motion([0.0, 1.0], at, cov, 0.0).state[:2].round(3).tolist()
         [9.5, 0.0]
     """
-    z0 = np.asarray(positions, dtype=np.float64)
+    z = np.asarray(positions, dtype=np.float64)
     rays = np.asarray(rays, dtype=np.float64)
     sides = np.asarray(sides)
-    fit = fit_motion(times, z0, covariances, sigma_speed)
-    if not np.any(sides != 0):
+    fit = fit_motion(times, z, covariances, sigma_speed)
+    if not np.any(sides != 0) or np.all(sides != 0):
         return fit
     t = np.asarray(times, dtype=np.float64)
-    z = z0
+    inv = np.linalg.inv(np.asarray(covariances, dtype=np.float64))
+    along_info = np.einsum("ni,nij,nj->n", rays, inv, rays)
+    across_only = inv - along_info[:, None, None] * np.einsum("ni,nj->nij", rays, rays)
+
+    def kept_and_cost(f: MotionFit) -> tuple[np.ndarray, float]:
+        d = f.state[:2] + (t - f.t_ref)[:, None] * f.state[2:] - z
+        r = np.einsum("ni,ni->n", d, rays)
+        kept = sides * r > 0.0
+        d = d - np.where(kept, r, 0.0)[:, None] * rays
+        cost = float(np.einsum("ni,nij,nj->", d, inv, d))
+        return kept, cost + float(f.state[2:] @ f.state[2:]) / sigma_speed**2 if sigma_speed > 0 else cost
+
+    kept, cost = kept_and_cost(fit)
+    best = (cost, fit)
+    seen: list[np.ndarray] = []
     for _ in range(_BOUND_MAX_REFITS):
-        predicted = fit.state[:2] + (t - fit.t_ref)[:, None] * fit.state[2:]
-        r = np.einsum("ni,ni->n", predicted - z0, rays)
-        moved = z0 + np.where(sides * r > 0.0, r, 0.0)[:, None] * rays
-        if float(np.max(np.abs(moved - z))) < _BOUND_TOLERANCE_M:
+        if any(np.array_equal(kept, k) for k in seen):
             break
-        z = moved
-        fit = fit_motion(times, z, covariances, sigma_speed)
-    return fit
+        seen.append(kept)
+        fit = _fit_information(times, z, np.where(kept[:, None, None], across_only, inv), sigma_speed)
+        kept, cost = kept_and_cost(fit)
+        if cost < best[0]:
+            best = (cost, fit)
+    return best[1]
 
 
 #: Added to every score inside the gate, so a pair exactly at the gate still scores above no pair.

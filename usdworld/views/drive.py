@@ -208,9 +208,9 @@ def fit_motion_bounded(
     A bound from below (``side`` +1: the object is at or beyond the position along ``ray``) or
     from above (-1: at or nearer) costs nothing along its ray where the track keeps it and its
     along-ray spread where the track breaks it; across the ray (the bearing) it counts as a
-    reading. The cost is convex and piecewise quadratic; the fit finds its minimum by active
-    sets: the bounds the current track keeps lose their along-ray information (each frame's
-    covariance has its ray as an axis), the broken ones are readings at the bound, the track is
+    reading (its across-ray variance, the along-ray position left free). The cost is convex and
+    piecewise quadratic; the fit finds its minimum by active sets: the bounds the current track
+    keeps lose their along-ray information, the broken ones are readings at the bound, the track is
     fitted again, until the kept set repeats (the lowest cost seen is returned if it never
     does). Without bounds, or with no frame that reads the depth (the bounds are then all
     that is known along the rays), it is :func:`fit_motion`'s. The covariance is the last
@@ -219,7 +219,7 @@ def fit_motion_bounded(
     Args:
         times: (N,) seconds.
         positions: (N, 2) float64 ground positions (a bound's: the bound itself), metres.
-        covariances: (N, 2, 2) float64 their covariances, each with its ray as an axis, metres squared.
+        covariances: (N, 2, 2) float64 their covariances, metres squared.
         sigma_speed: the velocity prior (:func:`fit_motion`).
         rays: (N, 2) float64 unit viewing directions on the ground, from the camera to the position.
         sides: (N,) int 0 for a reading, +1 for a bound from below, -1 for one from above.
@@ -245,16 +245,18 @@ def fit_motion_bounded(
     if not np.any(sides != 0) or np.all(sides != 0):
         return fit
     t = np.asarray(times, dtype=np.float64)
-    inv = np.linalg.inv(np.asarray(covariances, dtype=np.float64))
-    along_info = np.einsum("ni,nij,nj->n", rays, inv, rays)
-    across_only = inv - along_info[:, None, None] * np.einsum("ni,nj->nij", rays, rays)
+    cov = np.asarray(covariances, dtype=np.float64)
+    inv = np.linalg.inv(cov)
+    normals = np.c_[-rays[:, 1], rays[:, 0]]
+    across_var = np.einsum("ni,nij,nj->n", normals, cov, normals)
+    across_only = np.einsum("ni,nj->nij", normals, normals) / across_var[:, None, None]
 
     def kept_and_cost(f: MotionFit) -> tuple[np.ndarray, float]:
         d = f.state[:2] + (t - f.t_ref)[:, None] * f.state[2:] - z
-        r = np.einsum("ni,ni->n", d, rays)
-        kept = sides * r > 0.0
-        d = d - np.where(kept, r, 0.0)[:, None] * rays
-        cost = float(np.einsum("ni,nij,nj->", d, inv, d))
+        kept = sides * np.einsum("ni,ni->n", d, rays) > 0.0
+        full = np.einsum("ni,nij,nj->n", d, inv, d)
+        across = np.einsum("ni,ni->n", d, normals) ** 2 / across_var
+        cost = float(np.where(kept, across, full).sum())
         return kept, cost + float(f.state[2:] @ f.state[2:]) / sigma_speed**2 if sigma_speed > 0 else cost
 
     kept, cost = kept_and_cost(fit)

@@ -75,7 +75,11 @@ triangulation.
 **What a moving object gets.** Its placement (the default, un-timed value) is its fitted
 position at its first frame; per frame where it is seen, a time sample of its position
 *on the constant-velocity fit* (not the raw observation: single-view depth noise would
-make it jitter) and of its heading, the velocity's direction. Between and outside those
+make it jitter) and of its heading, the velocity's direction. That fit is the tracking's
+with one difference: a frame placed by a bound (just behind what hides its bottom, or by a
+visible bottom or cut height: :func:`usdworld.views.hidden_contact.depth_bound_side`) only
+says on which side along its ray the object is, so it counts only where the track would
+cross it (:func:`fit_motion_bounded`). Between and outside those
 frames USD interpolates the samples linearly and holds the first and last; the world
 shows the object only from the first frame it is seen in to the last (its ``visibility``
 is time-sampled: :func:`usdworld.authoring.rig.visibility_samples`).
@@ -103,7 +107,7 @@ from usdworld.views.fusion import (
     fusion_method,
     sized_by_a_whole_view,
 )
-from usdworld.views.hidden_contact import fit_covariance
+from usdworld.views.hidden_contact import depth_bound_side, fit_covariance
 
 #: Classes that can move in a drive, with the parameter that bounds their speed.
 VEHICLE_CLASSES = ("car", "truck", "bus", "motorcycle", "bicycle")
@@ -176,10 +180,14 @@ def fit_motion(
     Returns:
         The fit (velocity exactly 0 with zero covariance when ``sigma_speed`` is 0).
     """
+    inv = np.linalg.inv(np.asarray(covariances, dtype=np.float64))
+    return _fit_information(times, np.asarray(positions, dtype=np.float64), inv, sigma_speed)
+
+
+def _fit_information(times: Sequence[float], z: np.ndarray, inv: np.ndarray, sigma_speed: float) -> MotionFit:
+    """:func:`fit_motion` from (N, 2) positions and their (N, 2, 2) information matrices (inverse covariances)."""
     t = np.asarray(times, dtype=np.float64)
     t_ref = float(t[-1])
-    inv = np.linalg.inv(np.asarray(covariances, dtype=np.float64))
-    z = np.asarray(positions, dtype=np.float64)
     if sigma_speed <= 0:
         info = inv.sum(axis=0)
         cov = np.linalg.inv(info)
@@ -197,6 +205,88 @@ def fit_motion(
     rhs = np.concatenate([np.einsum("nij,nj->i", inv, z), np.einsum("n,nij,nj->i", dt, inv, z)])
     C = np.linalg.inv(info)
     return MotionFit(t_ref, C @ rhs, C)
+
+
+#: Most active sets :func:`fit_motion_bounded` tries (each is one refit; it usually settles in two or three).
+_BOUND_MAX_REFITS = 50
+
+
+def fit_motion_bounded(
+    times: Sequence[float],
+    positions: np.ndarray,
+    covariances: np.ndarray,
+    sigma_speed: float,
+    rays: np.ndarray,
+    sides: np.ndarray,
+) -> MotionFit:
+    """:func:`fit_motion` where some positions bound the depth along their viewing ray instead of reading it.
+
+    A bound from below (``side`` +1: the object is at or beyond the position along ``ray``) or
+    from above (-1: at or nearer) costs nothing along its ray where the track keeps it and its
+    along-ray spread where the track breaks it; across the ray (the bearing) it counts as a
+    reading (its across-ray variance, the along-ray position left free). The cost is convex and
+    piecewise quadratic; the fit finds its minimum by active sets: the bounds the current track
+    keeps lose their along-ray information, the broken ones are readings at the bound, the track is
+    fitted again, until the kept set repeats (the lowest cost seen is returned if it never
+    does). Without bounds, or with no frame that reads the depth (the bounds are then all
+    that is known along the rays), it is :func:`fit_motion`'s. The covariance is the last
+    refit's.
+
+    Args:
+        times: (N,) seconds.
+        positions: (N, 2) float64 ground positions (a bound's: the bound itself), metres.
+        covariances: (N, 2, 2) float64 their covariances, metres squared.
+        sigma_speed: the velocity prior (:func:`fit_motion`).
+        rays: (N, 2) float64 unit viewing directions on the ground, from the camera to the position.
+        sides: (N,) int 0 for a reading, +1 for a bound from below, -1 for one from above.
+
+    Returns:
+        The fit.
+
+    Example:
+        A walker at 10 m whose second frame is only known to be beyond 9 m: the bound is kept, so
+        that frame does not pull; read as a position it would.
+
+        >>> at = np.array([[10.0, 0.0], [9.0, 0.0]]); cov = np.array([np.eye(2)] * 2)
+        >>> rays = np.array([[1.0, 0.0]] * 2)
+        >>> fit_motion_bounded([0.0, 1.0], at, cov, 0.0, rays, np.array([0, 1])).state[:2].round(3).tolist()
+        [10.0, 0.0]
+        >>> fit_motion([0.0, 1.0], at, cov, 0.0).state[:2].round(3).tolist()
+        [9.5, 0.0]
+    """
+    z = np.asarray(positions, dtype=np.float64)
+    rays = np.asarray(rays, dtype=np.float64)
+    sides = np.asarray(sides)
+    fit = fit_motion(times, z, covariances, sigma_speed)
+    if not np.any(sides != 0) or np.all(sides != 0):
+        return fit
+    t = np.asarray(times, dtype=np.float64)
+    cov = np.asarray(covariances, dtype=np.float64)
+    inv = np.linalg.inv(cov)
+    normals = np.c_[-rays[:, 1], rays[:, 0]]
+    across_var = np.einsum("ni,nij,nj->n", normals, cov, normals)
+    across_only = np.einsum("ni,nj->nij", normals, normals) / across_var[:, None, None]
+
+    def kept_and_cost(f: MotionFit) -> tuple[np.ndarray, float]:
+        d = f.state[:2] + (t - f.t_ref)[:, None] * f.state[2:] - z
+        kept = sides * np.einsum("ni,ni->n", d, rays) > 0.0
+        full = np.einsum("ni,nij,nj->n", d, inv, d)
+        across = np.einsum("ni,ni->n", d, normals) ** 2 / across_var
+        cost = float(np.where(kept, across, full).sum())
+        return kept, cost + float(f.state[2:] @ f.state[2:]) / sigma_speed**2 if sigma_speed > 0 else cost
+
+    kept, cost = kept_and_cost(fit)
+    best = (cost, fit)
+    seen: list[np.ndarray] = []
+    for _ in range(_BOUND_MAX_REFITS):
+        if any(np.array_equal(kept, k) for k in seen):
+            break
+        seen.append(kept)
+        fit = _fit_information(times, z, np.where(kept[:, None, None], across_only, inv), sigma_speed)
+        kept, cost = kept_and_cost(fit)
+        if cost < best[0]:
+            best = (cost, fit)
+    return best[1]
 
 
 #: Added to every score inside the gate, so a pair exactly at the gate still scores above no pair.
@@ -254,6 +344,17 @@ class _Track:
         self.fit = fit_motion(self.times, pos, cov, self.sigma_speed)
         if self.sigma_speed > 0 and self.standing_share > 0:
             self.still = fit_motion(self.times, pos, cov, 0.0)
+
+    def placed_fit(self) -> MotionFit:
+        """The fit that places a moving track: :func:`fit_motion_bounded`, each frame's bound
+        side from :func:`~usdworld.views.hidden_contact.depth_bound_side` along its primary
+        view's ray (the tracking's own fit, :meth:`refit`, takes every frame as a reading)."""
+        pos = np.array([o.placement.contact_world[:2] for o in self.items])
+        cov = np.array([fit_covariance(o) for o in self.items])
+        rays = np.array([o.placement.contact_world[:2] - o.observations[0].camera_ground for o in self.items])
+        rays = rays / np.maximum(np.linalg.norm(rays, axis=1, keepdims=True), 1e-9)
+        sides = np.array([depth_bound_side(o) for o in self.items])
+        return fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides)
 
 
 def association_m2(tr: _Track, t: float, z: np.ndarray, R: np.ndarray) -> float:
@@ -846,6 +947,7 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
     moving = _is_moving(tr, fit, params)
     z = float(primary.position_world[2])
     if moving:
+        fit = tr.placed_fit()
         xy = np.array([fit.predict(float(t))[0] for t in times])
         positions = np.c_[xy, np.full(len(times), z)]
         yaw = _yaw_of(fit.velocity, primary.yaw, params)

@@ -12,6 +12,12 @@ are that far apart, so either one errs by half of it (standard deviation of two 
 likely values): :func:`surface_sigma`. The observation keeps its stated spread for
 association and fusion; a drive's motion fit adds this term (:func:`fit_covariance`), so
 frames whose contact is hidden do not drag a track that other frames, seeing the feet, fix.
+
+Some hidden contacts give a *bound*, not a reading (:func:`depth_bound_side`): an object placed
+just behind the object hiding its bottom (``behind``) stands at least that far, and one placed
+by its visible bottom's ground point or by its cut height (``contact_partial``,
+``height_partial``) at most that far. A drive's motion fit of a moving object holds such a frame
+only where the track would break its bound (:func:`usdworld.views.drive.fit_motion_bounded`).
 """
 
 from __future__ import annotations
@@ -30,6 +36,12 @@ if TYPE_CHECKING:
 
 #: Depth methods that read a hidden contact from the top row on the road plane.
 HIDDEN_CONTACT_METHODS = (DepthMethod.TOP_ROW, DepthMethod.BEHIND)
+#: Depth methods whose depth bounds the object's from below: just behind what hides its bottom.
+LOWER_BOUND_METHODS = (DepthMethod.BEHIND,)
+#: Depth methods whose depth bounds it from above: the visible bottom's ground point (the hidden
+#: contact lies lower in the image, so nearer on the ground) or the cut height (``f H / h`` with
+#: the seen height ``h`` short of the whole).
+UPPER_BOUND_METHODS = (DepthMethod.CONTACT_PARTIAL, DepthMethod.HEIGHT_PARTIAL)
 #: Classes that stand on the road or the sidewalk (``usdworld/data/surface_rules.json``) and
 #: whose hidden contact the top of the head places (their height clears a car camera's).
 EITHER_SURFACE_CLASSES = ("person", "rider")
@@ -77,3 +89,23 @@ def fit_covariance(item: FusedObject) -> np.ndarray:
     d = o.placement.contact_world[:2] - o.camera_ground
     u = d / max(float(np.linalg.norm(d)), 1e-9)
     return item.covariance + o.surface_sigma_m**2 * np.outer(u, u)
+
+
+def depth_bound_side(item: FusedObject) -> int:
+    """Whether a frame's position along its viewing ray is a reading or a bound.
+
+    Args:
+        item: the frame's object (its observations, one per view that placed it).
+
+    Returns:
+        ``+1`` when every view placed it by a bound from below (:data:`LOWER_BOUND_METHODS`: the
+        object is at or beyond the position), ``-1`` when every view placed it by a bound from
+        above (:data:`UPPER_BOUND_METHODS`: at or nearer), ``0`` otherwise (a view that reads
+        the depth decides).
+    """
+    methods = {o.placement.method for o in item.observations}
+    if methods and methods <= set(LOWER_BOUND_METHODS):
+        return 1
+    if methods and methods <= set(UPPER_BOUND_METHODS):
+        return -1
+    return 0

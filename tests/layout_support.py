@@ -10,9 +10,11 @@ from usdworld.authoring.asset_library import library_dirs
 from usdworld.authoring.asset_measures import asset_catalogue
 from usdworld.geometry.camera import PinholeCamera
 from usdworld.io.class_table import load_class_table
+from usdworld.layout.draft import DepthMethod
 from usdworld.layout.placement import Placement, Skipped, place_objects
 from usdworld.layout.yaw import RoadAxis
 from usdworld.parameters.placement import PlacementParams
+from usdworld.perception.depth.fusion import DepthCue
 from usdworld.perception.objects import ImageObject
 
 
@@ -49,6 +51,45 @@ def box_object(
         top_truncated=False,
         occluded_by=by,
         ref=ref,
+    )
+
+
+def ground_placement(
+    class_name: str,
+    xy: tuple[float, float],
+    box: tuple[int, int, int, int],
+    size_m: tuple[float, float, float],
+    method: DepthMethod = DepthMethod.CONTACT,
+    cues: tuple[DepthCue, ...] = (),
+    ref: int = 1,
+) -> Placement:
+    """A placement of :func:`box_object` ``(class_name, box, ref)`` standing at ``xy`` on the ground
+    (yaw 0, scale 1), its depth the distance from the world's origin.
+
+    Args:
+        class_name: its class; it is named ``{class_name}_{ref:04d}``.
+        xy: its ground position, metres.
+        box: its image box (x0, y0, x1, y1), pixels.
+        size_m: its size (length, width, height), metres.
+        method: the depth method it was placed by.
+        cues: the depth cues it was placed from.
+        ref: its identifier in the image.
+    """
+    x, y = xy
+    return Placement(
+        name=f"{class_name}_{ref:04d}",
+        obj=box_object(class_name, box, ref),
+        variant="default",
+        position_world=np.array([x, y, 0.0]),
+        yaw=0.0,
+        yaw_source="road",
+        scale=1.0,
+        stretch=np.ones(3),
+        scale_measured=1.0,
+        size_m=np.array(size_m, dtype=np.float64),
+        depth_m=float(np.hypot(x, y)),
+        method=method,
+        cues=cues,
     )
 
 

@@ -256,10 +256,9 @@ def test_flythrough_command_and_bad_input(world: Path, tmp_path: Path, capsys) -
     assert not (tmp_path / "x.mp4").exists()
 
 
-def _path_frames(world: Path, taps: int, size: tuple[int, int], n_frames: int = 24, step: int = 4) -> np.ndarray:
-    """(N, H, W, 3) uint8 every ``step``-th frame of the fly-through's path under the default sun (the
-    world's own light is overcast), shaded with ``taps``."""
-    from usdworld.render import Lighting, Renderer
+def _path_view(world: Path, size: tuple[int, int], n_frames: int) -> tuple[RenderScene, np.ndarray, np.ndarray]:
+    """What the fly-through draws of ``world``: its scene with the source vehicle added, the video's
+    (3, 3) intrinsics at ``size`` and the (n_frames, 4, 4) world-from-camera poses of its path."""
     from usdworld.render.outputs import view_camera, world_image_size
 
     stage = Usd.Stage.Open(str(world))
@@ -267,8 +266,15 @@ def _path_frames(world: Path, taps: int, size: tuple[int, int], n_frames: int = 
     source = view_camera(stage, *source_size)
     K = video_intrinsics(source.K, source_size, size)
     add_source_vehicle(stage, car_asset_for(world))
-    scene = RenderScene.from_stage(stage)
-    poses = flythrough_poses(source.world_from_cam, n_frames)
+    return RenderScene.from_stage(stage), K, flythrough_poses(source.world_from_cam, n_frames)
+
+
+def _path_frames(world: Path, taps: int, size: tuple[int, int], n_frames: int = 24, step: int = 4) -> np.ndarray:
+    """(N, H, W, 3) uint8 every ``step``-th frame of the fly-through's path under the default sun (the
+    world's own light is overcast), shaded with ``taps``."""
+    from usdworld.render import Lighting, Renderer
+
+    scene, K, poses = _path_view(world, size, n_frames)
     with Renderer(*size, lighting=Lighting(), shadow_taps=taps) as renderer:
         renderer.fix_shadow_box(scene, K, poses)
         return np.array([renderer.render_rgb(scene, K, pose) for pose in poses[::step]])
@@ -286,49 +292,26 @@ def test_flythrough_frames_stay_within_40_db_of_the_full_shading(world: Path) ->
     assert 10 * np.log10(255.0**2 / mse.mean()) > 44.0
 
 
-def test_flythrough_renders_with_the_video_parameters_shadow_filter(
-    world: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+@pytest.mark.parametrize(("setting", "changed"), [("shadow_taps", 4), ("cull_back_faces", False), ("near_first", False)])
+def test_flythrough_renders_as_the_video_parameters_say(
+    world: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, setting: str, changed: object
 ) -> None:
     import usdworld.render.flythrough as flythrough_module
 
-    taps: list[int] = []
+    seen: list[object] = []
     real = flythrough_module.Renderer
 
     def recording(*args, **kwargs):
-        taps.append(kwargs["shadow_taps"])
+        seen.append(kwargs[setting])
         return real(*args, **kwargs)
 
     monkeypatch.setattr(flythrough_module, "Renderer", recording)
     render_flythrough(Usd.Stage.Open(str(world)), tmp_path / "a.mp4", n_frames=2, width=64, height=32)
-    render_flythrough(
-        Usd.Stage.Open(str(world)), tmp_path / "b.mp4", n_frames=2, width=64, height=32, video=VideoParams(shadow_taps=4)
-    )
-    assert taps == [1, 4]
-
-
-def test_flythrough_culls_back_faces_as_the_video_parameters_say(
-    world: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    import usdworld.render.flythrough as flythrough_module
-
-    culls: list[bool] = []
-    real = flythrough_module.Renderer
-
-    def recording(*args, **kwargs):
-        culls.append(kwargs["cull_back_faces"])
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(flythrough_module, "Renderer", recording)
-    render_flythrough(Usd.Stage.Open(str(world)), tmp_path / "a.mp4", n_frames=2, width=64, height=32)
-    render_flythrough(
-        Usd.Stage.Open(str(world)),
-        tmp_path / "b.mp4",
-        n_frames=2,
-        width=64,
-        height=32,
-        video=VideoParams(cull_back_faces=False),
-    )
-    assert culls == [True, False]
+    video = VideoParams(**{setting: changed})
+    render_flythrough(Usd.Stage.Open(str(world)), tmp_path / "b.mp4", n_frames=2, width=64, height=32, video=video)
+    default = getattr(VideoParams(), setting)
+    assert default != changed
+    assert seen == [default, changed]
 
 
 def test_flythrough_frames_with_back_faces_culled_keep_nearly_every_pixel(world: Path) -> None:
@@ -336,16 +319,10 @@ def test_flythrough_frames_with_back_faces_culled_keep_nearly_every_pixel(world:
     box; the frames differ from the whole meshes' only at depth ties and silhouette edges (< 0.05 %
     of the pixels; measured 0.003 to 0.008 % per frame here)."""
     from usdworld.render import Lighting, Renderer
-    from usdworld.render.outputs import view_camera, world_image_size
 
-    stage = Usd.Stage.Open(str(world))
-    source_size = world_image_size(stage)
-    source = view_camera(stage, *source_size)
     size = (384, 192)
-    K = video_intrinsics(source.K, source_size, size)
-    add_source_vehicle(stage, car_asset_for(world))
-    scene = RenderScene.from_stage(stage)
-    poses = flythrough_poses(source.world_from_cam, 24)[::4]
+    scene, K, poses = _path_view(world, size, 24)
+    poses = poses[::4]
     frames = {}
     for cull in (True, False):
         with Renderer(*size, lighting=Lighting(), shadow_taps=1, cull_back_faces=cull) as renderer:
@@ -358,46 +335,15 @@ def test_flythrough_frames_with_back_faces_culled_keep_nearly_every_pixel(world:
     assert off.max() < 5e-4
 
 
-def test_flythrough_draws_near_first_as_the_video_parameters_say(
-    world: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    import usdworld.render.flythrough as flythrough_module
-
-    orders: list[bool] = []
-    real = flythrough_module.Renderer
-
-    def recording(*args, **kwargs):
-        orders.append(kwargs["near_first"])
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(flythrough_module, "Renderer", recording)
-    render_flythrough(Usd.Stage.Open(str(world)), tmp_path / "a.mp4", n_frames=2, width=64, height=32)
-    render_flythrough(
-        Usd.Stage.Open(str(world)),
-        tmp_path / "b.mp4",
-        n_frames=2,
-        width=64,
-        height=32,
-        video=VideoParams(near_first=False),
-    )
-    assert orders == [True, False]
-
-
 def test_flythrough_frames_drawn_near_first_keep_nearly_every_pixel(world: Path) -> None:
     """Near surfaces first with no depth pre-pass: the frames differ from the pre-pass's only where
     surfaces of different assets, or two instances of one mesh, tie in depth (< 0.01 % of the
     pixels; on synthetic seed 3 at 1280x640, 0 to 3 pixels a frame)."""
     from usdworld.render import Lighting, Renderer
-    from usdworld.render.outputs import view_camera, world_image_size
 
-    stage = Usd.Stage.Open(str(world))
-    source_size = world_image_size(stage)
-    source = view_camera(stage, *source_size)
     size = (384, 192)
-    K = video_intrinsics(source.K, source_size, size)
-    add_source_vehicle(stage, car_asset_for(world))
-    scene = RenderScene.from_stage(stage)
-    poses = flythrough_poses(source.world_from_cam, 24)[::4]
+    scene, K, poses = _path_view(world, size, 24)
+    poses = poses[::4]
     frames = {}
     for near_first in (True, False):
         kw = {"shadow_taps": 1, "cull_back_faces": True, "near_first": near_first}
@@ -416,15 +362,9 @@ def test_gl_rows_encode_to_the_same_file_as_the_rgb_frames(world: Path, tmp_path
     (ffmpeg flips them) writes the very bytes that ``render_rgb``'s frames give; the rows are the
     frame's, bottom first, with alpha 255."""
     from usdworld.render import Lighting, Renderer
-    from usdworld.render.outputs import view_camera, world_image_size
 
-    stage = Usd.Stage.Open(str(world))
-    source_size = world_image_size(stage)
-    source = view_camera(stage, *source_size)
     size = (128, 64)
-    K = video_intrinsics(source.K, source_size, size)
-    scene = RenderScene.from_stage(stage)
-    poses = flythrough_poses(source.world_from_cam, 12)
+    scene, K, poses = _path_view(world, size, 12)
     with Renderer(*size, lighting=Lighting(), shadow_taps=1, cull_back_faces=True, near_first=True) as r:
         rgb = [r.render_rgb(scene, K, pose) for pose in poses]
         rows = [r.render_rgba_rows(scene, K, pose) for pose in poses]

@@ -8,9 +8,8 @@ import math
 
 import numpy as np
 import pytest
-from layout_support import box_object
+from layout_support import ground_placement
 
-from usdworld.layout.draft import DepthMethod
 from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
 from usdworld.parameters.perception import DEFAULT_PERCEPTION
@@ -29,21 +28,9 @@ PARAMS = ViewsParams()
 
 
 def _placement(cls: str, x: float, y: float, sigma: float | None = 1.0, ref: int = 1) -> Placement:
-    return Placement(
-        name=f"{cls}_{ref:04d}",
-        obj=box_object(cls, (100, 100, 140, 160), ref),
-        variant="default",
-        position_world=np.array([x, y, 0.0]),
-        yaw=0.0,
-        yaw_source="road",
-        scale=1.0,
-        stretch=np.ones(3),
-        scale_measured=1.0,
-        size_m=np.array([4.2, 1.8, 1.5]),
-        depth_m=float(np.hypot(x, y)),
-        method=DepthMethod.CONTACT,
-        cues=(DepthCue("contact", float(np.hypot(x, y)) if sigma is not None else None, sigma),),
-    )
+    r = float(np.hypot(x, y))
+    cue = DepthCue("contact", r if sigma is not None else None, sigma)
+    return ground_placement(cls, (x, y), (100, 100, 140, 160), (4.2, 1.8, 1.5), cues=(cue,), ref=ref)
 
 
 def _obs(

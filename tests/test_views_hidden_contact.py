@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from layout_support import box_object
+from layout_support import ground_placement
 
 from usdworld.layout.draft import DepthMethod
 from usdworld.layout.placement import Placement
@@ -23,22 +23,8 @@ KERB = 0.15
 
 
 def _placement(cls: str, xy: tuple[float, float], method: DepthMethod) -> Placement:
-    x, y = xy
-    return Placement(
-        name=f"{cls}_0001",
-        obj=box_object(cls, (100, 40, 104, 160), 1),
-        variant="default",
-        position_world=np.array([x, y, 0.0]),
-        yaw=0.0,
-        yaw_source="road",
-        scale=1.0,
-        stretch=np.ones(3),
-        scale_measured=1.0,
-        size_m=np.array([0.6, 0.6, 1.75]),
-        depth_m=float(np.hypot(x, y)),
-        method=method,
-        cues=(),
-    )
+    """A walker-sized ``cls`` (0.6 x 0.6 x 1.75 m) at ``xy``, placed by ``method``."""
+    return ground_placement(cls, xy, (100, 40, 104, 160), (0.6, 0.6, 1.75), method)
 
 
 def test_a_hidden_walker_40_m_away_errs_by_half_the_kerbs_reading() -> None:

@@ -8,10 +8,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from layout_support import box_object
+from layout_support import ground_placement
 
-from usdworld.layout.draft import DepthMethod
-from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
 from usdworld.perception.depth.fusion import DepthCue
 from usdworld.views.drive import (
@@ -30,21 +28,8 @@ def _car(frame: int, xy: tuple[float, float], sigma_r: float, sigma_l: float, re
     """A car (4.5 x 1.8 m) seen in ``frame`` (one view per frame) from a camera at the origin."""
     x, y = xy
     r = float(np.hypot(x, y))
-    placement = Placement(
-        name=f"car_{ref:04d}",
-        obj=box_object("car", (100, 40, 140, 70), ref),
-        variant="default",
-        position_world=np.array([x, y, 0.0]),
-        yaw=0.0,
-        yaw_source="road",
-        scale=1.0,
-        stretch=np.ones(3),
-        scale_measured=1.0,
-        size_m=np.array([4.5, 1.8, 1.5]),
-        depth_m=r,
-        method=DepthMethod.CONTACT,
-        cues=(DepthCue("contact", r, sigma_r),),
-    )
+    cue = DepthCue("contact", r, sigma_r)
+    placement = ground_placement("car", xy, (100, 40, 140, 70), (4.5, 1.8, 1.5), cues=(cue,), ref=ref)
     return Observation(frame, f"f{frame}", f"f{frame}.png", placement, np.zeros(2), sigma_r, sigma_l)
 
 

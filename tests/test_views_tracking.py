@@ -9,10 +9,8 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from layout_support import box_object
+from layout_support import ground_placement
 
-from usdworld.layout.draft import DepthMethod
-from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
 from usdworld.perception.depth.fusion import DepthCue
 from usdworld.views.drive import (
@@ -41,21 +39,10 @@ def _obs(
     """A pole (or ``cls`` with a square ``footprint`` metres wide) seen in ``frame`` (one view per
     frame) from a camera at the origin."""
     x, y = xy
-    placement = Placement(
-        name=f"{cls}_{ref:04d}",
-        obj=box_object(cls, (100, 40, 104, 160), ref),
-        variant="default",
-        position_world=np.array([x, y, 0.0]),
-        yaw=0.0,
-        yaw_source="road",
-        scale=1.0,
-        stretch=np.ones(3),
-        scale_measured=1.0,
-        size_m=np.array([footprint, footprint, 6.0]),
-        depth_m=float(np.hypot(x, y)),
-        method=DepthMethod.CONTACT,
-        cues=(DepthCue("contact", float(np.hypot(x, y)), sigma_r),),
-    )
+    r = float(np.hypot(x, y))
+    cue = DepthCue("contact", r, sigma_r)
+    size = (footprint, footprint, 6.0)
+    placement = ground_placement(cls, xy, (100, 40, 104, 160), size, cues=(cue,), ref=ref)
     return Observation(frame, f"f{frame}", f"f{frame}.png", placement, np.zeros(2), sigma_r, sigma_l)
 
 

@@ -35,6 +35,7 @@ Passes (one draw call per mesh batch each; no multisampling anywhere, so every i
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any, Self
 
@@ -314,9 +315,13 @@ class _SceneBuffers:
     def draw(self, ctx: Any, name: str) -> None:
         """One pass over every batch: in scene order, the lit pass (and a ``*last_first`` pass) last
         to first (see above), each batch with the face :attr:`culled` gives it culled."""
-        culled = self.culled
         last_first = name.startswith("lit") or name.endswith("last_first")
         order = range(len(self.batches) - 1, -1, -1) if last_first else range(len(self.batches))
+        self._draw_batches(ctx, name, order)
+
+    def _draw_batches(self, ctx: Any, name: str, order: Iterable[int]) -> None:
+        """Pass ``name`` over the batches of ``order``, each with the face :attr:`culled` gives it culled."""
+        culled = self.culled
         for i in order:
             face = culled[i] if culled is not None else None
             if face is not None:
@@ -336,7 +341,6 @@ class _SceneBuffers:
         surfaces of one asset's parts (one group: the same instances) tie in depth, the "<=" test
         lets the last drawn win, which is the first in the scene's order, as after a pre-pass.
         """
-        culled = self.culled
         nearest = []
         for b in self.batches:
             dist = np.linalg.norm(b.centres_world() - eye, axis=1)
@@ -344,14 +348,7 @@ class _SceneBuffers:
             nearest.append(float(dist.min()))
         first = [min(nearest[i] for i in group) for group in self.groups]
         order = [i for g in np.argsort(first, kind="stable") for i in reversed(self.groups[g])]
-        for i in order:
-            face = culled[i] if culled is not None else None
-            if face is not None:
-                ctx.enable(ctx.CULL_FACE)
-                ctx.cull_face = face
-            self.batches[i].render(ctx, name)
-            if face is not None:
-                ctx.disable(ctx.CULL_FACE)
+        self._draw_batches(ctx, name, order)
         self.last_order = order
 
     def release(self) -> None:

@@ -59,6 +59,14 @@ def test_an_edit_runs_the_exit_handlers_then_ends_the_process(
     assert capsys.readouterr().err.startswith("error: no object 'no_such_0001'")
 
 
+def _python(code: str) -> subprocess.CompletedProcess:
+    """Run ``code`` in a fresh interpreter that imports this checkout; it must exit 0."""
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    return done
+
+
 @pytest.mark.parametrize("argv", [["build", "photo.png"], ["-q", "render", "W"], ["serve", "W"], ["batch", "in", "-o", "o"]])
 def test_every_sub_command_ends_its_process_the_same_way(monkeypatch, argv):
     monkeypatch.setattr(cli, "main", lambda args: 3)
@@ -87,9 +95,7 @@ def test_a_thread_that_is_no_daemon_finishes_before_the_process_ends(tmp_path_fa
         f"sys.argv = ['usdworld', '-q', 'info', {str(root)!r}]\n"
         "run()\n"
     )
-    env = {**os.environ, "PYTHONPATH": str(REPO)}
-    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
+    done = _python(code)
     assert done.stdout.splitlines()[-1] == "worker finished"
 
 
@@ -102,9 +108,7 @@ def test_the_edit_process_flushes_its_output_and_runs_atexit_handlers(tmp_path_f
         f"sys.argv = ['usdworld', 'edit', {str(root)!r}, 'move', 'car_0001', '--by', '0.5,0', '--force']\n"
         "run()\n"
     )
-    env = {**os.environ, "PYTHONPATH": str(REPO)}
-    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
+    done = _python(code)
     said, handler = done.stdout.splitlines()  # a pipe: block-buffered, flushed before the end
     assert said.startswith("moved car_0001 to (") and said.endswith(" on road [step 1]")
     assert handler == "exit handler ran"

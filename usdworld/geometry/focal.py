@@ -379,17 +379,8 @@ def box_shape_cue(
 
     The profile likelihood of log f is the cue: :func:`fuse_focal` multiplies it with the
     other cues' likelihoods, and its mode and curvature (a Laplace summary) are the ``f_px``
-    and ``sigma_log`` its consistency with them is tested by.
-
-    Args:
-        width: image width, pixels.
-        height: image height, pixels.
-        shapes: the vehicles (whole boxes in view).
-        street_u: column of the street's vanishing point (the vehicles' direction), or None
-            (the optical axis).
-        horizon: (row, sigma) of the horizon measured otherwise (the street's vanishing
-            point), or None.
-        params: priors, spreads and grid.
+    and ``sigma_log`` its consistency with them is tested by. The arguments are
+    :func:`box_shape_profile`'s; ``shapes`` may hold fewer than ``params.shape_min_objects``.
 
     Returns:
         The cue, or None with fewer than ``params.shape_min_objects`` vehicles.

@@ -12,7 +12,7 @@ import usdworld.authoring  # noqa: F401  (registers the schema plugin first)
 from usdworld.parameters.rendering import RenderingParams
 from usdworld.render import Lighting, Renderer, RenderScene, renderer as renderer_module, sun_direction
 from usdworld.render.camera import gl_projection, gl_view
-from usdworld.render.occlusion import DEPTH_MARGIN, DepthPyramid, hidden, project_boxes
+from usdworld.render.occlusion import DEPTH_MARGIN, DepthPyramid, hidden, occluders, project_boxes
 
 W, H = 320, 200
 K = np.array([[260.0, 0.0, 161.3], [0.0, 250.0, 83.6], [0.0, 0.0, 1.0]])
@@ -88,6 +88,35 @@ def test_hidden_instances_are_left_out_of_the_camera_passes_with_the_same_pixels
     assert np.array_equal(without_behind.object_ids, full.object_ids)
     assert set(np.unique(full.class_ids)) >= {7, 11, 17, 26}
     assert 24 not in full.class_ids  # the twin ties with the car drawn before it everywhere: the car shows
+
+
+def test_the_occlusion_test_of_every_batch_at_once_gives_each_batch_its_own_answer() -> None:
+    """One set of array operations over all the batches' boxes (``_SceneBuffers.instance_boxes``)
+    gives, batch by batch, what testing each batch on its own against the same depth gives."""
+    cam = camera(K=K, pitch=0.05, roll=0.0, yaw=0.0)
+    T = cam.world_from_cam()
+    scene = _walled_street()
+    every = RenderingParams(occlusion_min_triangles_per_px=0.0)
+    with Renderer(W, H, rendering=every) as r:
+        buffers = r._upload(scene)
+        corners, triangles = buffers.instance_boxes()
+        assert len(buffers.batches) > 5
+        per_batch = [b.corners_world() for b in buffers.batches]
+        assert corners.tobytes() == np.concatenate(per_batch).tobytes()
+        counts = [np.full(b.n_instances, b.batch.n_corners // 3) for b in buffers.batches]
+        assert np.array_equal(triangles, np.concatenate(counts))
+        shown = r._unhidden(scene, buffers, cam.K, T)
+        raw = r._color_fbo.read(components=1, attachment=-1, dtype="f4", alignment=1)
+        view_proj = r._view_proj(scene, cam.K, T)
+        batches = list(buffers.batches)  # closing the renderer releases them
+    pyramid = DepthPyramid(np.frombuffer(raw, dtype=np.float32).reshape(H, W)[::-1])
+    assert shown is not None and len(shown) == len(batches)
+    for b, mine in zip(batches, shown, strict=True):
+        rect, depth, front = project_boxes(b.corners_world(), view_proj, W, H, r.near_m)
+        occ = occluders(rect, front, b.batch.n_corners // 3, every.occluder_px_per_triangle, W * H)
+        assert mine.dtype == bool and np.array_equal(mine, ~hidden(rect, depth, front, pyramid))
+        assert not np.any(occ & ~mine)  # an occluder is never hidden behind its own depth
+    assert sum(int((~m).sum()) for m in shown) == BEHIND
 
 
 def test_a_scene_of_few_triangles_per_pixel_is_not_tested() -> None:

@@ -206,7 +206,11 @@ def hidden(
 
 
 def occluders(
-    rect: np.ndarray, in_front: np.ndarray, triangles: int, px_per_triangle: float, image_px: int
+    rect: np.ndarray,
+    in_front: np.ndarray,
+    triangles: int | np.ndarray,
+    px_per_triangle: float,
+    image_px: int,
 ) -> np.ndarray:
     """(M,) bool: the instances whose box covers at least ``px_per_triangle`` pixels per triangle of
     the mesh: its rectangle's pixels, or the whole image for a box reaching past the near plane
@@ -215,7 +219,7 @@ def occluders(
     Args:
         rect: (M, 4) int64 from :func:`project_boxes`.
         in_front: (M,) bool from :func:`project_boxes`.
-        triangles: triangles of the mesh (each instance has them all).
+        triangles: triangles of the mesh (each instance has them all), or (M,) int each instance's.
         px_per_triangle: ``RenderingParams.occluder_px_per_triangle``.
         image_px: pixels of the image.
     """

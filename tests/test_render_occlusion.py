@@ -115,7 +115,7 @@ def test_the_occlusion_test_of_every_batch_at_once_gives_each_batch_its_own_answ
         rect, depth, front = project_boxes(b.corners_world(), view_proj, W, H, r.near_m)
         occ = occluders(rect, front, b.batch.n_corners // 3, every.occluder_px_per_triangle, W * H)
         assert mine.dtype == bool and np.array_equal(mine, ~hidden(rect, depth, front, pyramid))
-        assert not np.any(occ & ~mine)  # an occluder is never hidden behind its own depth
+        assert not np.any(occ & ~mine)  # no occluder here (road, wall, flush, twin) is hidden
     assert sum(int((~m).sum()) for m in shown) == BEHIND
 
 

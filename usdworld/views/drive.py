@@ -27,7 +27,10 @@ frames are tracked in time order, so the work grows with the number of frames:
 3. The frame's objects join tracks by one global assignment (Hungarian) that maximises
    the summed ``association_gate_chi2 - m2`` of the pairs it makes, ``m2`` a pair's
    squared Mahalanobis distance (prediction and observation covariances summed), so only
-   pairs within the gate are made; the rest start tracks. A track not seen for longer
+   pairs within the gate are made; the rest start tracks. A person's frame placed by a bound
+   (:func:`usdworld.views.hidden_contact.depth_bound_side`: just behind what hides its feet, or
+   its visible bottom) is compared only across its ray where the track keeps the bound
+   (:func:`bounded_m2`), so it joins its walker instead of starting a track of its own. A track not seen for longer
    than ``track_gap_s`` is closed. A vehicle's track predicts under two hypotheses,
    standing (velocity 0) and moving (the velocity prior), weighted by the prior
    ``vehicle_standing_share`` times each one's evidence in the track's frames
@@ -357,7 +360,38 @@ class _Track:
         return fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides)
 
 
-def association_m2(tr: _Track, t: float, z: np.ndarray, R: np.ndarray) -> float:
+def bounded_m2(d: np.ndarray, S: np.ndarray, ray: np.ndarray | None = None, side: int = 0) -> float:
+    """Squared Mahalanobis distance of an observation from a prediction, the observation maybe a depth bound.
+
+    A reading (``side`` 0) is compared in full: ``d^T S^-1 d``. A bound (``side`` +1: the object
+    is at or beyond the observed position along its viewing ray, -1: at or nearer;
+    :func:`~usdworld.views.hidden_contact.depth_bound_side`) says nothing along its ray where the
+    prediction keeps it, so only the distance across the ray counts there, ``(d . n)^2 / (n^T S n)``
+    (as :func:`fit_motion_bounded` costs a kept bound); where the prediction breaks it, in full.
+
+    Args:
+        d: (2,) float64 observation minus prediction, metres.
+        S: (2, 2) float64 the prediction's and the observation's covariances summed, metres squared.
+        ray: (2,) float64 unit viewing direction from the camera to the observation (needed when ``side`` is not 0).
+        side: 0 for a reading, +1 for a bound from below, -1 for one from above.
+
+    Example:
+        A walker predicted 6 m beyond a frame that only says "behind this parked car, or farther":
+
+        >>> d, S, ray = np.array([-6.0, 0.1]), np.eye(2), np.array([1.0, 0.0])
+        >>> round(bounded_m2(d, S), 2), round(bounded_m2(d, S, ray, 1), 2), round(bounded_m2(d, S, ray, -1), 2)
+        (36.01, 0.01, 36.01)
+    """
+    m2 = float(d @ np.linalg.solve(S, d))
+    if side == 0 or ray is None or side * float(d @ ray) >= 0.0:
+        return m2
+    n = np.array([-ray[1], ray[0]])
+    return float(d @ n) ** 2 / float(n @ S @ n)
+
+
+def association_m2(
+    tr: _Track, t: float, z: np.ndarray, R: np.ndarray, ray: np.ndarray | None = None, side: int = 0
+) -> float:
     """Squared distance of an observation from a track's prediction, as the gate and the assignment read it.
 
     One hypothesis (the track's fit): the squared Mahalanobis distance ``m2``, the prediction's
@@ -376,18 +410,18 @@ def association_m2(tr: _Track, t: float, z: np.ndarray, R: np.ndarray) -> float:
         t: the frame's time, seconds.
         z: (2,) float64 the observation's ground position, metres.
         R: (2, 2) float64 its covariance, metres squared.
+        ray: (2,) float64 unit viewing direction to the observation, for a bound.
+        side: whether the observation bounds its depth (:func:`bounded_m2`; 0: a reading).
     """
     if tr.fit is None:
         return math.inf
     x, P = tr.fit.predict(t)
-    d = z - x
-    m2 = float(d @ np.linalg.solve(P + R, d))
+    m2 = bounded_m2(z - x, P + R, ray, side)
     if tr.still is None:
         return m2
     w = standing_weight(tr.fit, tr.sigma_speed, tr.standing_share)
     xs, Ps = tr.still.predict(t)
-    ds = z - xs
-    m2s = float(ds @ np.linalg.solve(Ps + R, ds))
+    m2s = bounded_m2(z - xs, Ps + R, ray, side)
     terms = [math.log(weight) - 0.5 * dist for weight, dist in ((w, m2s), (1.0 - w, m2)) if weight > 0.0]
     top = max(terms)
     return -2.0 * (top + math.log(sum(math.exp(v - top) for v in terms)))
@@ -560,7 +594,8 @@ def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params:
 
     Each pair of one class within ``association_gate_chi2`` scores ``gate - m2``
     (:func:`association_m2`: its squared Mahalanobis distance, prediction and observation
-    covariances summed, of the standing-or-moving mixture for a vehicle's track); the
+    covariances summed, of the standing-or-moving mixture for a vehicle's track; across the ray
+    only for a person's bound the track keeps, :func:`bounded_m2`); the
     assignment (Hungarian) maximises the summed score, so a pair is made only where it is
     inside the gate, and one near pair never takes the track that two others need.
     """
@@ -571,10 +606,13 @@ def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params:
     for j, item in enumerate(items):
         cls = item.placement.obj.class_name
         z = item.placement.contact_world[:2]
+        side = depth_bound_side(item) if cls in PEOPLE_CLASSES else 0
+        ray = z - item.observations[0].camera_ground
+        ray = ray / max(float(np.linalg.norm(ray)), 1e-9)
         for k, tr in enumerate(tracks):
             if tr.class_name != cls or tr.fit is None:
                 continue
-            m2 = association_m2(tr, t, z, item.covariance)
+            m2 = association_m2(tr, t, z, item.covariance, ray, side)
             if m2 <= gate:
                 score[j, k] = gate - m2 + _TIE
     out: list[int | None] = [None] * len(items)

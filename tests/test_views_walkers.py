@@ -16,8 +16,9 @@ PARAMS = ViewsParams()
 
 
 def _obs(k: int, xy: np.ndarray, method: DepthMethod, sigma_range: float) -> Observation:
-    """Frame ``k``'s single view of a walker-sized person placed at ``xy`` by ``method`` (camera at the origin)."""
-    placement = ground_placement("person", (float(xy[0]), float(xy[1])), (100, 40, 104, 160), (0.6, 0.6, 1.75), method)
+    """Frame ``k``'s view of a walker-sized person at ``xy`` placed by ``method`` (camera at the origin)."""
+    box, size = (100, 40, 104, 160), (0.6, 0.6, 1.75)
+    placement = ground_placement("person", (float(xy[0]), float(xy[1])), box, size, method)
     return Observation(k, f"f{k}", f"f{k}.png", placement, np.zeros(2), sigma_range, 0.2)
 
 
@@ -107,7 +108,9 @@ def test_a_walker_seen_along_its_rays_walks_at_a_walkers_speed() -> None:
 
 @settings(max_examples=40, deadline=None)
 @given(st.floats(0.05, 5.0), st.floats(0.0, 2.0 * np.pi), st.floats(0.5, 5.0))
-def test_the_walking_prior_is_the_speed_along_the_fitted_direction(speed: float, heading: float, sigma: float) -> None:
+def test_the_walking_prior_is_the_speed_along_the_fitted_direction(
+    speed: float, heading: float, sigma: float
+) -> None:
     """Mean: the walking speed along the velocity's direction, whatever its fitted speed; spread: the
     walking speed's along it, the zero-mean prior's across it."""
     u = np.array([np.cos(heading), np.sin(heading)])

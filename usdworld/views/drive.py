@@ -195,9 +195,14 @@ VelocityPrior = tuple[np.ndarray, np.ndarray]
 
 
 def _fit_information(
-    times: Sequence[float], z: np.ndarray, inv: np.ndarray, sigma_speed: float, prior: VelocityPrior | None = None
+    times: Sequence[float],
+    z: np.ndarray,
+    inv: np.ndarray,
+    sigma_speed: float,
+    prior: VelocityPrior | None = None,
 ) -> MotionFit:
-    """:func:`fit_motion` from (N, 2) positions and their (N, 2, 2) information matrices (inverse covariances).
+    """:func:`fit_motion` from (N, 2) positions and their (N, 2, 2) information matrices (inverse
+    covariances).
 
     ``prior`` replaces the zero-mean velocity prior of spread ``sigma_speed`` (which must then be > 0).
     """
@@ -218,7 +223,9 @@ def _fit_information(
     info[2:, :2] = cross.T
     mean, prior_info = prior if prior is not None else (np.zeros(2), np.eye(2) / sigma_speed**2)
     info[2:, 2:] = np.einsum("n,nij->ij", dt * dt, inv) + prior_info
-    rhs = np.concatenate([np.einsum("nij,nj->i", inv, z), np.einsum("n,nij,nj->i", dt, inv, z) + prior_info @ mean])
+    rhs = np.concatenate(
+        [np.einsum("nij,nj->i", inv, z), np.einsum("n,nij,nj->i", dt, inv, z) + prior_info @ mean]
+    )
     C = np.linalg.inv(info)
     return MotionFit(t_ref, C @ rhs, C)
 
@@ -388,13 +395,15 @@ class _Track:
                 return fit
             before = fit.velocity
             fit = fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides, prior)
-            turn = abs(math.atan2(before[0] * fit.velocity[1] - before[1] * fit.velocity[0], before @ fit.velocity))
+            v = fit.velocity
+            turn = abs(math.atan2(before[0] * v[1] - before[1] * v[0], float(before @ v)))
             if turn < _WALK_TURN_RAD:
                 break
         return fit
 
 
-#: Most refits of a walker's direction under :func:`walking_prior`, and the turn that counts as settled, radians.
+#: Most refits of a walker's direction under :func:`walking_prior`, and the turn that counts as settled,
+#: radians.
 _WALK_MAX_REFITS = 20
 _WALK_TURN_RAD = 1e-4
 
@@ -443,15 +452,16 @@ def bounded_m2(d: np.ndarray, S: np.ndarray, ray: np.ndarray | None = None, side
     Args:
         d: (2,) float64 observation minus prediction, metres.
         S: (2, 2) float64 the prediction's and the observation's covariances summed, metres squared.
-        ray: (2,) float64 unit viewing direction from the camera to the observation (needed when ``side`` is not 0).
+        ray: (2,) float64 unit viewing direction from the camera to the observation (needed when
+            ``side`` is not 0).
         side: 0 for a reading, +1 for a bound from below, -1 for one from above.
 
     Example:
         A walker predicted 6 m beyond a frame that only says "behind this parked car, or farther":
 
         >>> d, S, ray = np.array([-6.0, 0.1]), np.eye(2), np.array([1.0, 0.0])
-        >>> round(bounded_m2(d, S), 2), round(bounded_m2(d, S, ray, 1), 2), round(bounded_m2(d, S, ray, -1), 2)
-        (36.01, 0.01, 36.01)
+        >>> [round(bounded_m2(d, S, ray, side), 2) for side in (0, 1, -1)]
+        [36.01, 0.01, 36.01]
     """
     m2 = float(d @ np.linalg.solve(S, d))
     if side == 0 or ray is None or side * float(d @ ray) >= 0.0:

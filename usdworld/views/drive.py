@@ -27,8 +27,11 @@ frames are tracked in time order, so the work grows with the number of frames:
 3. The frame's objects join tracks by one global assignment (Hungarian) that maximises
    the summed ``association_gate_chi2 - m2`` of the pairs it makes, ``m2`` a pair's
    squared Mahalanobis distance (prediction and observation covariances summed), so only
-   pairs within the gate are made; the rest start tracks. A track not seen for longer
-   than ``track_gap_s`` is closed. A vehicle's track predicts under two hypotheses,
+   pairs within the gate are made; the rest start tracks. A person's frame placed by a bound
+   (:func:`usdworld.views.hidden_contact.depth_bound_side`: just behind what hides its feet, or
+   its visible bottom) is compared only across its ray where the track keeps the bound
+   (:func:`bounded_m2`), so it joins its walker instead of starting a track of its own. A
+   track not seen for longer than ``track_gap_s`` is closed. A vehicle's track predicts under two hypotheses,
    standing (velocity 0) and moving (the velocity prior), weighted by the prior
    ``vehicle_standing_share`` times each one's evidence in the track's frames
    (:func:`standing_weight`); its ``m2`` is the mixture's (:func:`association_m2`). A
@@ -79,7 +82,10 @@ make it jitter) and of its heading, the velocity's direction. That fit is the tr
 with one difference: a frame placed by a bound (just behind what hides its bottom, or by a
 visible bottom or cut height: :func:`usdworld.views.hidden_contact.depth_bound_side`) only
 says on which side along its ray the object is, so it counts only where the track would
-cross it (:func:`fit_motion_bounded`). Between and outside those
+cross it (:func:`fit_motion_bounded`); and a person's speed along the fitted direction has
+the published walking-speed prior instead of the zero-mean one (:func:`walking_prior`): a
+walker seen along its viewing rays, where a far contact row steps by metres, gets its speed
+from how fast people walk. Between and outside those
 frames USD interpolates the samples linearly and holds the first and last; the world
 shows the object only from the first frame it is seen in to the last (its ``visibility``
 is time-sampled: :func:`usdworld.authoring.rig.visibility_samples`).
@@ -184,8 +190,22 @@ def fit_motion(
     return _fit_information(times, np.asarray(positions, dtype=np.float64), inv, sigma_speed)
 
 
-def _fit_information(times: Sequence[float], z: np.ndarray, inv: np.ndarray, sigma_speed: float) -> MotionFit:
-    """:func:`fit_motion` from (N, 2) positions and their (N, 2, 2) information matrices (inverse covariances)."""
+#: A prior on a track's velocity: (2,) mean, m/s, and (2, 2) information (inverse covariance), (s/m)^2.
+VelocityPrior = tuple[np.ndarray, np.ndarray]
+
+
+def _fit_information(
+    times: Sequence[float],
+    z: np.ndarray,
+    inv: np.ndarray,
+    sigma_speed: float,
+    prior: VelocityPrior | None = None,
+) -> MotionFit:
+    """:func:`fit_motion` from (N, 2) positions and their (N, 2, 2) information matrices (inverse
+    covariances).
+
+    ``prior`` replaces the zero-mean velocity prior of spread ``sigma_speed`` (which must then be > 0).
+    """
     t = np.asarray(times, dtype=np.float64)
     t_ref = float(t[-1])
     if sigma_speed <= 0:
@@ -201,8 +221,11 @@ def _fit_information(times: Sequence[float], z: np.ndarray, inv: np.ndarray, sig
     cross = np.einsum("n,nij->ij", dt, inv)
     info[:2, 2:] = cross
     info[2:, :2] = cross.T
-    info[2:, 2:] = np.einsum("n,nij->ij", dt * dt, inv) + np.eye(2) / sigma_speed**2
-    rhs = np.concatenate([np.einsum("nij,nj->i", inv, z), np.einsum("n,nij,nj->i", dt, inv, z)])
+    mean, prior_info = prior if prior is not None else (np.zeros(2), np.eye(2) / sigma_speed**2)
+    info[2:, 2:] = np.einsum("n,nij->ij", dt * dt, inv) + prior_info
+    rhs = np.concatenate(
+        [np.einsum("nij,nj->i", inv, z), np.einsum("n,nij,nj->i", dt, inv, z) + prior_info @ mean]
+    )
     C = np.linalg.inv(info)
     return MotionFit(t_ref, C @ rhs, C)
 
@@ -218,6 +241,7 @@ def fit_motion_bounded(
     sigma_speed: float,
     rays: np.ndarray,
     sides: np.ndarray,
+    prior: VelocityPrior | None = None,
 ) -> MotionFit:
     """:func:`fit_motion` where some positions bound the depth along their viewing ray instead of reading it.
 
@@ -239,6 +263,8 @@ def fit_motion_bounded(
         sigma_speed: the velocity prior (:func:`fit_motion`).
         rays: (N, 2) float64 unit viewing directions on the ground, from the camera to the position.
         sides: (N,) int 0 for a reading, +1 for a bound from below, -1 for one from above.
+        prior: a velocity prior (mean, information) in place of the zero-mean one of spread
+            ``sigma_speed`` (> 0), or None.
 
     Returns:
         The fit.
@@ -257,12 +283,12 @@ def fit_motion_bounded(
     z = np.asarray(positions, dtype=np.float64)
     rays = np.asarray(rays, dtype=np.float64)
     sides = np.asarray(sides)
-    fit = fit_motion(times, z, covariances, sigma_speed)
+    cov = np.asarray(covariances, dtype=np.float64)
+    inv = np.linalg.inv(cov)
+    fit = _fit_information(times, z, inv, sigma_speed, prior)
     if not np.any(sides != 0) or np.all(sides != 0):
         return fit
     t = np.asarray(times, dtype=np.float64)
-    cov = np.asarray(covariances, dtype=np.float64)
-    inv = np.linalg.inv(cov)
     normals = np.c_[-rays[:, 1], rays[:, 0]]
     across_var = np.einsum("ni,nij,nj->n", normals, cov, normals)
     across_only = np.einsum("ni,nj->nij", normals, normals) / across_var[:, None, None]
@@ -273,6 +299,9 @@ def fit_motion_bounded(
         full = np.einsum("ni,nij,nj->n", d, inv, d)
         across = np.einsum("ni,ni->n", d, normals) ** 2 / across_var
         cost = float(np.where(kept, across, full).sum())
+        if prior is not None:
+            dv = f.state[2:] - prior[0]
+            return kept, cost + float(dv @ prior[1] @ dv)
         return kept, cost + float(f.state[2:] @ f.state[2:]) / sigma_speed**2 if sigma_speed > 0 else cost
 
     kept, cost = kept_and_cost(fit)
@@ -282,7 +311,7 @@ def fit_motion_bounded(
         if any(np.array_equal(kept, k) for k in seen):
             break
         seen.append(kept)
-        fit = _fit_information(times, z, np.where(kept[:, None, None], across_only, inv), sigma_speed)
+        fit = _fit_information(times, z, np.where(kept[:, None, None], across_only, inv), sigma_speed, prior)
         kept, cost = kept_and_cost(fit)
         if cost < best[0]:
             best = (cost, fit)
@@ -345,19 +374,105 @@ class _Track:
         if self.sigma_speed > 0 and self.standing_share > 0:
             self.still = fit_motion(self.times, pos, cov, 0.0)
 
-    def placed_fit(self) -> MotionFit:
+    def placed_fit(self, params: ViewsParams) -> MotionFit:
         """The fit that places a moving track: :func:`fit_motion_bounded`, each frame's bound
         side from :func:`~usdworld.views.hidden_contact.depth_bound_side` along its primary
-        view's ray (the tracking's own fit, :meth:`refit`, takes every frame as a reading)."""
+        view's ray (the tracking's own fit, :meth:`refit`, takes every frame as a reading).
+
+        A person's speed along its fitted direction has the walking prior
+        (:func:`walking_prior`), the direction refitted until it settles."""
         pos = np.array([o.placement.contact_world[:2] for o in self.items])
         cov = np.array([fit_covariance(o) for o in self.items])
         rays = np.array([o.placement.contact_world[:2] - o.observations[0].camera_ground for o in self.items])
         rays = rays / np.maximum(np.linalg.norm(rays, axis=1, keepdims=True), 1e-9)
         sides = np.array([depth_bound_side(o) for o in self.items])
-        return fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides)
+        fit = fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides)
+        if self.class_name not in PEOPLE_CLASSES or self.sigma_speed <= 0:
+            return fit
+        for _ in range(_WALK_MAX_REFITS):
+            prior = walking_prior(fit.velocity, self.sigma_speed, params)
+            if prior is None:
+                return fit
+            before = fit.velocity
+            fit = fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides, prior)
+            v = fit.velocity
+            turn = abs(math.atan2(before[0] * v[1] - before[1] * v[0], float(before @ v)))
+            if turn < _WALK_TURN_RAD:
+                break
+        return fit
 
 
-def association_m2(tr: _Track, t: float, z: np.ndarray, R: np.ndarray) -> float:
+#: Most refits of a walker's direction under :func:`walking_prior`, and the turn that counts as settled,
+#: radians.
+_WALK_MAX_REFITS = 20
+_WALK_TURN_RAD = 1e-4
+
+
+def walking_prior(velocity: np.ndarray, sigma_speed: float, params: ViewsParams) -> VelocityPrior | None:
+    """The walking-speed prior on a moving person's velocity, linearised at a fitted direction.
+
+    People walk at ``person_walking_speed_mps`` +- ``person_walking_speed_sd_mps`` (published
+    comfortable walking speeds), whichever way they go: a ring in the velocity plane. At the
+    direction ``u`` of a fitted velocity the ring is, to first order, a Gaussian of that mean
+    and spread along ``u`` and flat across it, where the zero-mean prior of spread
+    ``sigma_speed`` is kept. A track moving along its viewing rays, where a single view's depth
+    errs by metres, gets its speed from the prior rather than from a row's whole-pixel steps.
+
+    Args:
+        velocity: (2,) float64 the fitted velocity, m/s.
+        sigma_speed: the zero-mean prior's spread per component, m/s (> 0).
+        params: the walking speed and its spread.
+
+    Returns:
+        (mean (2,), information (2, 2)), or None for a velocity of no direction (0).
+
+    Example:
+        >>> mean, info = walking_prior(np.array([0.3, 0.0]), 2.6, ViewsParams())
+        >>> mean.round(2).tolist(), round(float(info[0, 0]), 1), round(float(info[1, 1]), 3)
+        ([1.37, 0.0], 25.0, 0.148)
+    """
+    speed = float(np.linalg.norm(velocity))
+    if speed <= 0.0 or not math.isfinite(speed):
+        return None
+    u = velocity / speed
+    n = np.array([-u[1], u[0]])
+    info = np.outer(u, u) / params.person_walking_speed_sd_mps**2 + np.outer(n, n) / sigma_speed**2
+    return params.person_walking_speed_mps * u, info
+
+
+def bounded_m2(d: np.ndarray, S: np.ndarray, ray: np.ndarray | None = None, side: int = 0) -> float:
+    """Squared Mahalanobis distance of an observation from a prediction, the observation maybe a depth bound.
+
+    A reading (``side`` 0) is compared in full: ``d^T S^-1 d``. A bound (``side`` +1: the object
+    is at or beyond the observed position along its viewing ray, -1: at or nearer;
+    :func:`~usdworld.views.hidden_contact.depth_bound_side`) says nothing along its ray where the
+    prediction keeps it, so only the distance across the ray counts there, ``(d . n)^2 / (n^T S n)``
+    (as :func:`fit_motion_bounded` costs a kept bound); where the prediction breaks it, in full.
+
+    Args:
+        d: (2,) float64 observation minus prediction, metres.
+        S: (2, 2) float64 the prediction's and the observation's covariances summed, metres squared.
+        ray: (2,) float64 unit viewing direction from the camera to the observation (needed when
+            ``side`` is not 0).
+        side: 0 for a reading, +1 for a bound from below, -1 for one from above.
+
+    Example:
+        A walker predicted 6 m beyond a frame that only says "behind this parked car, or farther":
+
+        >>> d, S, ray = np.array([-6.0, 0.1]), np.eye(2), np.array([1.0, 0.0])
+        >>> [round(bounded_m2(d, S, ray, side), 2) for side in (0, 1, -1)]
+        [36.01, 0.01, 36.01]
+    """
+    m2 = float(d @ np.linalg.solve(S, d))
+    if side == 0 or ray is None or side * float(d @ ray) >= 0.0:
+        return m2
+    n = np.array([-ray[1], ray[0]])
+    return float(d @ n) ** 2 / float(n @ S @ n)
+
+
+def association_m2(
+    tr: _Track, t: float, z: np.ndarray, R: np.ndarray, ray: np.ndarray | None = None, side: int = 0
+) -> float:
     """Squared distance of an observation from a track's prediction, as the gate and the assignment read it.
 
     One hypothesis (the track's fit): the squared Mahalanobis distance ``m2``, the prediction's
@@ -376,18 +491,18 @@ def association_m2(tr: _Track, t: float, z: np.ndarray, R: np.ndarray) -> float:
         t: the frame's time, seconds.
         z: (2,) float64 the observation's ground position, metres.
         R: (2, 2) float64 its covariance, metres squared.
+        ray: (2,) float64 unit viewing direction to the observation, for a bound.
+        side: whether the observation bounds its depth (:func:`bounded_m2`; 0: a reading).
     """
     if tr.fit is None:
         return math.inf
     x, P = tr.fit.predict(t)
-    d = z - x
-    m2 = float(d @ np.linalg.solve(P + R, d))
+    m2 = bounded_m2(z - x, P + R, ray, side)
     if tr.still is None:
         return m2
     w = standing_weight(tr.fit, tr.sigma_speed, tr.standing_share)
     xs, Ps = tr.still.predict(t)
-    ds = z - xs
-    m2s = float(ds @ np.linalg.solve(Ps + R, ds))
+    m2s = bounded_m2(z - xs, Ps + R, ray, side)
     terms = [math.log(weight) - 0.5 * dist for weight, dist in ((w, m2s), (1.0 - w, m2)) if weight > 0.0]
     top = max(terms)
     return -2.0 * (top + math.log(sum(math.exp(v - top) for v in terms)))
@@ -560,7 +675,8 @@ def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params:
 
     Each pair of one class within ``association_gate_chi2`` scores ``gate - m2``
     (:func:`association_m2`: its squared Mahalanobis distance, prediction and observation
-    covariances summed, of the standing-or-moving mixture for a vehicle's track); the
+    covariances summed, of the standing-or-moving mixture for a vehicle's track; across the ray
+    only for a person's bound the track keeps, :func:`bounded_m2`); the
     assignment (Hungarian) maximises the summed score, so a pair is made only where it is
     inside the gate, and one near pair never takes the track that two others need.
     """
@@ -571,10 +687,13 @@ def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params:
     for j, item in enumerate(items):
         cls = item.placement.obj.class_name
         z = item.placement.contact_world[:2]
+        side = depth_bound_side(item) if cls in PEOPLE_CLASSES else 0
+        ray = z - item.observations[0].camera_ground
+        ray = ray / max(float(np.linalg.norm(ray)), 1e-9)
         for k, tr in enumerate(tracks):
             if tr.class_name != cls or tr.fit is None:
                 continue
-            m2 = association_m2(tr, t, z, item.covariance)
+            m2 = association_m2(tr, t, z, item.covariance, ray, side)
             if m2 <= gate:
                 score[j, k] = gate - m2 + _TIE
     out: list[int | None] = [None] * len(items)
@@ -947,7 +1066,7 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
     moving = _is_moving(tr, fit, params)
     z = float(primary.position_world[2])
     if moving:
-        fit = tr.placed_fit()
+        fit = tr.placed_fit(params)
         xy = np.array([fit.predict(float(t))[0] for t in times])
         positions = np.c_[xy, np.full(len(times), z)]
         yaw = _yaw_of(fit.velocity, primary.yaw, params)

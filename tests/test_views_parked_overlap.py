@@ -1,4 +1,4 @@
-"""A drive's standing vehicle tracks whose footprints must overlap are one vehicle (two cars cannot stand in one place)."""
+"""A drive's standing vehicle tracks whose footprints must overlap are one vehicle."""
 
 from __future__ import annotations
 

@@ -55,6 +55,13 @@ frames are tracked in time order, so the work grows with the number of frames:
 5. Standing tracks of one trunk class whose triangulated positions are nearer than their
    footprints' inscribed radii summed are one object (:func:`merge_standing_trunks`),
    whether or not they share frames: two trunks cannot stand in one place.
+6. Standing vehicle tracks of one class whose placed positions are nearer than their
+   footprints' inscribed radii summed (half their widths summed) are one vehicle
+   (:func:`merge_standing_vehicles`), whether or not they share frames: two parked cars
+   cannot stand in one place, whatever their headings. A view that places a parked car a
+   metre or more off its other frames (a hidden side it did not see) starts a fragment that
+   then holds a neighbour's frame in some frame the car's own track holds too, so step 4,
+   which joins fragments that share no frame, leaves it as a second car.
 
 **Trunks are triangulated.** A standing tree, pole or sign seen from a moving camera is
 where its frames' rays cross (:func:`bearing_triangulation`): its single-view depth errs
@@ -747,6 +754,7 @@ def track_drive(
     done.extend(open_tracks)
     done = merge_fragments([tr for tr in done if tr.fit is not None], params)
     done = merge_standing_trunks(done, params)
+    done = merge_standing_vehicles(done, params)
     index = {id(o): i for i, o in enumerate(obs)}
     done.sort(key=lambda tr: (tr.times[0], min(index[id(o)] for o in tr.items[0].observations)))
     counters: dict[str, int] = {}
@@ -951,6 +959,57 @@ def merge_standing_trunks(tracks: list[_Track], params: ViewsParams) -> list[_Tr
         est[a] = _merge_estimate(cand[a], params)
         radius[a] = float(np.median([_footprint_radius(item.placement) for item in cand[a].items]))
         del cand[b], est[b], radius[b]
+
+
+def merge_standing_vehicles(tracks: list[_Track], params: ViewsParams) -> list[_Track]:
+    """Join standing vehicle tracks of one class whose footprints must overlap.
+
+    Two parked vehicles cannot stand in one place: two standing tracks of one vehicle class
+    whose placed positions (:func:`_standing_estimate`) are nearer than the sum of the radii
+    of the discs inscribed in their footprints (each track's median over its frames: half a
+    car's width) overlap whatever their headings, so they are one vehicle, whether or not
+    they share frames (one of them holds, in some frame, what the view saw of a neighbour,
+    or the view cut the vehicle in two). As :func:`merge_fragments` joins vehicle fragments,
+    two whose frames together would move are not joined. Greedy, nearest pair first; a frame
+    both hold keeps one object, the two placements made one (:func:`merge_overlapping`).
+    Unlike a trunk's, a vehicle's position is not triangulated, so the test uses only the
+    disc that lies inside the footprint for every heading: two vehicles side by side, or
+    one behind the other, are farther apart than that.
+
+    Args:
+        tracks: the drive's tracks, each with its fit.
+        params: the moving test's and the standing estimate's parameters.
+
+    Returns:
+        The tracks, joined ones with their frames in time order and their fit redone.
+    """
+    keep, cand = [], []
+    for tr in tracks:
+        standing = tr.fit is not None and not _is_moving(tr, tr.fit, params)
+        (cand if standing and tr.class_name in VEHICLE_CLASSES else keep).append(tr)
+    pos = [_standing_estimate(tr, params)[0] for tr in cand]
+    radius = [float(np.median([_footprint_radius(item.placement) for item in tr.items])) for tr in cand]
+    refused: set[tuple[int, int]] = set()
+    while True:
+        best: tuple[float, int, int] | None = None
+        for a in range(len(cand)):
+            for b in range(a + 1, len(cand)):
+                if cand[a].class_name != cand[b].class_name or (id(cand[a]), id(cand[b])) in refused:
+                    continue
+                d = float(np.linalg.norm(pos[a] - pos[b]))
+                if d < radius[a] + radius[b] and (best is None or d < best[0]):
+                    best = (d, a, b)
+        if best is None:
+            return keep + cand
+        _, a, b = best
+        joined = _joined_overlapping(cand[a], cand[b], params)
+        if joined.fit is not None and _is_moving(joined, joined.fit, params):
+            refused.add((id(cand[a]), id(cand[b])))  # two standing tracks whose frames together move
+            continue
+        cand[a] = joined
+        pos[a] = _standing_estimate(joined, params)[0]
+        radius[a] = float(np.median([_footprint_radius(item.placement) for item in joined.items]))
+        del cand[b], pos[b], radius[b]
 
 
 def arm_across(items: Sequence[FusedObject], ray: np.ndarray) -> float:

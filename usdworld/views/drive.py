@@ -436,7 +436,7 @@ def walking_prior(velocity: np.ndarray, sigma_speed: float, params: ViewsParams)
     Example:
         >>> mean, info = walking_prior(np.array([0.3, 0.0]), 2.6, ViewsParams())
         >>> mean.round(2).tolist(), round(float(info[0, 0]), 1), round(float(info[1, 1]), 3)
-        ([1.37, 0.0], 25.0, 0.148)
+        ([1.32, 0.0], 10.4, 0.148)
     """
     speed = float(np.linalg.norm(velocity))
     if speed <= 0.0 or not math.isfinite(speed):

@@ -1053,6 +1053,44 @@ def _joined(a: _Track, b: _Track) -> _Track:
     return out
 
 
+def variant_of_most_frames(members: Sequence[Observation]) -> list[Observation]:
+    """A standing trunk object's observations, those of the variant its frames' evidence favours first.
+
+    Each frame that measured the object's scale also chose its variant (a street lamp or a
+    plain pole) from its own view. The object's variant is the one with the most evidence:
+    each such observation counts with its weight in the fusion (``1 / sigma_range^2``, as
+    :func:`~usdworld.views.fusion.combine` weighs it), not the single most precise frame's
+    choice, which is one draw (a plain pole's top and a lamp's head differ by a few pixels).
+    :func:`~usdworld.views.fusion.sized_by_a_whole_view` then sizes the object by the most
+    precise member of that variant.
+
+    Args:
+        members: the object's observations, most precise first.
+
+    Returns:
+        ``members`` reordered: those that measured the chosen variant first (in their order),
+        then the rest.
+
+    Example:
+        >>> from types import SimpleNamespace as NS
+        >>> seen = [NS(placement=NS(variant=v, scale_measured=1.0), sigma_range_m=s)
+        ...         for v, s in (("street_lamp", 1.0), ("plain", 1.2), ("plain", 1.2))]
+        >>> [o.placement.variant for o in variant_of_most_frames(seen)]
+        ['plain', 'plain', 'street_lamp']
+    """
+    weights: dict[str, float] = {}
+    for o in members:
+        if math.isfinite(o.placement.scale_measured):
+            weights[o.placement.variant] = weights.get(o.placement.variant, 0.0) + 1.0 / o.sigma_range_m**2
+    if not weights:
+        return list(members)
+    chosen = max(weights, key=lambda v: weights[v])  # a tie: the variant of the more precise member
+    first = [
+        o for o in members if o.placement.variant == chosen and math.isfinite(o.placement.scale_measured)
+    ]
+    return first + [o for o in members if not any(o is f for f in first)]
+
+
 def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dict[str, int]) -> DriveObject:
     members = sorted(
         (o for item in tr.items for o in item.observations), key=lambda o: (o.sigma_range_m, o.view)
@@ -1076,9 +1114,10 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
         return DriveObject(fused, True, times, positions, np.full(len(times), yaw), fit.velocity.copy())
     if cls in load_class_table().with_role("trunk"):
         xy, cov = bearing_triangulation(*track_bearings(tr.items, params), *_standing_estimate(tr, params), params)
+        sized = sized_by_a_whole_view(primary, variant_of_most_frames(members))
     else:
         xy, cov = combine(members)
-    sized = sized_by_a_whole_view(primary, members)
+        sized = sized_by_a_whole_view(primary, members)
     placement = dataclasses.replace(sized, name=name).with_contact_at(np.array([xy[0], xy[1], z]))
     position = placement.position_world
     fused = FusedObject(placement, tuple(members), fusion_method(members, cov, params), cov)

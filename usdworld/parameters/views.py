@@ -170,7 +170,9 @@ class ViewsParams:
         "count",
         "Fewest frames of a standing track whose robust scatter (median absolute deviation about the "
         "median, along and across the viewing ray) measures its per-frame error when fragments are "
-        "joined; a shorter track uses its surest frame's stated covariance.",
+        "joined; a shorter track uses its surest frame's stated covariance and, for a trunk class "
+        "(tree, pole, sign), joins the longer standing track whose footprint all its rays pass through "
+        "(its depth failed, its bearing did not).",
         "geometry: a median of three values is the fewest that one failed frame cannot set",
     )
     bearing_sigma_rad: float = param(

@@ -54,7 +54,10 @@ frames are tracked in time order, so the work grows with the number of frames:
    compared at its bearing triangulation (below).
 5. Standing tracks of one trunk class whose triangulated positions are nearer than their
    footprints' inscribed radii summed are one object (:func:`merge_standing_trunks`),
-   whether or not they share frames: two trunks cannot stand in one place.
+   whether or not they share frames: two trunks cannot stand in one place. A trunk track
+   shorter than ``scatter_min_frames`` whose every ray passes through a longer one's
+   footprint is that object seen with a failed depth (:func:`absorb_short_fragments`): it
+   joins it with its bearings, its depths dropped.
 6. Standing vehicle tracks of one class whose placed positions are nearer than their
    footprints' inscribed radii summed (half their widths summed) are one vehicle
    (:func:`merge_standing_vehicles`), whether or not they share frames: two parked cars
@@ -755,8 +758,12 @@ def track_drive(
     done = merge_fragments([tr for tr in done if tr.fit is not None], params)
     done = merge_standing_trunks(done, params)
     done = merge_standing_vehicles(done, params)
-    index = {id(o): i for i, o in enumerate(obs)}
-    done.sort(key=lambda tr: (tr.times[0], min(index[id(o)] for o in tr.items[0].observations)))
+    index = {(o.view, o.placement.name): i for i, o in enumerate(obs)}  # a view names each object once
+
+    def first_seen(tr: _Track) -> tuple[float, int]:
+        return tr.times[0], min(index[o.view, o.placement.name] for o in tr.items[0].observations)
+
+    done.sort(key=first_seen)
     counters: dict[str, int] = {}
     return [_drive_object(tr, tr.fit, params, counters) for tr in done if tr.fit is not None]
 
@@ -953,7 +960,7 @@ def merge_standing_trunks(tracks: list[_Track], params: ViewsParams) -> list[_Tr
                 if d < radius[a] + radius[b] or seen_as_one_trunk(cand[a], cand[b], est[a], est[b], params):
                     best = (d, a, b)
         if best is None:
-            return keep + cand
+            return keep + absorb_short_fragments(cand, est, params)
         _, a, b = best
         cand[a] = _joined_overlapping(cand[a], cand[b], params)
         est[a] = _merge_estimate(cand[a], params)
@@ -1010,6 +1017,117 @@ def merge_standing_vehicles(tracks: list[_Track], params: ViewsParams) -> list[_
         pos[a] = _standing_estimate(joined, params)[0]
         radius[a] = float(np.median([_footprint_radius(item.placement) for item in joined.items]))
         del cand[b], pos[b], radius[b]
+
+
+def on_bearing_of(fragment: _Track, track: _Track, xy: np.ndarray) -> float | None:
+    """How far a short fragment's rays pass a standing trunk track's footprint, or None where one misses it.
+
+    For each observation of ``fragment``: the distance of ``xy`` (the track's triangulated
+    position) from the observation's ray, less the two footprints' reaches across that ray
+    (:func:`footprint_reach_across`; the track's the median over its frames). The fragment's
+    rays all pass through the track's footprint when every value is negative (the two
+    footprints overlap across each ray, ``xy`` ahead of the camera); the result is then the
+    largest value (nearer 0: the worst ray's margin), else None.
+
+    Args:
+        fragment: a standing track of a trunk class.
+        track: another of the same class.
+        xy: (2,) float64 ``track``'s triangulated position, metres.
+    """
+    worst = -math.inf
+    for item in fragment.items:
+        for o in item.observations:
+            ray = o.placement.contact_world[:2] - o.camera_ground
+            ray = ray / max(float(np.linalg.norm(ray)), 1e-9)
+            d = xy - o.camera_ground
+            if float(d @ ray) <= 0.0:
+                return None
+            across = abs(float(d @ np.array([-ray[1], ray[0]])))
+            reach = float(np.median([footprint_reach_across(i.placement, ray) for i in track.items]))
+            margin = across - reach - footprint_reach_across(o.placement, ray)
+            if margin >= 0.0:
+                return None
+            worst = max(worst, margin)
+    return worst
+
+
+def absorb_short_fragments(
+    tracks: list[_Track], est: list[tuple[np.ndarray, np.ndarray]], params: ViewsParams
+) -> list[_Track]:
+    """Standing trunk tracks of fewer than ``scatter_min_frames`` frames joined to the track on their bearing.
+
+    A tree's, pole's or sign's single-view depth fails where its view cuts it (the image's
+    border, a crown cut by what stands in front: its size, and so its depth, is a guess),
+    while its bearing stays the trunk's. Such a frame starts a track of a frame or two placed
+    metres along the ray from the object, and the association never reaches it. A track too
+    short for its frames to measure their own scatter (``scatter_min_frames``) whose every ray
+    passes through the footprint of a longer standing track of its class (:func:`on_bearing_of`)
+    is that object: it joins the one its rays pass most nearly, its bearings kept and its failed
+    depths dropped (:func:`depth_from`: each contact moved along its own ray to the track's
+    depth). A short track that no longer one's footprint explains is kept (a trunk seen only at
+    the drive's start or end).
+
+    Args:
+        tracks: the drive's standing trunk tracks after :func:`merge_standing_trunks`' joins.
+        est: (2,) position and (2, 2) covariance of each (:func:`_merge_estimate`).
+        params: ``scatter_min_frames``.
+
+    Returns:
+        The tracks, each short one that joined another gone, the one it joined with its frames.
+    """
+    short = params.scatter_min_frames
+    long_ = [k for k, tr in enumerate(tracks) if len(tr.times) >= short]
+    joins: dict[int, list[int]] = {}
+    for j, frag in enumerate(tracks):
+        if len(frag.times) >= short:
+            continue
+        best: tuple[float, int] | None = None
+        for k in long_:
+            if tracks[k].class_name != frag.class_name:
+                continue
+            margin = on_bearing_of(frag, tracks[k], est[k][0])
+            if margin is not None and (best is None or margin < best[0]):
+                best = (margin, k)
+        if best is not None:
+            joins.setdefault(best[1], []).append(j)
+    gone = {j for js in joins.values() for j in js}
+    out = []
+    for k, tr in enumerate(tracks):
+        if k in gone:
+            continue
+        for j in joins.get(k, []):
+            frag = tracks[j]
+            prior = _standing_estimate(tr, params)[0]
+            items = [depth_from(i, prior) for i in frag.items]
+            moved = _Track(frag.class_name, frag.sigma_speed, list(frag.times), items)
+            tr = _joined_overlapping(tr, moved, params)
+        out.append(tr)
+    return out
+
+
+def depth_from(item: FusedObject, xy: np.ndarray) -> FusedObject:
+    """One frame's object with each observation's contact moved along its own ray to the point nearest ``xy``.
+
+    Its bearings (camera to contact) are kept; its depths become those of ``xy`` along each ray,
+    so the object's failed single-view depth no longer counts. The frame's placement is the
+    moved contacts' :func:`~usdworld.views.fusion.combine`.
+
+    Args:
+        item: the frame's object.
+        xy: (2,) float64 the point whose depth it takes, metres.
+    """
+    moved = []
+    for o in item.observations:
+        contact = o.placement.contact_world
+        ray = contact[:2] - o.camera_ground
+        ray = ray / max(float(np.linalg.norm(ray)), 1e-9)
+        at = o.camera_ground + max(float((xy - o.camera_ground) @ ray), 0.0) * ray
+        placement = o.placement.with_contact_at(np.array([at[0], at[1], contact[2]]))
+        moved.append(dataclasses.replace(o, placement=placement))
+    placed, _ = combine(moved)
+    contact = item.placement.contact_world
+    placement = item.placement.with_contact_at(np.array([placed[0], placed[1], contact[2]]))
+    return dataclasses.replace(item, placement=placement, observations=tuple(moved))
 
 
 def arm_across(items: Sequence[FusedObject], ray: np.ndarray) -> float:
@@ -1113,6 +1231,44 @@ def _joined(a: _Track, b: _Track) -> _Track:
     return out
 
 
+def variant_of_most_frames(members: Sequence[Observation]) -> list[Observation]:
+    """A standing trunk object's observations, those of the variant its frames' evidence favours first.
+
+    Each frame that measured the object's scale also chose its variant (a street lamp or a
+    plain pole) from its own view. The object's variant is the one with the most evidence:
+    each such observation counts with its weight in the fusion (``1 / sigma_range^2``, as
+    :func:`~usdworld.views.fusion.combine` weighs it), not the single most precise frame's
+    choice, which is one draw (a plain pole's top and a lamp's head differ by a few pixels).
+    :func:`~usdworld.views.fusion.sized_by_a_whole_view` then sizes the object by the most
+    precise member of that variant.
+
+    Args:
+        members: the object's observations, most precise first.
+
+    Returns:
+        ``members`` reordered: those that measured the chosen variant first (in their order),
+        then the rest.
+
+    Example:
+        >>> from types import SimpleNamespace as NS
+        >>> seen = [NS(placement=NS(variant=v, scale_measured=1.0), sigma_range_m=s)
+        ...         for v, s in (("street_lamp", 1.0), ("plain", 1.2), ("plain", 1.2))]
+        >>> [o.placement.variant for o in variant_of_most_frames(seen)]
+        ['plain', 'plain', 'street_lamp']
+    """
+    weights: dict[str, float] = {}
+    for o in members:
+        if math.isfinite(o.placement.scale_measured):
+            weights[o.placement.variant] = weights.get(o.placement.variant, 0.0) + 1.0 / o.sigma_range_m**2
+    if not weights:
+        return list(members)
+    chosen = max(weights, key=lambda v: weights[v])  # a tie: the variant of the more precise member
+    first = [
+        o for o in members if o.placement.variant == chosen and math.isfinite(o.placement.scale_measured)
+    ]
+    return first + [o for o in members if not any(o is f for f in first)]
+
+
 def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dict[str, int]) -> DriveObject:
     members = sorted(
         (o for item in tr.items for o in item.observations), key=lambda o: (o.sigma_range_m, o.view)
@@ -1136,9 +1292,10 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
         return DriveObject(fused, True, times, positions, np.full(len(times), yaw), fit.velocity.copy())
     if cls in load_class_table().with_role("trunk"):
         xy, cov = bearing_triangulation(*track_bearings(tr.items, params), *_standing_estimate(tr, params), params)
+        sized = sized_by_a_whole_view(primary, variant_of_most_frames(members))
     else:
         xy, cov = combine(members)
-    sized = sized_by_a_whole_view(primary, members)
+        sized = sized_by_a_whole_view(primary, members)
     placement = dataclasses.replace(sized, name=name).with_contact_at(np.array([xy[0], xy[1], z]))
     position = placement.position_world
     fused = FusedObject(placement, tuple(members), fusion_method(members, cov, params), cov)

@@ -421,8 +421,8 @@ _WALK_TURN_RAD = 1e-4
 def walking_prior(velocity: np.ndarray, sigma_speed: float, params: ViewsParams) -> VelocityPrior | None:
     """The walking-speed prior on a moving person's velocity, linearised at a fitted direction.
 
-    People walk at ``person_walking_speed_mps`` +- ``person_walking_speed_sd_mps`` (published
-    comfortable walking speeds), whichever way they go: a ring in the velocity plane. At the
+    People walk at ``person_walking_speed_mps`` +- ``person_walking_speed_sd_mps`` (observed
+    street pedestrians' speeds), whichever way they go: a ring in the velocity plane. At the
     direction ``u`` of a fitted velocity the ring is, to first order, a Gaussian of that mean
     and spread along ``u`` and flat across it, where the zero-mean prior of spread
     ``sigma_speed`` is kept. A track moving along its viewing rays, where a single view's depth

@@ -16,6 +16,7 @@ from usdworld.views.drive import (
     _Track,
     association_m2,
     fit_motion,
+    predict_track,
     standing_weight,
     track_drive,
 )
@@ -97,7 +98,7 @@ def test_the_mixture_distance_lies_between_its_hypotheses(
     R = np.diag([2.0, 0.3])
     x, P = tr.fit.predict(t)
     m2_moving = float((z - x) @ np.linalg.solve(P + R, z - x))
-    got = association_m2(tr, t, z, R)
+    got = association_m2(predict_track(tr, t), z, R)
     if share == 0.0:
         assert tr.still is None and got == pytest.approx(m2_moving, rel=1e-12)
         return

@@ -480,8 +480,37 @@ def bounded_m2(d: np.ndarray, S: np.ndarray, ray: np.ndarray | None = None, side
     return float(d @ n) ** 2 / float(n @ S @ n)
 
 
+@dataclass(frozen=True)
+class TrackPrediction:
+    """A track's prediction at one frame's time, as the association reads it (the same for every
+    observation of the frame: worked out once per track and frame).
+
+    Attributes:
+        x: (2,) float64 the track's fit's predicted position, metres.
+        P: (2, 2) float64 its covariance, metres squared.
+        still: the standing hypothesis' (position, covariance) where the track keeps one, else None.
+        w: the standing hypothesis' weight (:func:`standing_weight`; 0 without one).
+    """
+
+    x: np.ndarray
+    P: np.ndarray
+    still: tuple[np.ndarray, np.ndarray] | None = None
+    w: float = 0.0
+
+
+def predict_track(tr: _Track, t: float) -> TrackPrediction | None:
+    """``tr``'s :class:`TrackPrediction` at time ``t``, seconds (None while it has no fit)."""
+    if tr.fit is None:
+        return None
+    x, P = tr.fit.predict(t)
+    if tr.still is None:
+        return TrackPrediction(x, P)
+    w = standing_weight(tr.fit, tr.sigma_speed, tr.standing_share)
+    return TrackPrediction(x, P, tr.still.predict(t), w)
+
+
 def association_m2(
-    tr: _Track, t: float, z: np.ndarray, R: np.ndarray, ray: np.ndarray | None = None, side: int = 0
+    pred: TrackPrediction | None, z: np.ndarray, R: np.ndarray, ray: np.ndarray | None = None, side: int = 0
 ) -> float:
     """Squared distance of an observation from a track's prediction, as the gate and the assignment read it.
 
@@ -497,21 +526,20 @@ def association_m2(
     gate, so the 14 m/s prior's spread reaches 0.59 of what it reached alone).
 
     Args:
-        tr: the track (infinite when it has no fit yet).
-        t: the frame's time, seconds.
+        pred: the track's prediction at the frame's time (:func:`predict_track`; None, a track
+            with no fit yet: infinite).
         z: (2,) float64 the observation's ground position, metres.
         R: (2, 2) float64 its covariance, metres squared.
         ray: (2,) float64 unit viewing direction to the observation, for a bound.
         side: whether the observation bounds its depth (:func:`bounded_m2`; 0: a reading).
     """
-    if tr.fit is None:
+    if pred is None:
         return math.inf
-    x, P = tr.fit.predict(t)
-    m2 = bounded_m2(z - x, P + R, ray, side)
-    if tr.still is None:
+    m2 = bounded_m2(z - pred.x, pred.P + R, ray, side)
+    if pred.still is None:
         return m2
-    w = standing_weight(tr.fit, tr.sigma_speed, tr.standing_share)
-    xs, Ps = tr.still.predict(t)
+    w = pred.w
+    xs, Ps = pred.still
     m2s = bounded_m2(z - xs, Ps + R, ray, side)
     terms = [math.log(weight) - 0.5 * dist for weight, dist in ((w, m2s), (1.0 - w, m2)) if weight > 0.0]
     top = max(terms)
@@ -694,6 +722,7 @@ def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params:
 
     gate = params.association_gate_chi2
     score = np.zeros((len(items), len(tracks)))
+    predicted = [predict_track(tr, t) for tr in tracks]
     for j, item in enumerate(items):
         cls = item.placement.obj.class_name
         z = item.placement.contact_world[:2]
@@ -703,7 +732,7 @@ def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params:
         for k, tr in enumerate(tracks):
             if tr.class_name != cls or tr.fit is None:
                 continue
-            m2 = association_m2(tr, t, z, item.covariance, ray, side)
+            m2 = association_m2(predicted[k], z, item.covariance, ray, side)
             if m2 <= gate:
                 score[j, k] = gate - m2 + _TIE
     out: list[int | None] = [None] * len(items)

@@ -52,6 +52,13 @@ frames are tracked in time order, so the work grows with the number of frames:
    single-view depth error of far objects, and a fragment whose frames scatter by metres
    is not known to a fraction of a metre. A trunk class's fragment (tree, pole, sign) is
    compared at its bearing triangulation (below).
+   Moving tracks that are fragments of one mover are joined too (:func:`merge_moving_fragments`):
+   a walker's frames that the association split between two tracks open at once (a frame whose
+   depth jumped by a contact row started the second) leave two movers where there is one. Two
+   moving tracks of one class that share no frame are one mover when their constant-velocity
+   fits, each predicted to where the two meet (the midpoint between their time spans, or between
+   their mean times where the spans interleave), agree within the gate, their covariances summed,
+   and their frames together still move.
 5. Standing tracks of one trunk class whose triangulated positions are nearer than their
    footprints' inscribed radii summed are one object (:func:`merge_standing_trunks`),
    whether or not they share frames: two trunks cannot stand in one place. A trunk track
@@ -785,6 +792,7 @@ def track_drive(
                 open_tracks[k].add(t, item)
     done.extend(open_tracks)
     done = merge_fragments([tr for tr in done if tr.fit is not None], params)
+    done = merge_moving_fragments(done, params)
     done = merge_standing_trunks(done, params)
     done = merge_standing_vehicles(done, params)
     index = {(o.view, o.placement.name): i for i, o in enumerate(obs)}  # a view names each object once
@@ -948,6 +956,71 @@ def merge_fragments(tracks: list[_Track], params: ViewsParams) -> list[_Track]:
         alive[b] = False
         pos[a], cov[a] = _merge_estimate(frags[a], params)
 
+
+
+def fragments_agree(a: _Track, b: _Track) -> float | None:
+    """Squared Mahalanobis distance of two tracks' fits where they meet, or None where they cannot be one.
+
+    Two tracks of one class that share no frame meet at the midpoint ``t`` between the nearer ends of
+    their frames' time spans (between their mean times where the spans interleave); each fit predicts
+    its position there (:meth:`MotionFit.predict`), the covariances summed.
+
+    Args:
+        a: one track, with its fit.
+        b: another.
+    """
+    if a.class_name != b.class_name or set(a.times) & set(b.times) or a.fit is None or b.fit is None:
+        return None
+    if a.times[-1] < b.times[0]:
+        t = 0.5 * (a.times[-1] + b.times[0])
+    elif b.times[-1] < a.times[0]:
+        t = 0.5 * (b.times[-1] + a.times[0])
+    else:
+        t = 0.5 * (float(np.mean(a.times)) + float(np.mean(b.times)))
+    xa, Pa = a.fit.predict(t)
+    xb, Pb = b.fit.predict(t)
+    d = xa - xb
+    return float(d @ np.linalg.solve(Pa + Pb, d))
+
+
+def merge_moving_fragments(tracks: list[_Track], params: ViewsParams) -> list[_Track]:
+    """Join moving tracks that are one mover broken into fragments.
+
+    Two moving tracks of one class that share no frame (one frame never holds one object twice)
+    are one mover when their constant-velocity fits agree where they meet
+    (:func:`fragments_agree`, within ``association_gate_chi2``: each fit's covariance already
+    carries its velocity's spread, so fragments far apart in time must agree in speed too) and
+    their frames together still move (:func:`_is_moving`); greedy, nearest first, as
+    :func:`merge_fragments` joins standing ones. Standing tracks are left to the other joins.
+
+    Args:
+        tracks: the drive's tracks, each with its fit.
+        params: the gate and the moving test's thresholds.
+
+    Returns:
+        The tracks, joined ones with their frames in time order and their fit redone.
+    """
+    moving = [tr for tr in tracks if tr.fit is not None and _is_moving(tr, tr.fit, params)]
+    rest = [tr for tr in tracks if not any(tr is m for m in moving)]
+    refused: set[tuple[int, int]] = set()
+    while True:
+        best: tuple[float, int, int] | None = None
+        for a in range(len(moving)):
+            for b in range(a + 1, len(moving)):
+                if (id(moving[a]), id(moving[b])) in refused:
+                    continue
+                m2 = fragments_agree(moving[a], moving[b])
+                if m2 is not None and m2 <= params.association_gate_chi2 and (best is None or m2 < best[0]):
+                    best = (m2, a, b)
+        if best is None:
+            return rest + moving
+        _, a, b = best
+        joined = _joined(moving[a], moving[b])
+        if joined.fit is None or not _is_moving(joined, joined.fit, params):
+            refused.add((id(moving[a]), id(moving[b])))
+            continue
+        moving[a] = joined
+        del moving[b]
 
 
 def merge_standing_trunks(tracks: list[_Track], params: ViewsParams) -> list[_Track]:

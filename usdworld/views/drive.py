@@ -27,10 +27,13 @@ frames are tracked in time order, so the work grows with the number of frames:
 3. The frame's objects join tracks by one global assignment (Hungarian) that maximises
    the summed ``association_gate_chi2 - m2`` of the pairs it makes, ``m2`` a pair's
    squared Mahalanobis distance (prediction and observation covariances summed), so only
-   pairs within the gate are made; the rest start tracks. A person's frame placed by a bound
-   (:func:`usdworld.views.hidden_contact.depth_bound_side`: just behind what hides its feet, or
-   its visible bottom) is compared only across its ray where the track keeps the bound
-   (:func:`bounded_m2`), so it joins its walker instead of starting a track of its own. A
+   pairs within the gate are made; the rest start tracks. A person's or a vehicle's frame placed
+   by a bound (:func:`usdworld.views.hidden_contact.depth_bound_side`: just behind what hides its
+   bottom, or its visible bottom) is compared only across its ray where the track keeps the bound
+   (:func:`bounded_m2`), so it joins its object instead of starting a track of its own; and a
+   vehicle track's moving fit counts such a frame only where it breaks the bound
+   (:func:`fit_motion_bounded`, as the placed fit below), so a frame that only says "at least this
+   far" does not pull the track nearer and make a parked car a mover. A
    track not seen for longer than ``track_gap_s`` is closed. A vehicle's track predicts under two hypotheses,
    standing (velocity 0) and moving (the velocity prior), weighted by the prior
    ``vehicle_standing_share`` times each one's evidence in the track's frames
@@ -90,7 +93,8 @@ degrees of freedom) and ``|v| >= moving_speed_min_mps`` (a slower drift is what 
 error that grows with range makes of a parked car the camera drives past). Everything
 else stands: it is placed once, at the information-weighted mean of all its observations
 (as :func:`fuse` places an object several cameras see), or a trunk class at its bearing
-triangulation.
+triangulation; a standing vehicle whose frames mix readings and bounds is placed where its
+bounds count only on the side they bound (:func:`bounded_standing_position`).
 
 **What a moving object gets.** Its placement (the default, un-timed value) is its fitted
 position at its first frame; per frame where it is seen, a time sample of its position
@@ -384,10 +388,18 @@ class _Track:
         self.refit()
 
     def refit(self) -> None:
-        """Fit the motion of the frames held now (:func:`fit_motion`); standing too where the class keeps it."""
+        """Fit the motion of the frames held now; standing too where the class keeps it.
+
+        A vehicle's moving fit is :func:`fit_motion_bounded` (a frame placed by a depth bound
+        counts along its ray only where the track breaks it); other classes' and the standing
+        hypothesis are :func:`fit_motion`."""
         pos = np.array([o.placement.contact_world[:2] for o in self.items])
         cov = np.array([fit_covariance(o) for o in self.items])
-        self.fit = fit_motion(self.times, pos, cov, self.sigma_speed)
+        if self.class_name in VEHICLE_CLASSES:
+            rays, sides = frame_rays_and_sides(self.items)
+            self.fit = fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides)
+        else:
+            self.fit = fit_motion(self.times, pos, cov, self.sigma_speed)
         if self.sigma_speed > 0 and self.standing_share > 0:
             self.still = fit_motion(self.times, pos, cov, 0.0)
 
@@ -400,9 +412,7 @@ class _Track:
         (:func:`walking_prior`), the direction refitted until it settles."""
         pos = np.array([o.placement.contact_world[:2] for o in self.items])
         cov = np.array([fit_covariance(o) for o in self.items])
-        rays = np.array([o.placement.contact_world[:2] - o.observations[0].camera_ground for o in self.items])
-        rays = rays / np.maximum(np.linalg.norm(rays, axis=1, keepdims=True), 1e-9)
-        sides = np.array([depth_bound_side(o) for o in self.items])
+        rays, sides = frame_rays_and_sides(self.items)
         fit = fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides)
         if self.class_name not in PEOPLE_CLASSES or self.sigma_speed <= 0:
             return fit
@@ -417,6 +427,50 @@ class _Track:
             if turn < _WALK_TURN_RAD:
                 break
         return fit
+
+
+def frame_rays_and_sides(items: Sequence[FusedObject]) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 2) unit viewing directions (each frame's primary camera to its placement) and (N,) bound
+    sides (:func:`~usdworld.views.hidden_contact.depth_bound_side`) of a track's frames."""
+    rays = np.array([o.placement.contact_world[:2] - o.observations[0].camera_ground for o in items])
+    rays = rays / np.maximum(np.linalg.norm(rays, axis=1, keepdims=True), 1e-9)
+    return rays, np.array([depth_bound_side(o) for o in items], dtype=np.int64)
+
+
+def bounded_standing_position(times: Sequence[float], items: Sequence[FusedObject], xy: np.ndarray) -> np.ndarray:
+    """(2,) where a standing vehicle stands when some of its frames bound its depth instead of reading it.
+
+    The standing fit (velocity 0) of :func:`fit_motion_bounded` over the frames' positions and
+    stated covariances: a bound counts along its ray only where the position breaks it (a car
+    seen "at least this far" behind what hides it, "at most this far" by its cut bottom, does
+    not pull the position to the bound), across its ray as a reading. Where no frame bounds,
+    or every frame does (the bounds are then all that is known), ``xy`` (the information-weighted
+    mean) is kept.
+
+    Args:
+        times: (N,) the frames' times, seconds.
+        items: the frames' objects.
+        xy: (2,) float64 the information-weighted mean of the observations, metres.
+
+    Example:
+        Two readings at 10 m and a frame that only says "beyond 8 m": the bound is kept, so it
+        does not pull.
+
+        >>> from types import SimpleNamespace as NS
+        >>> from usdworld.layout.draft import DepthMethod
+        >>> def item(x, method):
+        ...     p = NS(contact_world=np.array([x, 0.0, 0.0]), method=method)
+        ...     return NS(placement=p, covariance=np.eye(2), observations=(NS(placement=p, camera_ground=np.zeros(2)),))
+        >>> items = [item(10.0, DepthMethod.CONTACT), item(10.0, DepthMethod.CONTACT), item(8.0, DepthMethod.BEHIND)]
+        >>> bounded_standing_position([0.0, 1.0, 2.0], items, np.array([9.33, 0.0])).round(2).tolist()
+        [10.0, 0.0]
+    """
+    rays, sides = frame_rays_and_sides(items)
+    if not np.any(sides != 0) or np.all(sides != 0):
+        return xy
+    pos = np.array([o.placement.contact_world[:2] for o in items])
+    cov = np.array([o.covariance for o in items])
+    return fit_motion_bounded(times, pos, cov, 0.0, rays, sides).state[:2]
 
 
 #: Most refits of a walker's direction under :func:`walking_prior`, and the turn that counts as settled,
@@ -721,7 +775,7 @@ def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params:
     Each pair of one class within ``association_gate_chi2`` scores ``gate - m2``
     (:func:`association_m2`: its squared Mahalanobis distance, prediction and observation
     covariances summed, of the standing-or-moving mixture for a vehicle's track; across the ray
-    only for a person's bound the track keeps, :func:`bounded_m2`); the
+    only for a person's or a vehicle's bound the track keeps, :func:`bounded_m2`); the
     assignment (Hungarian) maximises the summed score, so a pair is made only where it is
     inside the gate, and one near pair never takes the track that two others need.
     """
@@ -733,7 +787,7 @@ def _associate(tracks: list[_Track], t: float, items: list[FusedObject], params:
     for j, item in enumerate(items):
         cls = item.placement.obj.class_name
         z = item.placement.contact_world[:2]
-        side = depth_bound_side(item) if cls in PEOPLE_CLASSES else 0
+        side = depth_bound_side(item) if cls in PEOPLE_CLASSES or cls in VEHICLE_CLASSES else 0
         ray = z - item.observations[0].camera_ground
         ray = ray / max(float(np.linalg.norm(ray)), 1e-9)
         for k, tr in enumerate(tracks):
@@ -849,11 +903,14 @@ def frame_scatter(positions: np.ndarray, cameras: np.ndarray) -> np.ndarray:
 def _standing_estimate(tr: _Track, params: ViewsParams) -> tuple[np.ndarray, np.ndarray]:
     """(2,) position and (2, 2) covariance of a standing track, floored for correlated frame errors.
 
-    The information-weighted mean of its observations, whose covariance assumes independent
+    The information-weighted mean of its observations (a vehicle's with its depth bounds counted
+    on their side only, :func:`bounded_standing_position`), whose covariance assumes independent
     frames, plus :func:`_shared_error` (what the frames share does not average away).
     """
     members = [o for item in tr.items for o in item.observations]
     xy, cov = combine(members)
+    if tr.class_name in VEHICLE_CLASSES:
+        xy = bounded_standing_position(tr.times, tr.items, xy)
     return xy, cov + _shared_error(tr, params)
 
 
@@ -1397,6 +1454,8 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
         sized = sized_by_a_whole_view(primary, variant_of_most_frames(members))
     else:
         xy, cov = combine(members)
+        if cls in VEHICLE_CLASSES:
+            xy = bounded_standing_position(tr.times, tr.items, xy)
         sized = sized_by_a_whole_view(primary, members)
     placement = dataclasses.replace(sized, name=name).with_contact_at(np.array([xy[0], xy[1], z]))
     position = placement.position_world

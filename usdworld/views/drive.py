@@ -54,7 +54,11 @@ frames are tracked in time order, so the work grows with the number of frames:
    compared at its bearing triangulation (below).
 5. Standing tracks of one trunk class whose triangulated positions are nearer than their
    footprints' inscribed radii summed are one object (:func:`merge_standing_trunks`),
-   whether or not they share frames: two trunks cannot stand in one place. A trunk track
+   whether or not they share frames: two trunks cannot stand in one place. Two that share
+   frames and agree only within their depths' spread are one when every shared frame sees
+   them overlap across its ray and, for a footprint without an arm, they share at most half
+   of the shorter one's frames (:func:`seen_as_one_trunk`: a crown is cut in two only where
+   something stands in front of it; two trees of a row are two in every frame). A trunk track
    shorter than ``scatter_min_frames`` whose every ray passes through a longer one's
    footprint is that object seen with a failed depth (:func:`absorb_short_fragments`): it
    joins it with its bearings, its depths dropped.
@@ -959,7 +963,8 @@ def merge_standing_trunks(tracks: list[_Track], params: ViewsParams) -> list[_Tr
     their footprints (each track's median over its frames) are one object, whether or not
     they share frames (the two halves of a tree cut by what stands in front of it are seen
     together), or when they share frames and :func:`seen_as_one_trunk` (their triangulations
-    agree within their covariances and every shared frame sees them overlap across the ray).
+    agree within their covariances, every shared frame sees them overlap across the ray and,
+    without an arm, at most half of the shorter track's frames are shared).
     Greedy, nearest pair first; a frame both saw keeps one object, the two placements made one
     as :func:`merge_overlapping` makes them.
 
@@ -1195,6 +1200,14 @@ def seen_as_one_trunk(
     are not compared (a half's contact can lie metres off along the ray); the triangulations
     compare them. Pairs that share no frame are :func:`merge_fragments`' to join.
 
+    Where neither track has an arm (:func:`arm_across` 0: a tree's or plain pole's square
+    footprint), the frames they share must be at most half of the shorter track's frames. A
+    view cuts one crown in two only in the frames where something stands in front of it, so
+    the fragment of a cut crown is alone in most of its frames; two trees of a row that a far
+    view sees on one bearing (their footprints overlap across every ray and their depths are
+    metres apart, within the depth cues' spread) are two objects in every frame that sees both.
+    A lamp's head and mast are seen apart in every frame by design, so an arm keeps the old test.
+
     Args:
         a: one standing track of a trunk class.
         b: another of the same class.
@@ -1213,6 +1226,8 @@ def seen_as_one_trunk(
     n = np.array([-u[1], u[0]])
     across = float(d @ n)
     arm = max(arm_across(a.items, u), arm_across(b.items, u))
+    if arm <= 0.0 and 2 * len(shared) > min(len(a.times), len(b.times)):
+        return False
     d = d - math.copysign(min(abs(across), arm), across) * n
     if float(d @ np.linalg.solve(est_a[1] + est_b[1], d)) > params.association_gate_chi2:
         return False

@@ -1250,7 +1250,7 @@ def seen_as_one_trunk(
 
 
 def cut_tail(shared: int, frames: int) -> float:
-    """Chance that a crown cut in two in each frame with probability 1/2 is cut in ``shared`` or more of ``frames``.
+    """Chance that a crown cut in two with probability 1/2 per frame is cut in ``shared`` or more of ``frames``.
 
     The binomial tail ``P(X >= shared)``, ``X ~ Bin(frames, 1/2)``: a half is the most that
     "cut now and then, by what stands in front" allows, so the tail bounds how likely a track of

@@ -64,7 +64,12 @@ frames are tracked in time order, so the work grows with the number of frames:
    and their frames together still move.
 5. Standing tracks of one trunk class whose triangulated positions are nearer than their
    footprints' inscribed radii summed are one object (:func:`merge_standing_trunks`),
-   whether or not they share frames: two trunks cannot stand in one place. A trunk track
+   whether or not they share frames: two trunks cannot stand in one place. Two that share
+   frames and agree only within their depths' spread are one when every shared frame sees
+   them overlap across its ray and, for a footprint without an arm, they share no more of the
+   shorter one's frames than a crown cut in half the frames gives by chance (:func:`cut_tail`,
+   at the gate's 1 %: a crown is cut in two only where something stands in front of it; two
+   trees of a row are two in every frame that sees both). A trunk track
    shorter than ``scatter_min_frames`` whose every ray passes through a longer one's
    footprint is that object seen with a failed depth (:func:`absorb_short_fragments`): it
    joins it with its bearings, its depths dropped.
@@ -1089,7 +1094,8 @@ def merge_standing_trunks(tracks: list[_Track], params: ViewsParams) -> list[_Tr
     their footprints (each track's median over its frames) are one object, whether or not
     they share frames (the two halves of a tree cut by what stands in front of it are seen
     together), or when they share frames and :func:`seen_as_one_trunk` (their triangulations
-    agree within their covariances and every shared frame sees them overlap across the ray).
+    agree within their covariances, every shared frame sees them overlap across the ray and,
+    without an arm, the frames they share are as few as a crown cut now and then gives).
     Greedy, nearest pair first; a frame both saw keeps one object, the two placements made one
     as :func:`merge_overlapping` makes them.
 
@@ -1325,6 +1331,16 @@ def seen_as_one_trunk(
     are not compared (a half's contact can lie metres off along the ray); the triangulations
     compare them. Pairs that share no frame are :func:`merge_fragments`' to join.
 
+    Where neither track has an arm (:func:`arm_across` 0: a tree's or plain pole's square
+    footprint), the share of the shorter track's frames that the other also holds must be one
+    that a crown cut in two in half the frames or fewer gives by chance: :func:`cut_tail` of
+    the shared count at least the gate's tail, ``exp(-association_gate_chi2 / 2)`` (0.01). A
+    view cuts one crown in two only in the frames where something stands in front of it; two
+    trees of a row that a far view sees on one bearing (their footprints overlap across every
+    ray and their depths are metres apart, within the depth cues' spread) are two objects in
+    every frame that sees both, so their tracks share nearly all of the shorter one's frames.
+    A lamp's head and mast are seen apart in every frame by design, so an arm keeps the old test.
+
     Args:
         a: one standing track of a trunk class.
         b: another of the same class.
@@ -1343,6 +1359,9 @@ def seen_as_one_trunk(
     n = np.array([-u[1], u[0]])
     across = float(d @ n)
     arm = max(arm_across(a.items, u), arm_across(b.items, u))
+    shorter = min(len(a.times), len(b.times))
+    if arm <= 0.0 and cut_tail(len(shared), shorter) < math.exp(-0.5 * params.association_gate_chi2):
+        return False
     d = d - math.copysign(min(abs(across), arm), across) * n
     if float(d @ np.linalg.solve(est_a[1] + est_b[1], d)) > params.association_gate_chi2:
         return False
@@ -1358,6 +1377,25 @@ def seen_as_one_trunk(
         if across >= footprint_reach_across(ia.placement, u) + footprint_reach_across(ib.placement, u):
             return False
     return True
+
+
+def cut_tail(shared: int, frames: int) -> float:
+    """Chance that a crown cut in two with probability 1/2 per frame is cut in ``shared`` or more of ``frames``.
+
+    The binomial tail ``P(X >= shared)``, ``X ~ Bin(frames, 1/2)``: a half is the most that
+    "cut now and then, by what stands in front" allows, so the tail bounds how likely a track of
+    ``frames`` frames, ``shared`` of them also holding another track's observation, is one
+    object's fragment (:func:`seen_as_one_trunk`).
+
+    Args:
+        shared: frames the two tracks share (>= 0).
+        frames: frames of the shorter track (>= shared).
+
+    Example:
+        >>> [round(cut_tail(s, 4), 4) for s in (2, 4)], round(cut_tail(10, 10), 4)
+        ([0.6875, 0.0625], 0.001)
+    """
+    return sum(math.comb(frames, k) for k in range(shared, frames + 1)) / 2.0**frames
 
 
 def _joined_overlapping(a: _Track, b: _Track, params: ViewsParams) -> _Track:

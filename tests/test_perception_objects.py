@@ -140,9 +140,23 @@ def _tree_over_sidewalk(trunk_hidden: bool) -> Segmentation:
 
 def test_a_tree_stands_on_its_trunk_not_on_its_crown():
     (tree,) = [o for o in _objects(_tree_over_sidewalk(False)) if o.class_name == "tree"]
-    # the crown's lower edge (row 119) hangs over sidewalk too; the trunk's foot is the contact
-    np.testing.assert_allclose(tree.contact_px, [160.0, 149.5])
+    # the crown's lower edge (row 119) hangs over sidewalk too; the trunk's foot is the contact:
+    # the middle of its columns 155-164 (pixel centres at integers), its lowest row's edge
+    np.testing.assert_allclose(tree.contact_px, [159.5, 149.5])
     assert not tree.bottom_occluded and tree.standing_on == "sidewalk"
+
+
+def test_a_trunks_column_is_where_the_renderers_projection_puts_its_middle():
+    # The renderer (usdworld/render/camera.py) puts a world point in the pixel whose index is its
+    # OpenCV projection rounded: pixel centres at integers. A trunk spanning u = 157.6-162.4 (its
+    # middle's projection 160.0) covers columns 158-162; its contact's column is 160.0, not half a
+    # pixel to the right (which at f = 490 px turns every bearing of a drive by 1 mrad the same way).
+    labels = np.full((200, 400), 23, dtype=np.uint8)  # sky
+    labels[100:, :] = SIDEWALK
+    labels[40:120, 120:200] = VEGETATION
+    labels[120:150, 158:163] = VEGETATION
+    (tree,) = [o for o in _objects(Segmentation(labels, labels.astype(np.int32), (FILE,))) if o.class_name == "tree"]
+    assert tree.contact_px[0] == 160.0
 
 
 def test_a_tree_whose_trunk_a_car_hides_has_no_contact():
@@ -251,7 +265,7 @@ def test_merged_crowns_are_cut_at_the_dip_between_their_tops():
     trees = [o for o in _objects(_crowns(tops, [128, 183])) if o.class_name == "tree"]
     assert len(trees) == 2
     assert trees[0].box_px[2] in (159, 160, 161) and trees[1].box_px[0] == trees[0].box_px[2]
-    np.testing.assert_allclose([t.contact_px[0] for t in trees], [130.0, 185.0])  # the trunks' middles
+    np.testing.assert_allclose([t.contact_px[0] for t in trees], [129.5, 184.5])  # the trunks' middles
 
 
 def test_two_signs_one_behind_the_other_are_two_signs():
@@ -400,7 +414,7 @@ def test_two_crowns_over_a_parked_car_are_two_trees():
     assert len(trees) == 2
     assert 132 <= trees[0].box_px[2] == trees[1].box_px[0] <= 188
     assert all(t.bottom_occluded for t in trees)
-    np.testing.assert_allclose([t.contact_px[0] for t in trees], [130.0, 190.0])
+    np.testing.assert_allclose([t.contact_px[0] for t in trees], [129.5, 189.5])
 
 
 def _occluders_pairwise(items: list[tuple[np.ndarray, bool]], fraction: float) -> list[tuple[bool, int]]:

@@ -46,7 +46,9 @@ class ImageObject:
         mask: (ymax-ymin, xmax-xmin) bool crop of the object's pixels inside the box.
         contact_px: (2,) float64 pixel (u, v) where the object meets the ground. A mask's
             lowest pixel row ``r`` is covered when the true edge lies in ``[r, r + 1)``
-            (OpenCV pixel centres at integers), so ``v = r + 0.5``; boxes keep their edge.
+            (OpenCV pixel centres at integers), so ``v = r + 0.5``; boxes keep their edge. A
+            trunk's or a region's column ``u`` is the median of its pixels' columns, each at its
+            centre, the integer (as the renderer projects, :mod:`usdworld.render.camera`).
         bottom_truncated: the bottom touches the image border.
         bottom_occluded: the bottom is mostly hidden by other objects.
         top_truncated: the top touches the image border.
@@ -258,12 +260,12 @@ def _contact_from_mask(
         # Where the trunk's or post's own foot is hidden, it is still the foot: not a
         # lamp's arm or a crown's hem beside it, whose lower edge has nothing below.
         foot = use & band if (use & band).any() else band
-        u = float(np.median(cols_abs[foot])) + 0.5
+        u = float(np.median(cols_abs[foot]))
         v = float(rows_abs[foot].max()) + 0.5
     else:
         order = np.argsort(cols_abs[use])
         mid = order[len(order) // 2]
-        u = float(cols_abs[use][mid]) + 0.5
+        u = float(cols_abs[use][mid])
         v = float(np.median(rows_abs[use])) + 0.5
     standing_on = ""
     if below_labels is not None and support.any():

@@ -142,10 +142,10 @@ def find_targets(world: Path) -> Targets:
         pose = camera_from_usd(editor.stage.GetPrimAtPath("/World/SourceCamera"), 1024, 512)
         cam_from_world = np.linalg.inv(pose.world_from_cam)
 
-        def in_view(xy: tuple[float, float]) -> bool:
+        def in_view(xy: tuple[float, float], margin_px: float = 80.0) -> bool:
             p = cam_from_world @ np.array([xy[0], xy[1], 0.0, 1.0])
             u, v, w = pose.K @ p[:3]
-            return p[2] > 4.0 and 80 < u / w < 944 and 300 < v / w < 500
+            return p[2] > 4.0 and margin_px < u / w < 1024 - margin_px and 300 < v / w < 500
 
         live = [o for o in objects if o.active]
         table = rules.Footprints(
@@ -164,9 +164,11 @@ def find_targets(world: Path) -> Targets:
             (o for o, s in zip(objects, surfaces) if o.active and o.class_name == "car" and s == "road"),
             key=lambda o: o.position_world[0],
         )
-        steps = [(dx, dy) for dx in (2.5, -2.5, 3.5, -3.5, 5.0, 6.5) for dy in (0.0, 0.4, -0.4, 0.8, -0.8)]
+        steps = [(dx, dy) for dx in (2.5, -2.5, 3.5, -3.5, 5.0, 6.5) for dy in (0.0, 0.4, -0.4, 0.8, -0.8, 1.2, -1.2)]
         choice = None
-        for car in (c for c in cars if in_view(c.position_world[:2])):
+        # A car cut by the image border may stand with its centre at the border (half of it in
+        # view); where it goes must be well inside.
+        for car in (c for c in cars if in_view(c.position_world[:2], margin_px=0.0)):
             x, y = car.position_world[:2]
             others = table.without(car.name)
             to = next(

@@ -11,6 +11,7 @@ Frames: world (Z up, metres, ground z = 0, camera above the origin); image pixel
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 
 import numpy as np
 
@@ -315,6 +316,144 @@ def align_box_columns(
         limit = 0.5 * float(np.hypot(size[0], size[1]))
     norm = float(np.linalg.norm(shift))
     return start + shift * (limit / norm) if norm > limit else centre
+
+
+def place_border_cut(
+    camera: PinholeCamera,
+    ground: np.ndarray,
+    yaw: float,
+    size: np.ndarray,
+    reach_lw: np.ndarray,
+    obj: ImageObject,
+    params: PlacementParams,
+) -> np.ndarray:
+    """The footprint centre of an object cut by the left or the right image border, from what is seen.
+
+    Such an object's contact row is not its nearest contact (that lies beyond the border):
+    it is the lowest row its footprint reaches over the columns inside the image, and its
+    seen side's edge is its own. With its heading and size known, the two fix the centre:
+    the projected 3D box's inner edge falls on the image box's edge there, and its contact
+    footprint (``reach_lw``: a car's tyres), clipped to the image's columns, reaches down to
+    the contact row. That row's lowest point lies on the footprint, somewhere between the
+    seen columns: the centre lies within half the box's diagonal of the ground under that
+    stretch of the row, which two nested
+    bisections over that range (across the ray every corner's column moves one way; along it
+    the footprint's rows rise as it recedes, scanned first for the nearest change of sign)
+    solve for it. Without one (the seen edge or row is out of reach of a box of that size and
+    heading), ``ground`` is kept.
+
+    Args:
+        camera: the source camera.
+        ground: (2,) float64 footprint centre as drafted (on the contact's ray).
+        yaw: the object's heading, radians (its real one, not a stand-in).
+        size: (3,) float64 length, width and height, metres.
+        reach_lw: (2,) float64 length and width of its contact footprint, metres.
+        obj: the image evidence: cut on one side only, its other side and its bottom seen.
+        params: the scan's and the bisections' steps.
+
+    Returns:
+        (2,) float64 footprint centre; ``ground`` when the object is not cut on one side
+        only, or the seen edge and row cannot both be met.
+    """
+    x0, _, x1, _ = (float(b) for b in obj.edges_px)
+    # Cut where the box reaches the border (KITTI clips its boxes to [0, W - 1]), not where the
+    # input only marks the object truncated (its box's side is then its own).
+    left_cut = obj.left_truncated and x0 <= 1.0
+    right_cut = obj.right_truncated and x1 >= camera.width - 1.0
+    if left_cut == right_cut or (left_cut and not obj.right_bounded) or (right_cut and not obj.left_bounded):
+        return ground
+    seen_u = x1 if left_cut else x0
+    seen_v = float(obj.contact_px[1])
+    offsets, h = _foot_offsets(yaw, size)
+    rim = _foot_offsets(yaw, np.array([reach_lw[0], reach_lw[1], 0.0]))[0][[0, 1, 3, 2]]  # round the rim
+    ends, _ = camera.ground_points(np.array([[x0, seen_v], [x1, seen_v]]))
+    if not np.isfinite(ends).all():
+        return ground
+    origin = 0.5 * (ends[0] + ends[1])
+    ray = origin - np.asarray(camera.center_world[:2], dtype=np.float64)
+    along = ray / max(float(np.linalg.norm(ray)), 1e-9)
+    left = np.array([-along[1], along[0]])
+    reach = 0.5 * float(np.hypot(size[0], size[1]))
+    span = reach + 0.5 * float(np.linalg.norm(ends[1] - ends[0]))
+
+    def inner_minus_seen(c: np.ndarray) -> float:
+        """The projected box's inner edge column minus the seen one (NaN: behind the camera)."""
+        px, depth = camera.project(_corners_at(c, offsets, h))
+        if not ((depth > 0).all() and np.isfinite(px).all()):
+            return float("nan")
+        return (float(px[:, 0].max()) if left_cut else float(px[:, 0].min())) - seen_u
+
+    def across(s: float) -> np.ndarray | None:
+        """The centre ``s`` metres along the ray whose inner edge meets the seen one (None: none)."""
+        # Moving left lowers every column: the residual falls with ``q``.
+        q = _bisect(lambda q: inner_minus_seen(origin + s * along + q * left), -span, span, params)
+        return None if q is None else origin + s * along + q * left
+
+    def row_minus_seen(s: float) -> float:
+        c = across(s)
+        if c is None:
+            return float("nan")
+        px, depth = camera.project(np.column_stack([c + rim, np.zeros(4)]))
+        if not ((depth > 0).all() and np.isfinite(px).all()):
+            return float("nan")
+        return lowest_row_inside(px, float(camera.width)) - seen_v
+
+    # Where the seen edge is out of reach (or no footprint is left inside the image) the row is
+    # undefined: scan the range for the nearest pair of defined rows on either side of the seen one.
+    steps = np.linspace(-span, span, params.border_cut_scan_steps + 1)
+    rows = [row_minus_seen(float(t)) for t in steps]
+    s = None
+    for k in range(len(steps) - 1):
+        if np.isfinite(rows[k]) and np.isfinite(rows[k + 1]) and rows[k] * rows[k + 1] <= 0:
+            s = _bisect(row_minus_seen, float(steps[k]), float(steps[k + 1]), params)
+            break
+    centre = None if s is None else across(s)
+    if centre is None or _to_segment(centre, ends[0], ends[1]) > reach:
+        return ground
+    return centre
+
+
+def _to_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance from the point ``p`` to the segment from ``a`` to ``b`` ((2,) each), metres."""
+    ab = b - a
+    t = float(np.clip(np.dot(p - a, ab) / max(float(np.dot(ab, ab)), 1e-18), 0.0, 1.0))
+    return float(np.linalg.norm(p - (a + t * ab)))
+
+
+def _bisect(f: Callable[[float], float], lo: float, hi: float, params: PlacementParams) -> float | None:
+    """A root of ``f`` (a float function, NaN where undefined) between ``lo`` and ``hi``, by
+    :attr:`~PlacementParams.border_cut_bisections` halvings; None without a change of sign."""
+    f_lo, f_hi = f(lo), f(hi)
+    if not (np.isfinite(f_lo) and np.isfinite(f_hi)) or f_lo * f_hi > 0:
+        return None
+    for _ in range(params.border_cut_bisections):
+        mid = 0.5 * (lo + hi)
+        f_mid = f(mid)
+        if not np.isfinite(f_mid):
+            return None
+        if (f_mid > 0) == (f_lo > 0):
+            lo, f_lo = mid, f_mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def lowest_row_inside(rim_px: np.ndarray, width: float) -> float:
+    """The largest row of a convex polygon's image (``rim_px`` (N, 2), in order round it) over
+    the columns ``0 <= u <= width``; NaN when none of it is inside.
+
+    A ground polygon's image is a polygon (straight lines stay straight), so its lowest point
+    inside the image is one of its corners there or where an edge crosses a border column.
+    """
+    rows = [float(p[1]) for p in rim_px if 0.0 <= p[0] <= width]
+    n = len(rim_px)
+    for i in range(n):
+        a, b = rim_px[i], rim_px[(i + 1) % n]
+        for x in (0.0, width):
+            if (a[0] - x) * (b[0] - x) < 0:
+                t = (x - a[0]) / (b[0] - a[0])
+                rows.append(float(a[1] + t * (b[1] - a[1])))
+    return max(rows) if rows else float("nan")
 
 
 def object_yaw(

@@ -17,7 +17,7 @@ import numpy as np
 from usdworld.io.class_table import ClassPrior
 from usdworld.io.asset_catalogue import AssetSizes
 from usdworld.layout.asset_sizes import choose_variant
-from usdworld.layout.boxes import align_box_columns, object_heading, object_yaw
+from usdworld.layout.boxes import align_box_columns, object_heading, object_yaw, place_border_cut
 from usdworld.layout.cues import FrontDepth, front_depth
 from usdworld.layout.draft import (
     DepthMethod,
@@ -85,6 +85,20 @@ def draft_object(
     if obj.is_thing:
         heading_known = prior.yaw not in HEADING_STAND_INS
         ground = align_box_columns(ctx.camera, ground, yaw, sized.size, obj, ctx.params, heading_known)
+        if prior.yaw == "road" and front.method is DepthMethod.CONTACT and not trunk:
+            # Cut by the left or right border: its seen edge and contact row place it (its
+            # contact is not its nearest corner, so the drafted centre overshoots along the ray).
+            # A mask's lowest pixel is a tyre's, or, with no tyre in view, the body's bottom.
+            placed = ground
+            tyres = 2.0 * sizes.contact_half(sized.variant) * sized.scale
+            for reach in ((sized.size[:2],) if obj.box_only else (tyres, sized.size[:2])):
+                placed = place_border_cut(ctx.camera, ground, yaw, sized.size, reach, obj, ctx.params)
+                if placed is not ground:
+                    break
+            if placed is not ground:
+                ground = placed
+                depth = depth_of_ground_point(ctx.camera, ground)
+                back = depth - front.depth_m
     if not depth > 0:  # a wall seen at the image's bottom corner, a few decimetres ahead: centre behind the camera
         return None
     centre_cues = tuple(

@@ -248,6 +248,18 @@ class PlacementParams:
     box_align_iterations: int = param(
         4, "count", "Fixed-point steps of the box-column alignment.", f"{_SYNTH} (87db2ec: box alignment)"
     )
+    border_cut_bisections: int = param(
+        24,
+        "count",
+        "Halvings of each bisection placing an object cut by the left or right image border from its seen edge and contact row.",
+        "convention: halves a footprint's diagonal (about 5 m) to below a millimetre",
+    )
+    border_cut_scan_steps: int = param(
+        16,
+        "count",
+        "Steps of the scan along the viewing ray for the bracket of a border-cut object's contact row (then bisected).",
+        "convention: a footprint's diagonal in steps of about 30 cm, finer than a car's length",
+    )
     view_angle_step_deg: float = param(
         1.0,
         "deg",

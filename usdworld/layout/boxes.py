@@ -260,7 +260,8 @@ def align_box_columns(
     a hidden side is not taken as cut. Boxes hidden on both sides, and boxes cut by the
     left or right image border, are left alone (a border-cut box's contact row is not its
     nearest contact either, so its seen edge alone would move it across the ray while its
-    depth stays off).
+    depth stays off: :func:`place_border_cut` places such a box from its seen edge and its
+    contact row together).
 
     Args:
         camera: the source camera.

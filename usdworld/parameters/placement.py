@@ -249,10 +249,10 @@ class PlacementParams:
         4, "count", "Fixed-point steps of the box-column alignment.", f"{_SYNTH} (87db2ec: box alignment)"
     )
     border_cut_bisections: int = param(
-        24,
+        15,
         "count",
         "Halvings of each bisection placing an object cut by the left or right image border from its seen edge and contact row.",
-        "convention: halves a footprint's diagonal (about 5 m) to below a millimetre",
+        "convention: halves the widest search span (about 16 m: a car's diagonal and the seen row's stretch) to half a millimetre",
     )
     border_cut_scan_steps: int = param(
         16,

@@ -411,7 +411,8 @@ class _Track:
     def placed_fit(self, params: ViewsParams) -> MotionFit:
         """The fit that places a moving track: :func:`fit_motion_bounded`, each frame's bound
         side from :func:`~usdworld.views.hidden_contact.depth_bound_side` along its primary
-        view's ray (the tracking's own fit, :meth:`refit`, takes every frame as a reading).
+        view's ray (the tracking's own fit, :meth:`refit`, does so only for a vehicle and takes a
+        person's every frame as a reading).
 
         A person's speed along its fitted direction has the walking prior
         (:func:`walking_prior`), the direction refitted until it settles."""
@@ -1045,6 +1046,24 @@ def fragments_agree(a: _Track, b: _Track) -> float | None:
     return float(d @ np.linalg.solve(Pa + Pb, d))
 
 
+class _Refusals:
+    """Pairs of tracks a greedy join has refused, by identity.
+
+    The pairs are held, not only their ``id()``: a track a later join replaces would otherwise be
+    freed, and a new track could take its id and inherit its refusal.
+    """
+
+    def __init__(self) -> None:
+        self._pairs: dict[tuple[int, int], tuple[_Track, _Track]] = {}
+
+    def add(self, a: _Track, b: _Track) -> None:
+        """Refuse joining ``a`` with ``b`` (in this order)."""
+        self._pairs[id(a), id(b)] = (a, b)
+
+    def __contains__(self, pair: tuple[_Track, _Track]) -> bool:
+        return (id(pair[0]), id(pair[1])) in self._pairs
+
+
 def merge_moving_fragments(tracks: list[_Track], params: ViewsParams) -> list[_Track]:
     """Join moving tracks that are one mover broken into fragments.
 
@@ -1064,12 +1083,12 @@ def merge_moving_fragments(tracks: list[_Track], params: ViewsParams) -> list[_T
     """
     moving = [tr for tr in tracks if tr.fit is not None and _is_moving(tr, tr.fit, params)]
     rest = [tr for tr in tracks if not any(tr is m for m in moving)]
-    refused: set[tuple[int, int]] = set()
+    refused = _Refusals()
     while True:
         best: tuple[float, int, int] | None = None
         for a in range(len(moving)):
             for b in range(a + 1, len(moving)):
-                if (id(moving[a]), id(moving[b])) in refused:
+                if (moving[a], moving[b]) in refused:
                     continue
                 m2 = fragments_agree(moving[a], moving[b])
                 if m2 is not None and m2 <= params.association_gate_chi2 and (best is None or m2 < best[0]):
@@ -1079,7 +1098,7 @@ def merge_moving_fragments(tracks: list[_Track], params: ViewsParams) -> list[_T
         _, a, b = best
         joined = _joined(moving[a], moving[b])
         if joined.fit is None or not _is_moving(joined, joined.fit, params):
-            refused.add((id(moving[a]), id(moving[b])))
+            refused.add(moving[a], moving[b])
             continue
         moving[a] = joined
         del moving[b]
@@ -1161,12 +1180,12 @@ def merge_standing_vehicles(tracks: list[_Track], params: ViewsParams) -> list[_
         (cand if standing and tr.class_name in VEHICLE_CLASSES else keep).append(tr)
     pos = [_standing_estimate(tr, params)[0] for tr in cand]
     radius = [float(np.median([_footprint_radius(item.placement) for item in tr.items])) for tr in cand]
-    refused: set[tuple[int, int]] = set()
+    refused = _Refusals()
     while True:
         best: tuple[float, int, int] | None = None
         for a in range(len(cand)):
             for b in range(a + 1, len(cand)):
-                if cand[a].class_name != cand[b].class_name or (id(cand[a]), id(cand[b])) in refused:
+                if cand[a].class_name != cand[b].class_name or (cand[a], cand[b]) in refused:
                     continue
                 d = float(np.linalg.norm(pos[a] - pos[b]))
                 if d < radius[a] + radius[b] and (best is None or d < best[0]):
@@ -1176,7 +1195,7 @@ def merge_standing_vehicles(tracks: list[_Track], params: ViewsParams) -> list[_
         _, a, b = best
         joined = _joined_overlapping(cand[a], cand[b], params)
         if joined.fit is not None and _is_moving(joined, joined.fit, params):
-            refused.add((id(cand[a]), id(cand[b])))  # two standing tracks whose frames together move
+            refused.add(cand[a], cand[b])  # two standing tracks whose frames together move
             continue
         cand[a] = joined
         pos[a] = _standing_estimate(joined, params)[0]

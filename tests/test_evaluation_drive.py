@@ -49,6 +49,24 @@ def test_known_answers() -> None:
     assert result["false_moving"] == []
 
 
+def test_the_track_summary_splits_by_class() -> None:
+    """A walker 2 m off its track and a car 0.4 m off: the overall median is theirs, each class keeps its own."""
+    gt = _gt()
+    gt["objects"].append(
+        {"name": "person_0000", "class": "person", "moving": True, "track": [[12, 3, 0], [13, 3, 0], [14, 3, 0]],
+         "visible_pixels": [40, 40, 40]}
+    )
+    car = TrackedWorldObject("car_0001", "car", np.array([10.0, 0.4]), True,
+                             {0.0: np.array([10.0, 0.4]), 1.0: np.array([20.0, 0.4])})
+    walker = TrackedWorldObject("person_0001", "person", np.array([12.0, 5.0]), True,
+                                {0.0: np.array([12.0, 5.0]), 2.0: np.array([14.0, 5.0])})
+    moving = evaluate_drive([car, walker], gt, ("car", "person"))["moving"]
+    assert moving["median_track_error_m"] == pytest.approx(1.2)  # median of 0.4 and 2.0
+    assert moving["per_class"]["car"]["median_track_error_m"] == pytest.approx(0.4)
+    assert moving["per_class"]["person"]["median_track_error_m"] == pytest.approx(2.0)
+    assert [moving["per_class"][c]["paired_moving"] for c in ("car", "person")] == [1, 1]
+
+
 def test_a_standing_world_object_for_a_moving_car_is_held_in_place() -> None:
     parked = TrackedWorldObject("car_0001", "car", np.array([10.0, 0.0]), False, {})
     result = evaluate_drive([parked], _gt(), ("car", "tree"))

@@ -199,6 +199,12 @@ def _drive_main(manifest: Path, out_arg: Path | None, jobs: int | None, as_json:
         f"moving objects: {m['seen']} seen, {m['paired']} paired, {m['paired_moving']} of them moving in the world; "
         f"track error median {med}, p90 {p90}"
     )
+    for name, c in m["per_class"].items():
+        med = "-" if c["median_track_error_m"] is None else f"{c['median_track_error_m']:.2f} m"
+        print(
+            f"  {name}: {c['seen']} seen, {c['paired']} paired, {c['paired_moving']} moving; "
+            f"track error median {med}"
+        )
     print(f"world objects moving but paired with no moving object: {len(result['false_moving'])}")
     if as_json:
         print(json.dumps({"seconds": seconds, "frames": n, "ground_spread_m": spread, **result}))

@@ -105,6 +105,18 @@ def error_split(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     return {"overall": summary(placed), "per_class": per_class}
 
 
+def _track_summary(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Seen, paired and moving-when-paired counts and the median / p90 track error of moving ground-truth rows."""
+    errors = [r["track_error_m"] for r in rows if r["track_error_m"] is not None]
+    return {
+        "seen": len(rows),
+        "paired": len(errors),
+        "paired_moving": sum(bool(r["object_moving"]) for r in rows),
+        "median_track_error_m": float(np.median(errors)) if errors else None,
+        "p90_track_error_m": float(np.percentile(errors, 90)) if errors else None,
+    }
+
+
 def evaluate_drive(
     objects: Sequence[TrackedWorldObject],
     gt: dict[str, Any],
@@ -123,7 +135,8 @@ def evaluate_drive(
 
     Returns:
         JSON-ready: ``moving`` (seen, paired, paired_moving, median and p90 track error,
-        per object rows), ``standing`` (the :func:`evaluate_bev` result, each box's row with
+        the same per class under ``per_class``, per object rows),
+        ``standing`` (the :func:`evaluate_bev` result, each box's row with
         ``along_m`` / ``across_m``: its nearest object's signed error along and across its
         :func:`viewing_direction`, None when missed; and ``error_split``, :func:`error_split`)
         and ``false_moving`` (world objects that move but were paired with no moving object).
@@ -171,13 +184,11 @@ def evaluate_drive(
                 "track_error_m": float(cost[i, j]) if j is not None else None,
             }
         )
-    errors = [r["track_error_m"] for r in rows if r["track_error_m"] is not None]
     moving = {
-        "seen": len(movers),
-        "paired": len(errors),
-        "paired_moving": sum(bool(r["object_moving"]) for r in rows),
-        "median_track_error_m": float(np.median(errors)) if errors else None,
-        "p90_track_error_m": float(np.percentile(errors, 90)) if errors else None,
+        **_track_summary(rows),
+        "per_class": {
+            c: _track_summary([r for r in rows if r["class"] == c]) for c in sorted({r["class"] for r in rows})
+        },
         "objects": rows,
     }
     boxes = []

@@ -281,8 +281,10 @@ def evaluate_drive(
     for k, o in enumerate(seen):
         if o["moving"]:
             continue
-        at_foot = catalogue is not None and o["class"] in trunk_classes
-        xy = _truth_foot(o, catalogue) if at_foot else np.array(o["track"][0][:2], dtype=np.float64)
+        if catalogue is not None and o["class"] in trunk_classes:
+            xy = _truth_foot(o, catalogue)
+        else:
+            xy = np.array(o["track"][0][:2], dtype=np.float64)
         frames = [f for f, px in enumerate(o["visible_pixels"]) if px >= MIN_VISIBLE_PX]
         rng = min(float(np.linalg.norm(xy - egos[f])) for f in frames)
         boxes.append(BevBox(k, o["class"], xy, ("drive",), range_m=rng))

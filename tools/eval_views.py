@@ -222,7 +222,7 @@ def _drive_main(manifest: Path, out_arg: Path | None, jobs: int | None, as_json:
     print("ground error along / across the viewing direction (median |.|): " + "; ".join(parts))
     variants = result["standing"]["variants"]
     print(
-        "variant as the ground truth's (placed, trunk classes at their foot): "
+        "variant as the ground truth's (placed standing objects; poles, trees and signs are compared at their foot): "
         + ("; ".join(f"{c} {v['agree']}/{v['n']}" for c, v in variants.items()) or "-")
     )
     m = result["moving"]

@@ -100,3 +100,74 @@ def test_the_split_keeps_the_error_and_follows_the_mean_viewing_direction() -> N
     u = (rays / np.linalg.norm(rays, axis=1, keepdims=True)).mean(axis=0)
     u /= np.linalg.norm(u)
     assert row["along_m"] == pytest.approx(float(np.array([1.0, -0.5]) @ u))
+
+
+def _lamp_catalogue():
+    from usdworld.io.asset_catalogue import AssetCatalogue, AssetSizes
+
+    pole = AssetSizes({"plain": (0.3, 0.3, 6.0), "street_lamp": (2.05, 0.3, 7.96)}, "plain",
+                      contact_offset_by_variant={"street_lamp": (-0.875, 0.0)})
+    return AssetCatalogue({"pole": pole})
+
+
+def _lamp_gt() -> dict:
+    """A street lamp on the right kerb, arm over the road (yaw +90 deg: its +X points to +Y, the road),
+    scale 1.1: origin (20, -4.3), its mast's foot 0.875 * 1.1 m farther from the road, at (20, -5.2625)."""
+    gt = _gt()
+    gt["objects"] = [{"name": "pole_0000", "class": "pole", "moving": False, "variant": "street_lamp",
+                      "scale": [1.1, 1.1, 1.1], "yaw_rad": np.pi / 2, "track": [[20.0, -4.3, 0.15]] * 3,
+                      "visible_pixels": [80, 80, 80]}]
+    return gt
+
+
+def test_a_pole_is_compared_at_its_post_s_foot() -> None:
+    """The true lamp's mast at (20, -5.2625) and a world plain pole standing on it: a wrong variant,
+    no ground error; compared at their origins (no catalogue) the same pole is 0.9625 m off."""
+    plain = TrackedWorldObject("pole_0001", "pole", np.array([20.0, -5.2625]), False, {}, "plain")
+    at_feet = evaluate_drive([plain], _lamp_gt(), ("pole",), catalogue=_lamp_catalogue(),
+                             trunk_classes=("pole",))["standing"]
+    (row,) = at_feet["boxes"]
+    assert row["error_m"] == pytest.approx(0.0, abs=1e-9)
+    assert (row["variant_truth"], row["variant_world"]) == ("street_lamp", "plain")
+    assert at_feet["variants"] == {"pole": {"n": 1, "agree": 0}}
+    (origins,) = evaluate_drive([plain], _lamp_gt(), ("pole",))["standing"]["boxes"]
+    assert origins["error_m"] == pytest.approx(0.9625)
+
+
+def test_foot_offset_turns_the_scaled_contact_offset() -> None:
+    from usdworld.evaluation.drive import foot_offset
+
+    pole = _lamp_catalogue()["pole"]
+    assert foot_offset(pole, "street_lamp", (1.1, 1.1, 1.1), np.pi / 2) == pytest.approx([0.0, -0.9625])
+    assert foot_offset(pole, "street_lamp", (1.0, 1.0, 1.0), -np.pi / 2) == pytest.approx([0.0, 0.875])
+    assert foot_offset(pole, "plain", (1.2, 1.2, 1.2), 0.3) == pytest.approx([0.0, 0.0])
+
+
+def test_a_trunk_s_truth_without_a_variant_is_an_input_error() -> None:
+    from usdworld.errors import InputError
+
+    gt = _lamp_gt()
+    del gt["objects"][0]["variant"]
+    with pytest.raises(InputError, match="pole_0000: no 'variant'"):
+        evaluate_drive([], gt, ("pole",), catalogue=_lamp_catalogue(), trunk_classes=("pole",))
+
+
+def test_eval_views_fills_an_old_drive_s_variants_from_its_first_frame(tmp_path) -> None:
+    """A drive ground truth written before variants were: tools/eval_views.py takes each object's
+    variant and scale from ``<name>_000000_gt.json``, which lists every object."""
+    import importlib.util
+    import json
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location(
+        "eval_views", Path(__file__).resolve().parents[1] / "tools" / "eval_views.py"
+    )
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    gt = _lamp_gt()
+    del gt["objects"][0]["variant"], gt["objects"][0]["scale"]
+    (tmp_path / "d_drive_gt.json").write_text(json.dumps(gt))
+    frame = {"objects": [{"name": "pole_0000", "variant": "street_lamp", "scale": [1.1, 1.1, 1.1]}]}
+    (tmp_path / "d_000000_gt.json").write_text(json.dumps(frame))
+    (filled,) = tool._drive_ground_truth(tmp_path / "d_drive_gt.json")["objects"]
+    assert (filled["variant"], filled["scale"]) == ("street_lamp", [1.1, 1.1, 1.1])

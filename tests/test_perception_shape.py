@@ -40,6 +40,23 @@ def test_round_top_is_near_zero_and_empty_is_none():
     assert top_shape_ratio(np.zeros((5, 5), bool)) is None
 
 
+def test_a_mask_one_or_two_pixels_wide_has_no_top_shape():
+    """Every row of a 1-2 px wide mask is at least half its widest: the ratio would be 0.5 / widest
+    (0.25 for 2 px, a street lamp's side of the plain pole's), so there is none; from 3 px on a
+    1 px top row no longer counts and the shape is read."""
+    plain_pole = np.zeros((90, 4), bool)
+    plain_pole[:, 1:3] = True  # 2 px wide all the way down
+    assert top_shape_ratio(plain_pole) is None
+    assert top_shape_ratio(plain_pole[:, 1:2]) is None
+    based = plain_pole.copy()
+    based[80:, 0:3] = True  # a 3 px base under a 2 px shaft: the shaft counts as half
+    assert top_shape_ratio(based) == pytest.approx(0.5 / 3)
+    tapered = np.zeros((90, 5), bool)
+    tapered[:, 2] = True
+    tapered[60:, 1:4] = True  # 1 px top, 3 px from row 60
+    assert top_shape_ratio(tapered) == pytest.approx(60.5 / 3)
+
+
 def test_library_variants_are_told_apart():
     conifer = variant_measures("tree", "conifer").top_shape
     deciduous = variant_measures("tree", "deciduous").top_shape

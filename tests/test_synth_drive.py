@@ -38,6 +38,9 @@ def test_ground_truth_tracks_are_constant_velocity_and_frames_agree(drive: Path)
     assert moving and static
     assert {o["role"] for o in moving} <= {"driving", "walking"}
     assert {o["role"] for o in static}.isdisjoint({"driving", "walking"})
+    first = {o["name"]: o for o in json.loads((drive / "drive_000007_000000_gt.json").read_text())["objects"]}
+    assert all((o["variant"], o["scale"]) == (first[o["name"]]["variant"], first[o["name"]]["scale"])
+               for o in gt["objects"])  # what a trunk's foot needs (usdworld.evaluation.drive.foot_offset)
     for o in gt["objects"]:
         track = np.array(o["track"])
         v = np.array([*o["velocity_world"], 0.0])

@@ -4,7 +4,8 @@ Read from the composed stage (edits and variant selections applied, inactive obj
 skipped), so an edited world is evaluated as it is. Each child of ``/World/Objects`` gives
 its class label, its origin (the asset convention: the footprint centre on the ground),
 its heading (the local +X axis), its size (the untransformed bounds of its geometry times
-its scale) and the ``usdworld:instanceId`` it was built from.
+its scale), its scale, its asset's ``model`` variant and the ``usdworld:instanceId`` it was
+built from.
 
 This module reads USD (``pxr``), which the house style otherwise keeps to ``authoring/``
 and ``render/``: evaluation sits downstream of rendering and must read the composed stage.
@@ -12,7 +13,7 @@ and ``render/``: evaluation sits downstream of rendering and must read the compo
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from pxr import Usd, UsdGeom
@@ -35,6 +36,8 @@ class WorldObject:
         bottom_centre_world: (3,) float64 origin of the object (footprint centre), metres.
         heading_world: (3,) float64 unit vector of the object's +X axis.
         size_lwh: (3,) float64 length (along +X), width, height in metres.
+        scale: (3,) float64 its scale along its own X, Y, Z.
+        variant: the selection of its ``model`` variant set ('' when it has none).
     """
 
     name: str
@@ -43,6 +46,8 @@ class WorldObject:
     bottom_centre_world: np.ndarray
     heading_world: np.ndarray
     size_lwh: np.ndarray
+    scale: np.ndarray = field(default_factory=lambda: np.ones(3))
+    variant: str = ""
 
 
 def _label(prim: Usd.Prim) -> str:
@@ -51,6 +56,11 @@ def _label(prim: Usd.Prim) -> str:
     if value is not None and len(value):
         return str(value[0])
     return prim.GetName().rsplit("_", 1)[0]
+
+
+def _variant(prim: Usd.Prim) -> str:
+    sets = prim.GetVariantSets()
+    return sets.GetVariantSet("model").GetVariantSelection() if sets.HasVariantSet("model") else ""
 
 
 def world_objects(stage: Usd.Stage, objects_path: str = OBJECTS_PATH) -> list[WorldObject]:
@@ -78,6 +88,8 @@ def world_objects(stage: Usd.Stage, objects_path: str = OBJECTS_PATH) -> list[Wo
                 bottom_centre_world=M[:3, 3].copy(),
                 heading_world=x_axis,
                 size_lwh=size,
+                scale=scale,
+                variant=_variant(prim),
             )
         )
     return out

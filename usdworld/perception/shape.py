@@ -7,6 +7,10 @@ stays so when its lower part is hidden; a round crown or a lamp arm is wide righ
 its top (a ratio near 0). The same number is computed for an image mask and for an
 asset's side view (:func:`usdworld.authoring.asset_library.top_shape_ratio`).
 
+A mask whose widest row is one or two pixels has no top shape: every row of it is at least
+half as wide as that (one pixel), so the ratio would be ``0.5 / widest`` whatever the object,
+near a street lamp's (a distant plain pole would vote for the lamp's arm). It has none.
+
 Frames: mask rows run downwards (image v).
 """
 
@@ -22,7 +26,8 @@ def top_shape_ratio(mask: np.ndarray) -> float | None:
         mask: (H, W) bool silhouette (any crop containing it).
 
     Returns:
-        The ratio (>= 0), or None for an empty mask.
+        The ratio (>= 0), or None for an empty mask or one whose widest row is at most
+        2 pixels (every row is then at least half as wide: no shape to read).
 
     Example:
         >>> cone = np.array([[abs(c - 10) <= r // 2 for c in range(21)] for r in range(20)])
@@ -39,5 +44,7 @@ def top_shape_ratio(mask: np.ndarray) -> float | None:
     last = np.where(filled, m.shape[1] - 1 - np.argmax(m[:, ::-1], axis=1), -1)
     widths = last - first + 1
     widest = int(widths.max())
+    if widest <= 2:
+        return None
     half = int(np.argmax(widths >= 0.5 * widest))
     return (half + 0.5) / widest

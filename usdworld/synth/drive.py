@@ -30,8 +30,10 @@ Files written for a drive ``<name>`` (:func:`write_drive`):
   camera_to_world in the drive's world, timestamp, labels, instances);
 * ``<name>_drive_gt.json``: the drive's ground truth in its world: times, ego poses
   (``world_from_ego``, the ego frame being the camera's ground frame), and per object its
-  class, size, whether it moves, its position per frame (``track``) and its visible pixels
-  per frame.
+  class, asset variant and scale, yaw, size, whether it moves, its position per frame
+  (``track``: its origin, the centre of its footprint's bottom) and its visible pixels per
+  frame. (Drives written before the eighteenth session have no ``variant`` / ``scale``; their
+  first frame's ``_gt.json`` has them.)
 """
 
 from __future__ import annotations
@@ -255,6 +257,8 @@ def write_drive(drive: SynthDrive, out_dir: str | Path, name: str) -> dict[str, 
                 "name": obj.name,
                 "class": obj.class_name,
                 "role": obj.role,
+                "variant": obj.variant,
+                "scale": [rounded(c) for c in obj.scale],
                 "moving": v is not None,
                 "velocity_world": [rounded(c) for c in (v if v is not None else (0.0, 0.0))],
                 "yaw_rad": rounded(obj.yaw),

@@ -866,13 +866,58 @@ def track_drive(
 
 
 def _is_moving(tr: _Track, fit: MotionFit, params: ViewsParams) -> bool:
-    """Whether a track moves (the module docstring's test)."""
-    return (
-        tr.sigma_speed > 0
-        and len(tr.times) >= params.moving_min_frames
-        and fit.speed_chi2() > params.association_gate_chi2
-        and float(np.linalg.norm(fit.velocity)) >= params.moving_speed_min_mps
-    )
+    """Whether a track moves (the module docstring's test; a vehicle's significance is :func:`standing_chi2`)."""
+    if tr.sigma_speed <= 0 or len(tr.times) < params.moving_min_frames:
+        return False
+    if float(np.linalg.norm(fit.velocity)) < params.moving_speed_min_mps:
+        return False
+    chi2 = standing_chi2(tr, params) if tr.class_name in VEHICLE_CLASSES else fit.speed_chi2()
+    return chi2 > params.association_gate_chi2
+
+
+def standing_chi2(tr: _Track, params: ViewsParams) -> float:
+    """Squared Mahalanobis distance of a track's fitted velocity from standing still, frame errors split.
+
+    ``frame_error_correlation`` (rho) of each frame's error variance is common to the track's frames
+    (:func:`_shared_error`): one relative depth error ``e`` that all of them repeat (a size or contact
+    misjudged once for all), each frame's position off by ``e`` times its offset from its camera.
+    Such an error moves every frame along its own ray by a share of its range, so it leaves a
+    standing object's frames on a straight line: their fitted velocity is ``e`` times the object's
+    velocity relative to the camera, ``-e`` times the camera's own velocity ``w`` for an object that
+    stands. Only the rest, ``1 - rho`` of each frame's variance, scatters from frame to frame. So the
+    velocity is fitted as the tracking fits it (:meth:`_Track.refit`) with each frame's covariance
+    scaled by ``1 - rho``, and tested against standing with the shared error's apparent velocity
+    added to its covariance: ``rho s^2 w w^T``, ``s^2`` the median over the frames of the along-ray
+    variance over the squared range (a frame's relative depth variance). A parked car the camera
+    drives towards may drift by the shared error times the camera's speed; a far car the camera
+    follows at one range, every frame of which repeats one depth, is not taken for a parked one
+    because each frame's stated spread is large.
+
+    Args:
+        tr: a track of a class that can move, with its frames.
+        params: ``frame_error_correlation``.
+
+    Returns:
+        ``v^T C^-1 v`` (0 where the covariance is singular).
+    """
+    rho = params.frame_error_correlation
+    pos = np.array([o.placement.contact_world[:2] for o in tr.items])
+    cov = np.array([fit_covariance(o) for o in tr.items])
+    cams = np.array([o.observations[0].camera_ground for o in tr.items])
+    rays, sides = frame_rays_and_sides(tr.items)
+    if tr.class_name not in VEHICLE_CLASSES:
+        sides = np.zeros_like(sides)
+    fit = fit_motion_bounded(tr.times, pos, (1.0 - rho) * cov, tr.sigma_speed, rays, sides)
+    t = np.asarray(tr.times, dtype=np.float64)
+    dt = t - t.mean()
+    w = dt @ (cams - cams.mean(axis=0)) / float(dt @ dt) if float(dt @ dt) > 0 else np.zeros(2)
+    ranges2 = np.maximum(np.einsum("ni,ni->n", pos - cams, pos - cams), 1e-9)
+    relative = float(np.median(np.einsum("ni,nij,nj->n", rays, cov, rays) / ranges2))
+    C = fit.covariance[2:, 2:] + rho * relative * np.outer(w, w)
+    v = fit.velocity
+    if not np.all(np.isfinite(C)) or np.linalg.det(C) <= 0:
+        return 0.0
+    return float(v @ np.linalg.solve(C, v))
 
 
 #: Ratio of a normal distribution's standard deviation to its median absolute deviation (1 / Phi^-1(3/4)).

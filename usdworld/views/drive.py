@@ -95,7 +95,11 @@ the view, and a parked car with a depth error looks like a slow mover.
 ``moving_min_frames`` frames and its fitted velocity disagrees with standing still beyond
 its uncertainty: ``v^T C_v^-1 v > association_gate_chi2`` (the chi-square 99 % quantile, 2
 degrees of freedom) and ``|v| >= moving_speed_min_mps`` (a slower drift is what a depth
-error that grows with range makes of a parked car the camera drives past). Everything
+error that grows with range makes of a parked car the camera drives past). A vehicle's
+``C_v`` splits its frames' errors (:func:`standing_chi2`): ``frame_error_correlation`` of each
+frame's variance is one relative depth error all of them repeat, which fakes a velocity of
+that error times the camera's for a standing car, and only the rest scatters from frame to
+frame (a far car followed at one range, every frame repeating one depth, moves). Everything
 else stands: it is placed once, at the information-weighted mean of all its observations
 (as :func:`fuse` places an object several cameras see), or a trunk class at its bearing
 triangulation; a standing vehicle whose frames mix readings and bounds is placed where its
@@ -104,7 +108,11 @@ bounds count only on the side they bound (:func:`bounded_standing_position`).
 **What a moving object gets.** Its placement (the default, un-timed value) is its fitted
 position at its first frame; per frame where it is seen, a time sample of its position
 *on the constant-velocity fit* (not the raw observation: single-view depth noise would
-make it jitter) and of its heading, the velocity's direction. That fit is the tracking's
+make it jitter) and of its heading, the velocity's direction. A moving vehicle's frames are
+first placed with its own height (:func:`track_height_factor`: the contact cues of its near
+frames measure it) in place of its class prior's in their height cues (:func:`with_height_factor`):
+a car taller than the prior reads nearer by the same share in every frame that leans on its
+height, the far ones most, which tilts the fitted velocity. That fit is the tracking's
 with one difference: a frame placed by a bound (just behind what hides its bottom, or by a
 visible bottom or cut height: :func:`usdworld.views.hidden_contact.depth_bound_side`) only
 says on which side along its ray the object is, so it counts only where the track would
@@ -128,8 +136,10 @@ import numpy as np
 
 from usdworld.geometry.rotation import turned
 from usdworld.io.class_table import load_class_table
+from usdworld.layout.draft import DepthMethod
 from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
+from usdworld.perception.depth.fusion import DepthCue
 from usdworld.views.bearings import bearing_sigmas, bearing_triangulation
 from usdworld.views.fusion import (
     FusedObject,
@@ -866,13 +876,58 @@ def track_drive(
 
 
 def _is_moving(tr: _Track, fit: MotionFit, params: ViewsParams) -> bool:
-    """Whether a track moves (the module docstring's test)."""
-    return (
-        tr.sigma_speed > 0
-        and len(tr.times) >= params.moving_min_frames
-        and fit.speed_chi2() > params.association_gate_chi2
-        and float(np.linalg.norm(fit.velocity)) >= params.moving_speed_min_mps
-    )
+    """Whether a track moves (the module docstring's test; a vehicle's significance is :func:`standing_chi2`)."""
+    if tr.sigma_speed <= 0 or len(tr.times) < params.moving_min_frames:
+        return False
+    if float(np.linalg.norm(fit.velocity)) < params.moving_speed_min_mps:
+        return False
+    chi2 = standing_chi2(tr, params) if tr.class_name in VEHICLE_CLASSES else fit.speed_chi2()
+    return chi2 > params.association_gate_chi2
+
+
+def standing_chi2(tr: _Track, params: ViewsParams) -> float:
+    """Squared Mahalanobis distance of a track's fitted velocity from standing still, frame errors split.
+
+    ``frame_error_correlation`` (rho) of each frame's error variance is common to the track's frames
+    (:func:`_shared_error`): one relative depth error ``e`` that all of them repeat (a size or contact
+    misjudged once for all), each frame's position off by ``e`` times its offset from its camera.
+    Such an error moves every frame along its own ray by a share of its range, so it leaves a
+    standing object's frames on a straight line: their fitted velocity is ``e`` times the object's
+    velocity relative to the camera, ``-e`` times the camera's own velocity ``w`` for an object that
+    stands. Only the rest, ``1 - rho`` of each frame's variance, scatters from frame to frame. So the
+    velocity is fitted as the tracking fits it (:meth:`_Track.refit`) with each frame's covariance
+    scaled by ``1 - rho``, and tested against standing with the shared error's apparent velocity
+    added to its covariance: ``rho s^2 w w^T``, ``s^2`` the median over the frames of the along-ray
+    variance over the squared range (a frame's relative depth variance). A parked car the camera
+    drives towards may drift by the shared error times the camera's speed; a far car the camera
+    follows at one range, every frame of which repeats one depth, is not taken for a parked one
+    because each frame's stated spread is large.
+
+    Args:
+        tr: a track of a class that can move, with its frames.
+        params: ``frame_error_correlation``.
+
+    Returns:
+        ``v^T C^-1 v`` (0 where the covariance is singular).
+    """
+    rho = params.frame_error_correlation
+    pos = np.array([o.placement.contact_world[:2] for o in tr.items])
+    cov = np.array([fit_covariance(o) for o in tr.items])
+    cams = np.array([o.observations[0].camera_ground for o in tr.items])
+    rays, sides = frame_rays_and_sides(tr.items)
+    if tr.class_name not in VEHICLE_CLASSES:
+        sides = np.zeros_like(sides)
+    fit = fit_motion_bounded(tr.times, pos, (1.0 - rho) * cov, tr.sigma_speed, rays, sides)
+    t = np.asarray(tr.times, dtype=np.float64)
+    dt = t - t.mean()
+    w = dt @ (cams - cams.mean(axis=0)) / float(dt @ dt) if float(dt @ dt) > 0 else np.zeros(2)
+    ranges2 = np.maximum(np.einsum("ni,ni->n", pos - cams, pos - cams), 1e-9)
+    relative = float(np.median(np.einsum("ni,nij,nj->n", rays, cov, rays) / ranges2))
+    C = fit.covariance[2:, 2:] + rho * relative * np.outer(w, w)
+    v = fit.velocity
+    if not np.all(np.isfinite(C)) or np.linalg.det(C) <= 0:
+        return 0.0
+    return float(v @ np.linalg.solve(C, v))
 
 
 #: Ratio of a normal distribution's standard deviation to its median absolute deviation (1 / Phi^-1(3/4)).
@@ -1485,6 +1540,99 @@ def variant_of_most_frames(members: Sequence[Observation]) -> list[Observation]:
     return first + [o for o in members if not any(o is f for f in first)]
 
 
+def _cue_depth(cues: Sequence[DepthCue], height_factor: float) -> float | None:
+    """Inverse-variance depth of a placement's contact and height cues (as
+    :func:`usdworld.perception.depth.fusion.fuse` fuses them), the height cue's depth and spread times
+    ``height_factor``; None unless both cues are available and they are its only ones."""
+    avail = {c.name: c for c in cues if c.available}
+    if set(avail) != {"contact", "height"}:
+        return None
+    scale = {"contact": 1.0, "height": height_factor}
+    w = {n: 1.0 / (float(c.sigma_m) * scale[n]) ** 2 for n, c in avail.items()}
+    return sum(w[n] * float(c.depth_m) * scale[n] for n, c in avail.items()) / sum(w.values())
+
+
+def track_height_factor(items: Sequence[FusedObject]) -> float:
+    """A vehicle track's height over its class prior's, measured by its frames' contact cues.
+
+    Each observation whose placement has both a ground-contact cue and a class-height cue says
+    how much taller than the prior the object is: the contact depth over the height depth,
+    ``k_i = d_c / d_h`` (the height cue's depth is the prior height times the focal length over
+    the silhouette's pixels, so the object's height is the prior's times ``k_i`` where the
+    contact's depth is right), known to ``sigma_c / d_h``. The frames' estimates are averaged by
+    inverse variance with the prior ``k = 1`` of the height cue's own relative spread (the
+    class's height spread and the silhouette's pixels): a track whose contact cues say little
+    (seen only far away, where a row spans metres) leans on the prior.
+
+    Args:
+        items: the track's frames' objects.
+
+    Returns:
+        The factor (1 where no observation has both cues).
+    """
+    num = den = 0.0
+    prior = []
+    for item in items:
+        for o in item.observations:
+            by_name = {c.name: c for c in o.placement.cues if c.available}
+            c, h = by_name.get("contact"), by_name.get("height")
+            if c is None or h is None:
+                continue
+            d_c, s_c, d_h, s_h = float(c.depth_m), float(c.sigma_m), float(h.depth_m), float(h.sigma_m)
+            var = (s_c / d_h) ** 2
+            num += (d_c / d_h) / var
+            den += 1.0 / var
+            prior.append((s_h / d_h) ** 2)
+    if not prior:
+        return 1.0
+    var0 = float(np.median(prior))
+    return (1.0 / var0 + num) / (1.0 / var0 + den)
+
+
+def with_height_factor(item: FusedObject, factor: float) -> FusedObject:
+    """One frame's object with each observation's height cue scaled by ``factor`` and its contact moved
+    along its ray by the change of its contact-and-height depth (:func:`track_height_factor`).
+
+    An observation placed by another method, or whose depth is not its two cues' fusion, is kept.
+    The contact moves by the depth change times the observation's range over its depth (the ray's
+    ground length per metre of depth); the frame's placement is the moved observations'
+    :func:`~usdworld.views.fusion.combine`, its covariance kept (as :func:`depth_from` does).
+
+    Args:
+        item: one frame's object of a vehicle track.
+        factor: the track's height over its class prior's (:func:`track_height_factor`).
+
+    Returns:
+        The object with its observations moved (``item`` itself when none moved).
+    """
+    moved = []
+    changed = False
+    for o in item.observations:
+        before, after = _cue_depth(o.placement.cues, 1.0), _cue_depth(o.placement.cues, factor)
+        if (
+            o.placement.method is not DepthMethod.CONTACT
+            or before is None
+            or after is None
+            or abs(before - o.placement.depth_m) > 1e-6 * max(1.0, abs(before))
+        ):
+            moved.append(o)
+            continue
+        contact = o.placement.contact_world
+        offset = contact[:2] - o.camera_ground
+        scale = float(np.linalg.norm(offset)) / max(o.placement.depth_m, 1e-9)
+        u = offset / max(float(np.linalg.norm(offset)), 1e-9)
+        at = contact[:2] + u * (after - before) * scale
+        placement = o.placement.with_contact_at(np.array([at[0], at[1], contact[2]]))
+        moved.append(dataclasses.replace(o, placement=placement))
+        changed = True
+    if not changed:
+        return item
+    placed, _ = combine(moved)
+    contact = item.placement.contact_world
+    placement = item.placement.with_contact_at(np.array([placed[0], placed[1], contact[2]]))
+    return dataclasses.replace(item, placement=placement, observations=tuple(moved))
+
+
 def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dict[str, int]) -> DriveObject:
     members = sorted(
         (o for item in tr.items for o in item.observations), key=lambda o: (o.sigma_range_m, o.view)
@@ -1497,6 +1645,9 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
     moving = _is_moving(tr, fit, params)
     z = float(primary.position_world[2])
     if moving:
+        if cls in VEHICLE_CLASSES:
+            factor = track_height_factor(tr.items)
+            tr = _Track(cls, tr.sigma_speed, list(tr.times), [with_height_factor(i, factor) for i in tr.items])
         fit = tr.placed_fit(params)
         xy = np.array([fit.predict(float(t))[0] for t in times])
         positions = np.c_[xy, np.full(len(times), z)]

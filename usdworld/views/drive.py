@@ -268,6 +268,8 @@ def _fit_information(
 
 #: Most active sets :func:`fit_motion_bounded` tries (each is one refit; it usually settles in two or three).
 _BOUND_MAX_REFITS = 50
+#: Relative change of the bounds' across-ray widening below which :func:`fit_motion_bounded` counts it settled.
+_WIDEN_RTOL = 1e-3
 
 
 def fit_motion_bounded(
@@ -278,6 +280,7 @@ def fit_motion_bounded(
     rays: np.ndarray,
     sides: np.ndarray,
     prior: VelocityPrior | None = None,
+    ranges: np.ndarray | None = None,
 ) -> MotionFit:
     """:func:`fit_motion` where some positions bound the depth along their viewing ray instead of reading it.
 
@@ -287,10 +290,18 @@ def fit_motion_bounded(
     reading (its across-ray variance, the along-ray position left free). The cost is convex and
     piecewise quadratic; the fit finds its minimum by active sets: the bounds the current track
     keeps lose their along-ray information, the broken ones are readings at the bound, the track is
-    fitted again, until the kept set repeats (the lowest cost seen is returned if it never
-    does). Without bounds, or with no frame that reads the depth (the bounds are then all
+    fitted again, until the kept set (and the widening below) repeats (the lowest cost seen is
+    returned if it never does). Without bounds, or with no frame that reads the depth (the bounds are then all
     that is known along the rays), it is :func:`fit_motion`'s. The covariance is the last
     refit's.
+
+    A bound's across-ray spread is stated where the bound places it; its bearing is an angle
+    (``lateral_sigma_rel`` of the range), so where ``ranges`` are given a kept bound from below
+    is compared across its ray with that spread scaled to the track's range along the ray
+    (``(range at the track / range of the bound)^2`` on the variance, the scale taken from the
+    previous fit): a car only known to be "behind this, or farther", placed 10 m short, does not
+    hold the track to its bearing as if it were seen 10 m nearer. The spread is never narrowed
+    (the bounds from above keep theirs: its floor is metric).
 
     Args:
         times: (N,) seconds.
@@ -301,6 +312,8 @@ def fit_motion_bounded(
         sides: (N,) int 0 for a reading, +1 for a bound from below, -1 for one from above.
         prior: a velocity prior (mean, information) in place of the zero-mean one of spread
             ``sigma_speed`` (> 0), or None.
+        ranges: (N,) float64 each position's distance from its camera, metres (:func:`frame_ranges`),
+            or None to compare bounds across their rays with their stated spreads.
 
     Returns:
         The fit.
@@ -329,11 +342,18 @@ def fit_motion_bounded(
     across_var = np.einsum("ni,nij,nj->n", normals, cov, normals)
     across_only = np.einsum("ni,nj->nij", normals, normals) / across_var[:, None, None]
 
+    def widen(f: MotionFit) -> np.ndarray:
+        """(N,) the factor on each frame's across-ray variance at the track's range (1 without ranges)."""
+        if ranges is None:
+            return np.ones(len(z))
+        d = f.state[:2] + (t - f.t_ref)[:, None] * f.state[2:] - z
+        return np.maximum(1.0, 1.0 + np.einsum("ni,ni->n", d, rays) / ranges) ** 2
+
     def kept_and_cost(f: MotionFit) -> tuple[np.ndarray, float]:
         d = f.state[:2] + (t - f.t_ref)[:, None] * f.state[2:] - z
         kept = sides * np.einsum("ni,ni->n", d, rays) > 0.0
         full = np.einsum("ni,nij,nj->n", d, inv, d)
-        across = np.einsum("ni,ni->n", d, normals) ** 2 / across_var
+        across = np.einsum("ni,ni->n", d, normals) ** 2 / (across_var * widen(f))
         cost = float(np.where(kept, across, full).sum())
         if prior is not None:
             dv = f.state[2:] - prior[0]
@@ -342,12 +362,14 @@ def fit_motion_bounded(
 
     kept, cost = kept_and_cost(fit)
     best = (cost, fit)
-    seen: list[np.ndarray] = []
+    seen: list[tuple[np.ndarray, np.ndarray]] = []
     for _ in range(_BOUND_MAX_REFITS):
-        if any(np.array_equal(kept, k) for k in seen):
+        w = widen(fit)
+        if any(np.array_equal(kept, k) and np.allclose(w, wk, rtol=_WIDEN_RTOL) for k, wk in seen):
             break
-        seen.append(kept)
-        fit = _fit_information(times, z, np.where(kept[:, None, None], across_only, inv), sigma_speed, prior)
+        seen.append((kept, w))
+        info = np.where(kept[:, None, None], across_only / w[:, None, None], inv)
+        fit = _fit_information(times, z, info, sigma_speed, prior)
         kept, cost = kept_and_cost(fit)
         if cost < best[0]:
             best = (cost, fit)
@@ -412,7 +434,8 @@ class _Track:
         cov = np.array([fit_covariance(o) for o in self.items])
         if self.class_name in VEHICLE_CLASSES:
             rays, sides = frame_rays_and_sides(self.items)
-            self.fit = fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides)
+            ranges = frame_ranges(self.items)
+            self.fit = fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides, ranges=ranges)
         else:
             self.fit = fit_motion(self.times, pos, cov, self.sigma_speed)
         if self.sigma_speed > 0 and self.standing_share > 0:
@@ -429,7 +452,8 @@ class _Track:
         pos = np.array([o.placement.contact_world[:2] for o in self.items])
         cov = np.array([fit_covariance(o) for o in self.items])
         rays, sides = frame_rays_and_sides(self.items)
-        fit = fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides)
+        ranges = frame_ranges(self.items)
+        fit = fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides, ranges=ranges)
         if self.class_name not in PEOPLE_CLASSES or self.sigma_speed <= 0:
             return fit
         for _ in range(_WALK_MAX_REFITS):
@@ -437,12 +461,18 @@ class _Track:
             if prior is None:
                 return fit
             before = fit.velocity
-            fit = fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides, prior)
+            fit = fit_motion_bounded(self.times, pos, cov, self.sigma_speed, rays, sides, prior, ranges)
             v = fit.velocity
             turn = abs(math.atan2(before[0] * v[1] - before[1] * v[0], float(before @ v)))
             if turn < _WALK_TURN_RAD:
                 break
         return fit
+
+
+def frame_ranges(items: Sequence[FusedObject]) -> np.ndarray:
+    """(N,) float64 each frame's placement's distance on the ground from its primary camera, metres."""
+    d = np.array([o.placement.contact_world[:2] - o.observations[0].camera_ground for o in items])
+    return np.maximum(np.linalg.norm(d, axis=1), 1e-3)
 
 
 def frame_rays_and_sides(items: Sequence[FusedObject]) -> tuple[np.ndarray, np.ndarray]:
@@ -486,7 +516,7 @@ def bounded_standing_position(times: Sequence[float], items: Sequence[FusedObjec
         return xy
     pos = np.array([o.placement.contact_world[:2] for o in items])
     cov = np.array([o.covariance for o in items])
-    return fit_motion_bounded(times, pos, cov, 0.0, rays, sides).state[:2]
+    return fit_motion_bounded(times, pos, cov, 0.0, rays, sides, ranges=frame_ranges(items)).state[:2]
 
 
 #: Most refits of a walker's direction under :func:`walking_prior`, and the turn that counts as settled,

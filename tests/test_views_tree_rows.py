@@ -68,3 +68,25 @@ def test_cut_tail_is_the_binomial_tail_at_one_half() -> None:
     assert cut_tail(3, 3) == 0.125
     assert cut_tail(10, 12) == 79 / 4096
     assert all(cut_tail(k + 1, 20) < cut_tail(k, 20) for k in range(20))
+
+
+def _track_with(frames: list[int], xy: tuple[float, float], ref: int, other: dict[int, tuple[float, float]]) -> _Track:
+    """As :func:`_track`, but the frames in ``other`` hold what the view saw at another point."""
+    items = [_item(k, 1.0 * k, other.get(k, xy), 3.0, ref) for k in frames]
+    tr = _Track("tree", 0.0, [0.1 * k for k in frames], items)
+    tr.refit()
+    return tr
+
+
+def test_a_shared_frame_of_another_tree_does_not_keep_a_crown_cut_in_two_apart() -> None:
+    """A tree's second track (its crown cut in two in frames 8 and 9) also holds, in frame 9, a far
+    neighbour's observation 15 m on and 5 m aside, whose ray misses the track's footprint by 3 m: that
+    frame says nothing about whether the two tracks are one tree, so they are one. Where the second
+    track's own frame 9 is the crown's half, it is one tree as well; and two trees seen apart in
+    every frame stay two."""
+    a = _track(list(range(10)), (60.0, -4.0), 1, sigma_r=3.0)
+    b = _track_with([8, 9, 10, 11], (61.0, -4.0), 2, {9: (75.0, -9.0)})
+    assert _one(a, b)
+    assert _one(b, a)
+    assert _one(a, _track_with([8, 9, 10, 11], (61.0, -4.0), 2, {}))
+    assert not _one(_track(list(range(10)), (100.0, -4.0), 1), _track(list(range(10)), (108.0, -4.0), 2))

@@ -69,7 +69,9 @@ frames are tracked in time order, so the work grows with the number of frames:
    them overlap across its ray and, for a footprint without an arm, they share no more of the
    shorter one's frames than a crown cut in half the frames gives by chance (:func:`cut_tail`,
    at the gate's 1 %: a crown is cut in two only where something stands in front of it; two
-   trees of a row are two in every frame that sees both). A trunk track
+   trees of a row are two in every frame that sees both); a shared frame in which either
+   track holds an observation whose ray misses that track's footprint (another object's,
+   :func:`ray_through_own_footprint`) is left out of the overlap test. A trunk track
    shorter than ``scatter_min_frames`` whose every ray passes through a longer one's
    footprint is that object seen with a failed depth (:func:`absorb_short_fragments`): it
    joins it with its bearings, its depths dropped.
@@ -1433,7 +1435,11 @@ def seen_as_one_trunk(
     crown cut by what stands in front of it share their bearing, and so do a lamp's mast and
     its head over the road; two trunks seen side by side do not. Their depths in such a frame
     are not compared (a half's contact can lie metres off along the ray); the triangulations
-    compare them. Pairs that share no frame are :func:`merge_fragments`' to join.
+    compare them. A shared frame in which either track holds what its own footprint does not
+    explain (:func:`ray_through_own_footprint`: the observation's ray misses the track's
+    triangulated footprint, so it saw another object, as a far frame of a row does) says nothing
+    about whether the two are one, and is left out of that test. Pairs that share no frame are
+    :func:`merge_fragments`' to join.
 
     Where neither track has an arm (:func:`arm_across` 0: a tree's or plain pole's square
     footprint), the share of the shorter track's frames that the other also holds must be one
@@ -1474,6 +1480,8 @@ def seen_as_one_trunk(
         ib = items_b.get(t)
         if ib is None:
             continue
+        if not (ray_through_own_footprint(ia, a, est_a[0]) and ray_through_own_footprint(ib, b, est_b[0])):
+            continue  # a frame of another object in one of the tracks
         za, zb = ia.placement.contact_world[:2], ib.placement.contact_world[:2]
         u = 0.5 * (za + zb) - ia.observations[0].camera_ground
         u = u / max(float(np.linalg.norm(u)), 1e-9)
@@ -1481,6 +1489,39 @@ def seen_as_one_trunk(
         if across >= footprint_reach_across(ia.placement, u) + footprint_reach_across(ib.placement, u):
             return False
     return True
+
+
+def ray_through_own_footprint(item: FusedObject, track: _Track, xy: np.ndarray) -> bool:
+    """Whether a frame's object of a standing trunk track is that track's object by its bearing.
+
+    Its primary observation's ray (camera to contact) passes ``xy``, the track's triangulated
+    position, nearer than the two footprints reach across that ray (:func:`footprint_reach_across`;
+    the track's the median over its frames): the footprints overlap across the ray, as
+    :func:`on_bearing_of` asks of a short fragment's rays. A ray that misses it saw another object
+    (a far frame of a row of trees joins the neighbour's track: its depth spread spans both).
+
+    Args:
+        item: one frame's object of ``track``.
+        track: a standing track of a trunk class.
+        xy: (2,) float64 ``track``'s triangulated position, metres.
+
+    Example:
+        >>> from types import SimpleNamespace as NS
+        >>> def tree(x, y):
+        ...     placement = NS(contact_world=np.array([x, y, 0.0]), size_m=np.array([2.0, 2.0, 5.0]), yaw=0.0)
+        ...     return NS(placement=placement, observations=(NS(camera_ground=np.zeros(2)),))
+        >>> track = NS(items=[tree(20.0, 5.0)])
+        >>> ray_through_own_footprint(tree(40.0, 10.0), track, np.array([20.0, 5.0]))
+        True
+        >>> ray_through_own_footprint(tree(40.0, 5.0), track, np.array([20.0, 5.0]))
+        False
+    """
+    o = item.observations[0]
+    ray = item.placement.contact_world[:2] - o.camera_ground
+    ray = ray / max(float(np.linalg.norm(ray)), 1e-9)
+    across = abs(float((xy - o.camera_ground) @ np.array([-ray[1], ray[0]])))
+    reach = float(np.median([footprint_reach_across(i.placement, ray) for i in track.items]))
+    return across < reach + footprint_reach_across(item.placement, ray)
 
 
 def cut_tail(shared: int, frames: int) -> float:

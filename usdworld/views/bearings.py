@@ -73,16 +73,6 @@ def bearing_triangulation(
     object over a short baseline) they fix nothing along the ray and the depth prior
     decides; where they cross at wide angles the bearings do.
 
-    A bearing is an angle: its error moves the ray's far part farther across than its near
-    part, so a distance across the lines in metres is smaller at any point nearer the
-    cameras, and minimising it places the point short of where the rays' angles agree (by
-    metres for a far tree whose crown's pieces scatter its bearings by a few milliradians).
-    The least-squares point is therefore only the start: it is refined by Gauss-Newton on the
-    bearings' angles (:func:`_angular_refinement`), each angle's spread ``sigma / range``
-    with the range to the observed contact, the point that maximum likelihood under angle
-    errors gives (Hartley & Sturm, "Triangulation", CVIU 68(2), 1997: minimise the
-    measurement's own error, not a distance in space).
-
     Args:
         contacts: (N, 2) float64 the observations' ground contacts in the world, metres.
         cameras: (N, 2) float64 the ground points of the cameras that made them, metres.
@@ -118,59 +108,4 @@ def bearing_triangulation(
         if it >= _HUBER_ITERATIONS and np.allclose(new, weights, atol=1e-6):
             break
         weights = new
-    return _angular_refinement(z, cams, sigma, xy, weights, prior_xy, prior_info, scale)
-
-
-def _angular_refinement(
-    contacts: np.ndarray,
-    cameras: np.ndarray,
-    sigmas: np.ndarray,
-    start_xy: np.ndarray,
-    start_weights: np.ndarray,
-    prior_xy: np.ndarray,
-    prior_info: np.ndarray,
-    scale: float,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(2,) point and (2, 2) covariance minimising the bearings' weighted squared angle errors and the prior.
-
-    Gauss-Newton from ``start_xy``: each bearing's residual is the angle between its ray
-    (camera to contact) and the direction from its camera to the point, in units of its
-    angular spread ``sigmas / |contact - camera|``; its Cauchy weight (scale ``scale``) is
-    updated each step, starting from ``start_weights``. The prior enters as in
-    :func:`bearing_triangulation` (``prior_info`` at ``prior_xy``). The covariance is the
-    inverse of the information at the end.
-
-    Args:
-        contacts: (N, 2) float64 the observations' ground contacts, metres.
-        cameras: (N, 2) float64 their cameras' ground points, metres.
-        sigmas: (N,) float64 their across-ray standard deviations at the contact, metres.
-        start_xy: (2,) float64 the starting point, metres.
-        start_weights: (N,) float64 the bearings' starting weights.
-        prior_xy: (2,) float64 the depth prior's position, metres.
-        prior_info: (2, 2) float64 its information (along the mean viewing direction only).
-        scale: the Cauchy weight's scale, in standard deviations.
-    """
-    rays = contacts - cameras
-    observed = np.maximum(np.linalg.norm(rays, axis=1), 1e-9)
-    theta = np.arctan2(rays[:, 1], rays[:, 0])
-    sigma_rad = sigmas / observed
-    prior_xy = np.asarray(prior_xy, dtype=np.float64)
-    xy = np.asarray(start_xy, dtype=np.float64)
-    weights = start_weights
-    info = prior_info
-    for _ in range(2 * _MAX_ITERATIONS):
-        d = xy - cameras
-        rho2 = np.maximum(np.einsum("ki,ki->k", d, d), 1e-12)
-        residual = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - theta)))  # wrapped to (-pi, pi]
-        jacobian = np.c_[-d[:, 1], d[:, 0]] / rho2[:, None]  # d angle / d xy
-        w = weights / sigma_rad**2
-        info = np.einsum("k,ki,kj->ij", w, jacobian, jacobian) + prior_info
-        gradient = np.einsum("k,ki,k->i", w, jacobian, residual) + prior_info @ (xy - prior_xy)
-        step = np.linalg.solve(info, gradient)
-        xy = xy - step
-        new = _cauchy(np.abs(residual) / sigma_rad / scale)
-        settled = np.allclose(new, weights, atol=1e-6) and float(np.linalg.norm(step)) < 1e-6
-        weights = new
-        if settled:
-            break
     return xy, np.linalg.inv(info)

@@ -36,6 +36,18 @@ def _track(frames: list[FusedObject], times: list[float]) -> _Track:
     return tr
 
 
+def _parked_car_short_by_a_tenth(spread_share: float) -> tuple[list[float], _Track]:
+    """Five seconds of a car parked 60 m ahead, every frame 10 % of its range too near, its along-ray spread
+    ``spread_share`` of the range (across: 2 %)."""
+    times = [0.1 * k for k in range(50)]
+    car = np.array([60.0, 3.0])
+    frames = []
+    for t in times:
+        rng = float(np.linalg.norm(car - EGO * t))
+        frames.append(_frame(t, car - 0.10 * (car - EGO * t), spread_share * rng, 0.02 * rng))
+    return times, _track(frames, times)
+
+
 def test_a_far_car_followed_at_one_range_moves() -> None:
     """A car 141 m ahead that keeps its range from a camera driving at 8 m/s, every frame repeating one
     depth (a car three pixels tall changes no pixel in 5.6 s) stated at 36 m: a parked car would have
@@ -55,13 +67,7 @@ def test_a_parked_car_with_a_shared_depth_error_stands() -> None:
     misjudged for all frames; stated spread 8 % of the range): its frames drift away at 0.8 m/s on a
     straight line. Taking the shared part out of each frame's variance alone would make that drift
     significant; the apparent velocity a shared error gives (``rho s^2 w w^T``) keeps it standing."""
-    times = [0.1 * k for k in range(50)]
-    car = np.array([60.0, 3.0])
-    frames = []
-    for t in times:
-        rng = float(np.linalg.norm(car - EGO * t))
-        frames.append(_frame(t, car - 0.10 * (car - EGO * t), 0.08 * rng, 0.02 * rng))
-    tr = _track(frames, times)
+    times, tr = _parked_car_short_by_a_tenth(0.08)
     assert np.allclose(tr.fit.velocity, [0.8, 0.0], atol=0.05)
     pos = np.array([o.placement.contact_world[:2] for o in tr.items])
     cov = np.array([fit_covariance(o) for o in tr.items])
@@ -75,12 +81,6 @@ def test_a_parked_car_with_a_shared_depth_error_stands() -> None:
 def test_a_parked_car_whose_shared_error_fakes_a_drift_stands() -> None:
     """The same car with a stated spread of 5 % of the range: the frames taken as independent (the old
     test) find its 0.8 m/s drift significant and make it a mover; as one shared error it stands."""
-    times = [0.1 * k for k in range(50)]
-    car = np.array([60.0, 3.0])
-    frames = []
-    for t in times:
-        rng = float(np.linalg.norm(car - EGO * t))
-        frames.append(_frame(t, car - 0.10 * (car - EGO * t), 0.05 * rng, 0.02 * rng))
-    tr = _track(frames, times)
+    times, tr = _parked_car_short_by_a_tenth(0.05)
     assert tr.fit.speed_chi2() > PARAMS.association_gate_chi2
     assert not _is_moving(tr, tr.fit, PARAMS)

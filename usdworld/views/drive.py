@@ -420,6 +420,9 @@ class _Track:
     fit: MotionFit | None = None
     standing_share: float = 0.0
     still: MotionFit | None = None
+    #: The standing fragments a standing join made this track of: each one's frame times and the (2, 2)
+    #: covariance of the error its frames share (:func:`_shared_error`); empty for a track never joined.
+    parts: tuple[tuple[tuple[float, ...], np.ndarray], ...] = ()
 
     def add(self, t: float, item: FusedObject) -> None:
         self.times.append(t)
@@ -955,11 +958,59 @@ def standing_chi2(tr: _Track, params: ViewsParams) -> float:
     w = dt @ (cams - cams.mean(axis=0)) / float(dt @ dt) if float(dt @ dt) > 0 else np.zeros(2)
     ranges2 = np.maximum(np.einsum("ni,ni->n", pos - cams, pos - cams), 1e-9)
     relative = float(np.median(np.einsum("ni,nij,nj->n", rays, cov, rays) / ranges2))
-    C = fit.covariance[2:, 2:] + rho * relative * np.outer(w, w)
+    C = fit.covariance[2:, 2:] + rho * relative * np.outer(w, w) + _parts_velocity_covariance(tr, pos, (1.0 - rho) * cov, rays, sides, fit)
     v = fit.velocity
     if not np.all(np.isfinite(C)) or np.linalg.det(C) <= 0:
         return 0.0
     return float(v @ np.linalg.solve(C, v))
+
+
+#: Offset, metres, by which :func:`_parts_velocity_covariance` moves a fragment's frames to measure the fit's response.
+_PART_STEP_M = 1e-3
+
+
+def _parts_velocity_covariance(
+    tr: _Track, pos: np.ndarray, cov: np.ndarray, rays: np.ndarray, sides: np.ndarray, fit: MotionFit
+) -> np.ndarray:
+    """(2, 2) covariance that a joined track's fragments' own shared errors add to its fitted velocity.
+
+    A standing join (:func:`merge_fragments`, :func:`merge_standing_vehicles`) takes two fragments
+    for one object when they agree within their positions' covariances, each floored by the error
+    its own frames share (:func:`_shared_error`): the fragments may differ by those errors. The
+    joined track's moving test must allow the same: fragment ``k``'s frames all off by one offset
+    ``b_k ~ N(0, S_k)`` move the fitted velocity by ``A_k b_k``, so the velocity's covariance under
+    standing gains ``sum_k A_k S_k A_k^T``. ``A_k`` is the fit's response to the fragment's frames
+    moved together (a frame two fragments both hold moves by half), measured by refitting; it is 0
+    for a track of one fragment (an offset of all frames leaves the velocity as it is).
+
+    Args:
+        tr: the track, with :attr:`_Track.parts`.
+        pos: (N, 2) its frames' positions; ``cov``: (N, 2, 2) the covariances its moving fit uses.
+        rays: (N, 2) unit viewing rays; ``sides``: (N,) bound sides (:func:`fit_motion_bounded`).
+        fit: that fit of ``pos``.
+    """
+    out = np.zeros((2, 2))
+    if len(tr.parts) < 2:
+        return out
+    index = {t: i for i, t in enumerate(tr.times)}
+    holders = np.zeros(len(tr.times))
+    for times, _ in tr.parts:
+        holders[[index[t] for t in times if t in index]] += 1.0
+    for times, shared in tr.parts:
+        share = np.zeros(len(tr.times))
+        at = [index[t] for t in times if t in index]
+        share[at] = 1.0 / holders[at]
+        A = np.empty((2, 2))
+        for j in range(2):
+            moved = pos + _PART_STEP_M * share[:, None] * np.eye(2)[j]
+            A[:, j] = (fit_motion_bounded(tr.times, moved, cov, tr.sigma_speed, rays, sides).velocity - fit.velocity) / _PART_STEP_M
+        out += A @ shared @ A.T
+    return out
+
+
+def joined_parts(a: _Track, b: _Track, params: ViewsParams) -> tuple[tuple[tuple[float, ...], np.ndarray], ...]:
+    """The fragments of a standing join of ``a`` and ``b``: each one's own parts, or itself with its :func:`_shared_error`."""
+    return tuple(p for tr in (a, b) for p in (tr.parts or ((tuple(tr.times), _shared_error(tr, params)),)))
 
 
 #: Ratio of a normal distribution's standard deviation to its median absolute deviation (1 / Phi^-1(3/4)).
@@ -1098,6 +1149,7 @@ def merge_fragments(tracks: list[_Track], params: ViewsParams) -> list[_Track]:
             return keep + [tr for tr, on in zip(frags, alive) if on]
         a, b = np.unravel_index(int(np.argmin(np.where(ok, m2, np.inf))), m2.shape)
         joined = _joined(frags[a], frags[b])
+        joined.parts = joined_parts(frags[a], frags[b], params)
         if joined.standing_share > 0 and joined.fit is not None and _is_moving(joined, joined.fit, params):
             upper[a, b] = False  # two parked fragments whose frames together move are not one parked vehicle
             continue
@@ -1281,6 +1333,7 @@ def merge_standing_vehicles(tracks: list[_Track], params: ViewsParams) -> list[_
             return keep + cand
         _, a, b = best
         joined = _joined_overlapping(cand[a], cand[b], params)
+        joined.parts = joined_parts(cand[a], cand[b], params)
         if joined.fit is not None and _is_moving(joined, joined.fit, params):
             refused.add(cand[a], cand[b])  # two standing tracks whose frames together move
             continue

@@ -965,10 +965,6 @@ def standing_chi2(tr: _Track, params: ViewsParams) -> float:
     return float(v @ np.linalg.solve(C, v))
 
 
-#: Offset, metres, by which :func:`_parts_velocity_covariance` moves a fragment's frames to measure the fit's response.
-_PART_STEP_M = 1e-3
-
-
 def _parts_velocity_covariance(
     tr: _Track, pos: np.ndarray, cov: np.ndarray, rays: np.ndarray, sides: np.ndarray, fit: MotionFit
 ) -> np.ndarray:
@@ -978,10 +974,12 @@ def _parts_velocity_covariance(
     for one object when they agree within their positions' covariances, each floored by the error
     its own frames share (:func:`_shared_error`): the fragments may differ by those errors. The
     joined track's moving test must allow the same: fragment ``k``'s frames all off by one offset
-    ``b_k ~ N(0, S_k)`` move the fitted velocity by ``A_k b_k``, so the velocity's covariance under
-    standing gains ``sum_k A_k S_k A_k^T``. ``A_k`` is the fit's response to the fragment's frames
-    moved together (a frame two fragments both hold moves by half), measured by refitting; it is 0
-    for a track of one fragment (an offset of all frames leaves the velocity as it is).
+    ``b_k ~ N(0, S_k)`` move the fitted velocity, so the velocity's covariance under standing gains
+    what those offsets make of it. Each fragment's frames are moved together by one standard
+    deviation along each principal axis of ``S_k`` (a frame two fragments both hold by half), the
+    track refitted, and the velocity's changes ``dv`` summed as ``dv dv^T`` (exact for a linear fit,
+    the secant over the error's own scale where a bound's side changes). It is 0 for a track of one
+    fragment: an offset of all its frames leaves the velocity as it is.
 
     Args:
         tr: the track, with :attr:`_Track.parts`.
@@ -1000,11 +998,13 @@ def _parts_velocity_covariance(
         share = np.zeros(len(tr.times))
         at = [index[t] for t in times if t in index]
         share[at] = 1.0 / holders[at]
-        A = np.empty((2, 2))
-        for j in range(2):
-            moved = pos + _PART_STEP_M * share[:, None] * np.eye(2)[j]
-            A[:, j] = (fit_motion_bounded(tr.times, moved, cov, tr.sigma_speed, rays, sides).velocity - fit.velocity) / _PART_STEP_M
-        out += A @ shared @ A.T
+        variances, axes = np.linalg.eigh(shared)
+        for var, axis in zip(variances, axes.T):
+            if var <= 0.0:
+                continue
+            moved = pos + math.sqrt(float(var)) * share[:, None] * axis
+            dv = fit_motion_bounded(tr.times, moved, cov, tr.sigma_speed, rays, sides).velocity - fit.velocity
+            out += np.outer(dv, dv)
     return out
 
 

@@ -101,7 +101,10 @@ error that grows with range makes of a parked car the camera drives past). A veh
 ``C_v`` splits its frames' errors (:func:`standing_chi2`): ``frame_error_correlation`` of each
 frame's variance is one relative depth error all of them repeat, which fakes a velocity of
 that error times the camera's for a standing car, and only the rest scatters from frame to
-frame (a far car followed at one range, every frame repeating one depth, moves). Everything
+frame (a far car followed at one range, every frame repeating one depth, moves). A track that a
+standing join made of fragments (steps 4 and 6) adds what each fragment's own shared error makes of
+its velocity (:func:`_parts_velocity_covariance`): the join took the fragments for one object within
+those errors, so their step is no evidence of motion. Everything
 else stands: it is placed once, at the information-weighted mean of all its observations
 (as :func:`fuse` places an object several cameras see), or a trunk class at its bearing
 triangulation; a standing vehicle whose frames mix readings and bounds is placed where its
@@ -411,6 +414,11 @@ def standing_weight(fit: MotionFit, sigma_speed: float, prior: float) -> float:
     return 1.0 / (1.0 + math.exp(-log_odds)) if log_odds > -700.0 else 0.0
 
 
+#: The standing fragments a track was joined from: each one's frame times and the (2, 2) covariance, metres
+#: squared, of the error its frames share.
+Fragments = tuple[tuple[tuple[float, ...], np.ndarray], ...]
+
+
 @dataclass
 class _Track:
     class_name: str
@@ -422,7 +430,7 @@ class _Track:
     still: MotionFit | None = None
     #: The standing fragments a standing join made this track of: each one's frame times and the (2, 2)
     #: covariance of the error its frames share (:func:`_shared_error`); empty for a track never joined.
-    parts: tuple[tuple[tuple[float, ...], np.ndarray], ...] = ()
+    parts: Fragments = ()
 
     def add(self, t: float, item: FusedObject) -> None:
         self.times.append(t)
@@ -958,7 +966,8 @@ def standing_chi2(tr: _Track, params: ViewsParams) -> float:
     w = dt @ (cams - cams.mean(axis=0)) / float(dt @ dt) if float(dt @ dt) > 0 else np.zeros(2)
     ranges2 = np.maximum(np.einsum("ni,ni->n", pos - cams, pos - cams), 1e-9)
     relative = float(np.median(np.einsum("ni,nij,nj->n", rays, cov, rays) / ranges2))
-    C = fit.covariance[2:, 2:] + rho * relative * np.outer(w, w) + _parts_velocity_covariance(tr, pos, (1.0 - rho) * cov, rays, sides, fit)
+    C = fit.covariance[2:, 2:] + rho * relative * np.outer(w, w)
+    C = C + _parts_velocity_covariance(tr, pos, (1.0 - rho) * cov, rays, sides, fit)
     v = fit.velocity
     if not np.all(np.isfinite(C)) or np.linalg.det(C) <= 0:
         return 0.0
@@ -1008,8 +1017,11 @@ def _parts_velocity_covariance(
     return out
 
 
-def joined_parts(a: _Track, b: _Track, params: ViewsParams) -> tuple[tuple[tuple[float, ...], np.ndarray], ...]:
-    """The fragments of a standing join of ``a`` and ``b``: each one's own parts, or itself with its :func:`_shared_error`."""
+def joined_parts(a: _Track, b: _Track, params: ViewsParams) -> Fragments:
+    """The fragments of a standing join of ``a`` and ``b`` (:attr:`_Track.parts`).
+
+    Each track's own parts where a join made it, else the track itself with its :func:`_shared_error`.
+    """
     return tuple(p for tr in (a, b) for p in (tr.parts or ((tuple(tr.times), _shared_error(tr, params)),)))
 
 

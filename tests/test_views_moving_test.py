@@ -8,8 +8,11 @@ from layout_support import ground_placement
 from usdworld.parameters.views import ViewsParams
 from usdworld.views.drive import (
     _is_moving,
+    _joined,
     _Track,
     fit_motion,
+    joined_parts,
+    merge_fragments,
     speed_prior,
     standing_chi2,
     standing_prior,
@@ -84,3 +87,63 @@ def test_a_parked_car_whose_shared_error_fakes_a_drift_stands() -> None:
     times, tr = _parked_car_short_by_a_tenth(0.05)
     assert tr.fit.speed_chi2() > PARAMS.association_gate_chi2
     assert not _is_moving(tr, tr.fit, PARAMS)
+
+
+def _parked_fragments(offset: float) -> tuple[_Track, _Track]:
+    """A parked car 30 m ahead seen for 12 frames, then a 4-frame fragment whose frames all read it
+    ``offset`` metres nearer along their rays (one hidden side misjudged for those frames); stated
+    spread 5 % of the range along the ray, 1 % across."""
+    car = np.array([30.0, 6.0])
+
+    def frame(t: float, d: float) -> FusedObject:
+        rng = float(np.linalg.norm(car - EGO * t))
+        return _frame(t, car - d * (car - EGO * t) / rng, 0.05 * rng, 0.01 * rng)
+
+    ta = [0.1 * k for k in range(12)]
+    tb = [0.1 * k for k in range(13, 17)]
+    return _track([frame(t, 0.0) for t in ta], ta), _track([frame(t, offset) for t in tb], tb)
+
+
+def test_a_fragment_within_its_own_shared_error_joins_its_parked_car() -> None:
+    """The fragment 2 m nearer agrees with the car within the join's gate (each position floored by
+    the error its own frames share), so the joined track's moving test must allow the fragments to
+    differ by those errors too: taken as one shared error for all 16 frames, the 2 m step between them
+    reads as 1.6 m/s and the join was refused (the car placed twice)."""
+    a, b = _parked_fragments(2.0)
+    joined = _joined(a, b)
+    assert standing_chi2(joined, PARAMS) > PARAMS.association_gate_chi2  # one shared error: moves
+    joined.parts = joined_parts(a, b, PARAMS)
+    assert standing_chi2(joined, PARAMS) < PARAMS.association_gate_chi2
+    (one,) = merge_fragments([a, b], PARAMS)
+    assert len(one.times) == 16 and not _is_moving(one, one.fit, PARAMS)
+
+
+def test_a_fragment_beyond_its_own_shared_error_stays_apart() -> None:
+    """4 m off, the fragment is outside the join's gate: two cars, as before."""
+    a, b = _parked_fragments(4.0)
+    assert len(merge_fragments([a, b], PARAMS)) == 2
+
+
+def test_fragments_add_nothing_to_a_track_of_one_part() -> None:
+    """A track whose frames all belong to one fragment keeps the plain split test: an offset of all its
+    frames leaves the fitted velocity as it is."""
+    a, _ = _parked_fragments(2.0)
+    plain = standing_chi2(a, PARAMS)
+    a.parts = ((tuple(a.times), np.eye(2)),)
+    assert standing_chi2(a, PARAMS) == plain
+
+
+def test_a_mover_joined_from_standing_looking_fragments_still_moves() -> None:
+    """A car driving at 5 m/s across 16 frames, its frames held as two fragments: their own shared
+    errors (a few decimetres) do not explain 8 m of travel."""
+    car = np.array([30.0, 6.0])
+    times = [0.1 * k for k in range(16)]
+    frames = []
+    for t in times:
+        xy = car + np.array([5.0, 0.0]) * t
+        rng = float(np.linalg.norm(xy - EGO * t))
+        frames.append(_frame(t, xy, 0.05 * rng, 0.01 * rng))
+    a, b = _track(frames[:12], times[:12]), _track(frames[12:], times[12:])
+    joined = _joined(a, b)
+    joined.parts = joined_parts(a, b, PARAMS)
+    assert _is_moving(joined, joined.fit, PARAMS)

@@ -101,7 +101,10 @@ error that grows with range makes of a parked car the camera drives past). A veh
 ``C_v`` splits its frames' errors (:func:`standing_chi2`): ``frame_error_correlation`` of each
 frame's variance is one relative depth error all of them repeat, which fakes a velocity of
 that error times the camera's for a standing car, and only the rest scatters from frame to
-frame (a far car followed at one range, every frame repeating one depth, moves). Everything
+frame (a far car followed at one range, every frame repeating one depth, moves). A track that a
+standing join made of fragments (steps 4 and 6) adds what each fragment's own shared error makes of
+its velocity (:func:`_parts_velocity_covariance`): the join took the fragments for one object within
+those errors, so their step is no evidence of motion. Everything
 else stands: it is placed once, at the information-weighted mean of all its observations
 (as :func:`fuse` places an object several cameras see), or a trunk class at its bearing
 triangulation; a standing vehicle whose frames mix readings and bounds is placed where its
@@ -411,6 +414,11 @@ def standing_weight(fit: MotionFit, sigma_speed: float, prior: float) -> float:
     return 1.0 / (1.0 + math.exp(-log_odds)) if log_odds > -700.0 else 0.0
 
 
+#: The standing fragments a track was joined from: each one's frame times and the (2, 2) covariance, metres
+#: squared, of the error its frames share.
+Fragments = tuple[tuple[tuple[float, ...], np.ndarray], ...]
+
+
 @dataclass
 class _Track:
     class_name: str
@@ -420,6 +428,9 @@ class _Track:
     fit: MotionFit | None = None
     standing_share: float = 0.0
     still: MotionFit | None = None
+    #: The standing fragments a standing join made this track of: each one's frame times and the (2, 2)
+    #: covariance of the error its frames share (:func:`_shared_error`); empty for a track never joined.
+    parts: Fragments = ()
 
     def add(self, t: float, item: FusedObject) -> None:
         self.times.append(t)
@@ -956,10 +967,62 @@ def standing_chi2(tr: _Track, params: ViewsParams) -> float:
     ranges2 = np.maximum(np.einsum("ni,ni->n", pos - cams, pos - cams), 1e-9)
     relative = float(np.median(np.einsum("ni,nij,nj->n", rays, cov, rays) / ranges2))
     C = fit.covariance[2:, 2:] + rho * relative * np.outer(w, w)
+    C = C + _parts_velocity_covariance(tr, pos, (1.0 - rho) * cov, rays, sides, fit)
     v = fit.velocity
     if not np.all(np.isfinite(C)) or np.linalg.det(C) <= 0:
         return 0.0
     return float(v @ np.linalg.solve(C, v))
+
+
+def _parts_velocity_covariance(
+    tr: _Track, pos: np.ndarray, cov: np.ndarray, rays: np.ndarray, sides: np.ndarray, fit: MotionFit
+) -> np.ndarray:
+    """(2, 2) covariance that a joined track's fragments' own shared errors add to its fitted velocity.
+
+    A standing join (:func:`merge_fragments`, :func:`merge_standing_vehicles`) takes two fragments
+    for one object when they agree within their positions' covariances, each floored by the error
+    its own frames share (:func:`_shared_error`): the fragments may differ by those errors. The
+    joined track's moving test must allow the same: fragment ``k``'s frames all off by one offset
+    ``b_k ~ N(0, S_k)`` move the fitted velocity, so the velocity's covariance under standing gains
+    what those offsets make of it. Each fragment's frames are moved together by one standard
+    deviation along each principal axis of ``S_k`` (a frame two fragments both hold by half), the
+    track refitted, and the velocity's changes ``dv`` summed as ``dv dv^T`` (exact for a linear fit,
+    the secant over the error's own scale where a bound's side changes). It is 0 for a track of one
+    fragment: an offset of all its frames leaves the velocity as it is.
+
+    Args:
+        tr: the track, with :attr:`_Track.parts`.
+        pos: (N, 2) its frames' positions; ``cov``: (N, 2, 2) the covariances its moving fit uses.
+        rays: (N, 2) unit viewing rays; ``sides``: (N,) bound sides (:func:`fit_motion_bounded`).
+        fit: that fit of ``pos``.
+    """
+    out = np.zeros((2, 2))
+    if len(tr.parts) < 2:
+        return out
+    index = {t: i for i, t in enumerate(tr.times)}
+    holders = np.zeros(len(tr.times))
+    for times, _ in tr.parts:
+        holders[[index[t] for t in times if t in index]] += 1.0
+    for times, shared in tr.parts:
+        share = np.zeros(len(tr.times))
+        at = [index[t] for t in times if t in index]
+        share[at] = 1.0 / holders[at]
+        variances, axes = np.linalg.eigh(shared)
+        for var, axis in zip(variances, axes.T):
+            if var <= 0.0:
+                continue
+            moved = pos + math.sqrt(float(var)) * share[:, None] * axis
+            dv = fit_motion_bounded(tr.times, moved, cov, tr.sigma_speed, rays, sides).velocity - fit.velocity
+            out += np.outer(dv, dv)
+    return out
+
+
+def joined_parts(a: _Track, b: _Track, params: ViewsParams) -> Fragments:
+    """The fragments of a standing join of ``a`` and ``b`` (:attr:`_Track.parts`).
+
+    Each track's own parts where a join made it, else the track itself with its :func:`_shared_error`.
+    """
+    return tuple(p for tr in (a, b) for p in (tr.parts or ((tuple(tr.times), _shared_error(tr, params)),)))
 
 
 #: Ratio of a normal distribution's standard deviation to its median absolute deviation (1 / Phi^-1(3/4)).
@@ -1098,6 +1161,7 @@ def merge_fragments(tracks: list[_Track], params: ViewsParams) -> list[_Track]:
             return keep + [tr for tr, on in zip(frags, alive) if on]
         a, b = np.unravel_index(int(np.argmin(np.where(ok, m2, np.inf))), m2.shape)
         joined = _joined(frags[a], frags[b])
+        joined.parts = joined_parts(frags[a], frags[b], params)
         if joined.standing_share > 0 and joined.fit is not None and _is_moving(joined, joined.fit, params):
             upper[a, b] = False  # two parked fragments whose frames together move are not one parked vehicle
             continue
@@ -1281,6 +1345,7 @@ def merge_standing_vehicles(tracks: list[_Track], params: ViewsParams) -> list[_
             return keep + cand
         _, a, b = best
         joined = _joined_overlapping(cand[a], cand[b], params)
+        joined.parts = joined_parts(cand[a], cand[b], params)
         if joined.fit is not None and _is_moving(joined, joined.fit, params):
             refused.add(cand[a], cand[b])  # two standing tracks whose frames together move
             continue

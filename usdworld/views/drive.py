@@ -145,6 +145,7 @@ from usdworld.layout.draft import DepthMethod
 from usdworld.layout.placement import Placement
 from usdworld.parameters.views import ViewsParams
 from usdworld.perception.depth.fusion import DepthCue
+from usdworld.perception.depth.fusion import fuse as fuse_cues
 from usdworld.views.bearings import bearing_sigmas, bearing_triangulation
 from usdworld.views.fusion import (
     FusedObject,
@@ -947,7 +948,7 @@ def standing_chi2(tr: _Track, params: ViewsParams) -> float:
     because each frame's stated spread is large.
 
     Args:
-        tr: a track of a class that can move, with its frames.
+        tr: a vehicle's track, with its frames.
         params: ``frame_error_correlation``.
 
     Returns:
@@ -958,8 +959,6 @@ def standing_chi2(tr: _Track, params: ViewsParams) -> float:
     cov = np.array([fit_covariance(o) for o in tr.items])
     cams = np.array([o.observations[0].camera_ground for o in tr.items])
     rays, sides = frame_rays_and_sides(tr.items)
-    if tr.class_name not in VEHICLE_CLASSES:
-        sides = np.zeros_like(sides)
     fit = fit_motion_bounded(tr.times, pos, (1.0 - rho) * cov, tr.sigma_speed, rays, sides)
     t = np.asarray(tr.times, dtype=np.float64)
     dt = t - t.mean()
@@ -1063,11 +1062,20 @@ def _standing_estimate(tr: _Track, params: ViewsParams) -> tuple[np.ndarray, np.
     on their side only, :func:`bounded_standing_position`), whose covariance assumes independent
     frames, plus :func:`_shared_error` (what the frames share does not average away).
     """
-    members = [o for item in tr.items for o in item.observations]
+    xy, cov = _standing_position(tr, [o for item in tr.items for o in item.observations])
+    return xy, cov + _shared_error(tr, params)
+
+
+def _standing_position(tr: _Track, members: Sequence[Observation]) -> tuple[np.ndarray, np.ndarray]:
+    """(2,) where a standing track stands and (2, 2) the covariance of its observations taken as independent.
+
+    The information-weighted mean of ``members`` (:func:`~usdworld.views.fusion.combine`); a
+    vehicle's depth bounds count on their side only (:func:`bounded_standing_position`).
+    """
     xy, cov = combine(members)
     if tr.class_name in VEHICLE_CLASSES:
         xy = bounded_standing_position(tr.times, tr.items, xy)
-    return xy, cov + _shared_error(tr, params)
+    return xy, cov
 
 
 def _shared_error(tr: _Track, params: ViewsParams) -> np.ndarray:
@@ -1677,15 +1685,19 @@ def variant_of_most_frames(members: Sequence[Observation]) -> list[Observation]:
 
 
 def _cue_depth(cues: Sequence[DepthCue], height_factor: float) -> float | None:
-    """Inverse-variance depth of a placement's contact and height cues (as
-    :func:`usdworld.perception.depth.fusion.fuse` fuses them), the height cue's depth and spread times
-    ``height_factor``; None unless both cues are available and they are its only ones."""
-    avail = {c.name: c for c in cues if c.available}
-    if set(avail) != {"contact", "height"}:
+    """The depth :func:`~usdworld.perception.depth.fusion.fuse` (a single view's cue fusion) gives a placement's contact and height
+    cues with the height cue's depth and spread times ``height_factor``; None unless both cues are
+    available and they are its only ones."""
+    avail = [c for c in cues if c.available]
+    if {c.name for c in avail} != {"contact", "height"}:
         return None
-    scale = {"contact": 1.0, "height": height_factor}
-    w = {n: 1.0 / (float(c.sigma_m) * scale[n]) ** 2 for n, c in avail.items()}
-    return sum(w[n] * float(c.depth_m) * scale[n] for n, c in avail.items()) / sum(w.values())
+    scaled = [
+        dataclasses.replace(c, depth_m=c.depth_m * height_factor, sigma_m=c.sigma_m * height_factor)
+        if c.name == "height"
+        else c
+        for c in avail
+    ]
+    return fuse_cues(scaled).depth_m
 
 
 def track_height_factor(items: Sequence[FusedObject]) -> float:
@@ -1797,9 +1809,7 @@ def _drive_object(tr: _Track, fit: MotionFit, params: ViewsParams, counters: dic
         xy, cov = bearing_triangulation(*track_bearings(tr.items, params), *_standing_estimate(tr, params), params)
         sized = sized_by_a_whole_view(primary, variant_of_most_frames(members))
     else:
-        xy, cov = combine(members)
-        if cls in VEHICLE_CLASSES:
-            xy = bounded_standing_position(tr.times, tr.items, xy)
+        xy, cov = _standing_position(tr, members)
         sized = sized_by_a_whole_view(primary, members)
     placement = dataclasses.replace(sized, name=name).with_contact_at(np.array([xy[0], xy[1], z]))
     position = placement.position_world

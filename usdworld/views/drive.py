@@ -939,7 +939,8 @@ def standing_chi2(tr: _Track, params: ViewsParams) -> float:
     standing object's frames on a straight line: their fitted velocity is ``e`` times the object's
     velocity relative to the camera, ``-e`` times the camera's own velocity ``w`` for an object that
     stands. Only the rest, ``1 - rho`` of each frame's variance, scatters from frame to frame. So the
-    velocity is fitted as the tracking fits it (:meth:`_Track.refit`) with each frame's covariance
+    velocity is fitted as the tracking fits it (:meth:`_Track.refit`, except that a bound keeps its
+    stated across-ray spread, not its bearing's at the track's range) with each frame's covariance
     scaled by ``1 - rho``, and tested against standing with the shared error's apparent velocity
     added to its covariance: ``rho s^2 w w^T``, ``s^2`` the median over the frames of the along-ray
     variance over the squared range (a frame's relative depth variance). A parked car the camera
